@@ -1,0 +1,73 @@
+"""The errors citygen raises, and the one-line problem reports the CLI prints.
+
+Every error a user can cause is a :class:`CitygenError`. The CLI catches exactly
+this hierarchy, prints one line per problem and exits with code 2; anything else
+escaping is a bug in citygen, not in the user's input.
+
+>>> p = Problem("$.placements[3].position", "3 numbers [x, y, z] in metres", "[1.0, 2.0]")
+>>> str(p)
+'$.placements[3].position: expected 3 numbers [x, y, z] in metres, got [1.0, 2.0]'
+>>> str(SpecError([p], file="scene.json"))
+'scene.json: $.placements[3].position: expected 3 numbers [x, y, z] in metres, got [1.0, 2.0]'
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True, slots=True)
+class Problem:
+    """One thing wrong with a document, located by a JSON path (``$`` is the root)."""
+
+    path: str
+    expected: str
+    found: str
+
+    def __str__(self) -> str:
+        return f"{self.path}: expected {self.expected}, got {self.found}"
+
+    def line(self, file: str | None = None) -> str:
+        """The problem as the CLI prints it, prefixed by the file when there is one."""
+        return f"{file}: {self}" if file else str(self)
+
+
+class CitygenError(Exception):
+    """Base of every error caused by input or environment rather than by a bug."""
+
+    def lines(self) -> list[str]:
+        """The error as one or more self-contained lines, ready to print."""
+        return [str(self)]
+
+
+class SpecError(CitygenError):
+    """A scene, config or manifest document is malformed or inconsistent."""
+
+    def __init__(self, problems: Iterable[Problem], file: str | None = None) -> None:
+        self.problems = list(problems)
+        self.file = file
+        super().__init__("\n".join(self.lines()))
+
+    def lines(self) -> list[str]:
+        return [p.line(self.file) for p in self.problems]
+
+
+class GenerationError(CitygenError):
+    """A generator stage could not produce a scene (for example WFC contradictions)."""
+
+    def __init__(self, stage: str, seed: int | None, message: str) -> None:
+        self.stage, self.seed, self.message = stage, seed, message
+        super().__init__(f"generation failed in stage {stage!r} (seed {seed}): {message}")
+
+
+class ExportError(CitygenError):
+    """A scene cannot be written in the requested format."""
+
+
+class DependencyMissing(CitygenError):
+    """An optional dependency needed for the requested feature is not installed."""
+
+    def __init__(self, package: str, feature: str, extra: str | None = None) -> None:
+        hint = f"pip install 'citygen[{extra}]'" if extra else f"pip install {package}"
+        super().__init__(f"{feature} needs the package {package!r}, which is not installed: {hint}")

@@ -1,0 +1,137 @@
+"""Road blocks (stage 1): the pieces of a road network and how they connect.
+
+A block is laid out from its entry socket (``pose``) by the builder of its kind;
+its ``sockets`` are where other blocks attach, and ``connections`` record which
+socket of which block each of this block's sockets is joined to. The sockets
+are stored, not recomputed, so a reader needs no road geometry code.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import Field
+
+from citygen.spec import limits
+from citygen.spec.base import Float, Identifier, Int, SpecModel, Vec2, Yaw
+
+Lanes = Annotated[Int, Field(ge=1, le=4, description="Lanes in each direction.")]
+LaneWidth = Annotated[Float, Field(ge=2.0, le=5.0, description="Width of one lane, in metres.")]
+Length = Annotated[Float, Field(ge=0.5, le=1_000.0)]
+
+
+class Pose2(SpecModel):
+    """A position on the ground plane and a heading."""
+
+    position: Vec2
+    """``[x, y]`` in metres."""
+    yaw: Yaw = 0.0
+    """Heading in radians, counter-clockwise from +x."""
+
+
+class Socket(SpecModel):
+    """A place where another block can attach: a road end, pointing out of the block."""
+
+    id: Identifier
+    pose: Pose2
+    """Centre of the road end; ``yaw`` points away from the block."""
+
+
+class Connection(SpecModel):
+    """One of this block's sockets joined to a socket of another block."""
+
+    socket: Identifier
+    """This block's socket."""
+    block: Identifier
+    """The other block's id."""
+    to_socket: Identifier
+    """The other block's socket."""
+
+
+class _Block(SpecModel):
+    id: Identifier
+    pose: Pose2
+    """Pose of the entry socket, heading into the block."""
+    lanes: Lanes = 1
+    lane_width: LaneWidth = 3.5
+    sockets: tuple[Socket, ...] = Field(default=(), max_length=limits.MAX_SOCKETS)
+    connections: tuple[Connection, ...] = Field(default=(), max_length=limits.MAX_SOCKETS)
+
+
+class Straight(_Block):
+    """A straight road segment."""
+
+    kind: Literal["straight"]
+    length: Length
+    """Length along the road, in metres."""
+
+
+class Curve(_Block):
+    """A circular arc."""
+
+    kind: Literal["curve"]
+    radius: Float = Field(ge=5.0, le=500.0)
+    """Radius of the road's centre line, in metres."""
+    angle: Float = Field(ge=-3.1416, le=3.1416)
+    """Turned angle in radians; positive turns left (counter-clockwise)."""
+
+
+class Roundabout(_Block):
+    """A circular junction with arms at even angles."""
+
+    kind: Literal["roundabout"]
+    radius: Float = Field(ge=5.0, le=100.0)
+    """Radius of the ring road's centre line, in metres."""
+    arms: Int = Field(default=4, ge=3, le=6)
+    """Roads meeting at the ring, the entry included."""
+
+
+class Diverge(_Block):
+    """A road that splits: lanes branch off at an angle (lane split, exit ramp)."""
+
+    kind: Literal["diverge"]
+    length: Length
+    """Length of the main road through the block, in metres."""
+    branch_angle: Float = Field(ge=-1.5708, le=1.5708)
+    """Angle of the branch to the main road in radians; positive branches left."""
+    branch_lanes: Lanes = 1
+
+
+class Merge(_Block):
+    """Two roads joining into one (the reverse of a diverge)."""
+
+    kind: Literal["merge"]
+    length: Length
+    """Length of the main road through the block, in metres."""
+    branch_angle: Float = Field(ge=-1.5708, le=1.5708)
+    """Angle of the joining road to the main road in radians; positive joins from the left."""
+    branch_lanes: Lanes = 1
+
+
+class Intersection(_Block):
+    """A four-way intersection."""
+
+    kind: Literal["intersection"]
+    arm_length: Length
+    """Length of each arm from the centre to its socket, in metres."""
+    corner_radius: Float = Field(default=5.0, ge=0.0, le=50.0)
+    """Curb radius at the corners, in metres."""
+
+
+class TIntersection(_Block):
+    """A three-way junction: the road goes on and one side road leaves it."""
+
+    kind: Literal["t_intersection"]
+    arm_length: Length
+    """Length of each arm from the centre to its socket, in metres."""
+    corner_radius: Float = Field(default=5.0, ge=0.0, le=50.0)
+    """Curb radius at the corners, in metres."""
+    side: Literal["left", "right"] = "left"
+    """Which side of the through road the third arm leaves on."""
+
+
+Block = Annotated[
+    Straight | Curve | Roundabout | Diverge | Merge | Intersection | TIntersection,
+    Field(discriminator="kind"),
+]
+BLOCK_TYPES = (Straight, Curve, Roundabout, Diverge, Merge, Intersection, TIntersection)

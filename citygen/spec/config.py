@@ -1,0 +1,297 @@
+"""Generator configs: what to *sample* (ranges, weights, densities, counts).
+
+A :class:`GeneratorConfig` plus a seed determines a scene; a scene spec records
+what was sampled. Defaults reproduce the paper's Urban-Nav training setting
+(10 m x 10 m regions, mixed terrain of all four tile kinds, 4 static objects, 2
+pedestrians). A :class:`SplitManifest` (``seeds/*.toml``) names splits, each a
+config with a scene count and a master seed.
+
+Ranges are ``[low, high]``; that ``low <= high`` and that weights do not all vanish
+is checked by :func:`check_config`, like every rule a JSON Schema cannot express.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, Field
+
+from citygen.errors import Problem
+from citygen.spec.base import Float, Identifier, Int, SpecModel, Vec2
+from citygen.spec.task import Robot
+
+Range = tuple[Float, Float]
+"""``[low, high]``, sampled uniformly."""
+IntRange = tuple[Int, Int]
+"""``[low, high]`` inclusive, sampled uniformly."""
+Weight = Annotated[Float, Field(ge=0.0, le=1e6)]
+
+
+class RegionShapes(SpecModel):
+    """Weights of the walkable-region shapes of small (roadless) scenes, as in NavClear."""
+
+    straight: Weight = 1.0
+    """A straight path across the scene."""
+    l_turn: Weight = 1.0
+    """A path turning by 90 degrees."""
+    crossing: Weight = 1.0
+    """Two paths crossing."""
+    plaza: Weight = 1.0
+    """An open plaza with non-walkable islands."""
+
+
+class RegionConfig(SpecModel):
+    """Layout of small scenes without roads: walkable ground against non-walkable ground."""
+
+    shapes: RegionShapes = RegionShapes()
+    path_width: Range = (2.0, 4.0)
+    """Width of a walkable path, in metres."""
+    walkable: tuple[Literal["sidewalk", "trail", "plaza"], ...] = Field(
+        default=("sidewalk", "trail", "plaza"), min_length=1
+    )
+    """Zone kinds the walkable region is drawn from."""
+    non_walkable: tuple[Literal["vegetation", "roadway", "water"], ...] = Field(
+        default=("vegetation", "roadway"), min_length=1
+    )
+    """Zone kinds the rest of the ground is drawn from (shrubs and lawns, roadway)."""
+
+
+class BlockWeights(SpecModel):
+    """Relative frequency of each road block type."""
+
+    straight: Weight = 1.0
+    curve: Weight = 1.0
+    roundabout: Weight = 1.0
+    diverge: Weight = 1.0
+    merge: Weight = 1.0
+    intersection: Weight = 1.0
+    t_intersection: Weight = 1.0
+
+
+class BlocksConfig(SpecModel):
+    """Stage 1: the road network, as a sequence of connected blocks."""
+
+    count: Int = Field(default=7, ge=1, le=10_000)
+    """Blocks in the network (ignored by layouts without roads)."""
+    weights: BlockWeights = BlockWeights()
+    sequence: tuple[
+        Literal["straight", "curve", "roundabout", "diverge", "merge", "intersection", "t_intersection"], ...
+    ] = ()
+    """An explicit block sequence; when given it replaces ``count`` and ``weights``."""
+    lanes: IntRange = (1, 2)
+    """Lanes per direction."""
+    lane_width: Range = (3.0, 3.75)
+    """Width of one lane, in metres."""
+    straight_length: Range = (30.0, 80.0)
+    """Length of straight blocks, in metres."""
+    curve_radius: Range = (25.0, 60.0)
+    """Centre-line radius of curves, in metres."""
+    curve_angle_deg: Range = (45.0, 135.0)
+    """Angle turned by a curve, in degrees."""
+    roundabout_radius: Range = (12.0, 25.0)
+    """Ring radius of roundabouts, in metres."""
+    arm_length: Range = (20.0, 40.0)
+    """Arm length of intersections, in metres."""
+    clearance: Float = Field(default=2.0, ge=0.0, le=100.0)
+    """Minimum gap between roads that do not connect, in metres."""
+    max_tries: Int = Field(default=200, ge=1, le=100_000)
+    """Candidate blocks sampled before the generator gives up with a clear error."""
+
+
+class GroundConfig(SpecModel):
+    """Stage 2: functional zones around the roads, with randomised widths."""
+
+    curb_width: Range = (0.15, 0.3)
+    """Width of the curb, in metres."""
+    sidewalk_width: Range = (2.5, 6.0)
+    """Width of the sidewalk (frontage + clear + furnishing strips), in metres."""
+    crosswalk_width: Range = (3.0, 5.0)
+    """Width of a crosswalk across the road, in metres."""
+    midblock_crosswalk_probability: Float = Field(default=0.2, ge=0.0, le=1.0)
+    """Chance that a straight block gets a mid-block crosswalk."""
+    plaza_probability: Float = Field(default=0.3, ge=0.0, le=1.0)
+    """Chance that an open corner becomes a plaza rather than vegetation."""
+    building_setback: Range = (0.0, 4.0)
+    """Distance from the sidewalk to building footprints, in metres."""
+
+
+class TerrainMix(SpecModel):
+    """Relative frequency of each tile kind."""
+
+    flat: Weight = 1.0
+    slope: Weight = 1.0
+    stair: Weight = 1.0
+    rough: Weight = 1.0
+
+
+class TerrainConfig(SpecModel):
+    """Stage 3: terrain tiles by Wave Function Collapse, or a locomotion difficulty grid."""
+
+    layout: Literal["wfc", "curriculum"] = "wfc"
+    """WFC for mixed urban terrain; a difficulty grid (rows of rising difficulty) for locomotion."""
+    tile_size: Float = Field(default=2.5, ge=0.25, le=100.0)
+    """Side of a square tile, in metres."""
+    mix: TerrainMix = TerrainMix()
+    slope_angle: Range = (0.0, 0.4)
+    """Slope inclination in radians (paper, Urban-Loc train)."""
+    step_height: Range = (0.05, 0.23)
+    """Stair riser height in metres (paper, Urban-Loc train)."""
+    step_count: IntRange = (2, 6)
+    """Risers per stair tile."""
+    roughness_amplitude: Range = (0.02, 0.10)
+    """Peak bump height of rough tiles in metres (paper, Urban-Loc train)."""
+    roughness_scale: Range = (0.2, 1.0)
+    """Wavelength of the bumps in metres."""
+    grid: tuple[Int, Int] | None = None
+    """``[rows, cols]`` of a curriculum grid (paper: 30 x 30 train, 16 x 16 test)."""
+    max_restarts: Int = Field(default=20, ge=0, le=10_000)
+    """WFC restarts after a contradiction before generation fails with a clear error."""
+
+
+class PlacementConfig(SpecModel):
+    """Stage 4: static objects from the asset catalog."""
+
+    count: Int | None = Field(default=4, ge=0, le=1_000_000)
+    """Exact number of objects (paper: 4 in train scenes, 8 in test); ``None`` uses the density."""
+    density_per_100m2: Float = Field(default=4.0, ge=0.0, le=1_000.0)
+    """Objects per 100 square metres of suitable zone area, when ``count`` is ``None``."""
+    density_levels: tuple[Annotated[Float, Field(ge=0.0, le=10.0)], ...] = Field(
+        default=(1.0,), min_length=1, max_length=64
+    )
+    """Multipliers of the count or density; scene ``i`` of a split uses level
+    ``i % len(levels)`` (paper, Urban-Nav-2: 0.5, 1.0, 1.5)."""
+    categories: tuple[Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*$")], ...] = ()
+    """Asset categories to draw from; empty means every category suited to the zone."""
+    clearance: Float = Field(default=0.5, ge=0.0, le=20.0)
+    """Minimum free gap between objects, in metres."""
+
+
+class PeopleMix(SpecModel):
+    """Relative frequency of each kind of person moving on walkable ground."""
+
+    pedestrian: Weight = 1.0
+    cyclist: Weight = 0.0
+    scooter: Weight = 0.0
+
+
+class AgentsConfig(SpecModel):
+    """Stage 5: pedestrians, cyclists, scooter riders and vehicles."""
+
+    people: Int = Field(default=2, ge=0, le=100_000)
+    """Pedestrians, cyclists and scooter riders in all (paper: 2 in train scenes, 3 in test)."""
+    mix: PeopleMix = PeopleMix()
+    vehicles: Int = Field(default=0, ge=0, le=100_000)
+    """Vehicles on the roadway (layouts with roads only)."""
+    density_levels: tuple[Annotated[Float, Field(ge=0.0, le=10.0)], ...] = Field(
+        default=(1.0,), min_length=1, max_length=64
+    )
+    """Multipliers of the counts; scene ``i`` of a split uses level ``i % len(levels)``
+    (paper, Urban-Nav-3: 0.5, 1.0, 1.5)."""
+    pedestrian_speed: Range = (1.0, 1.6)
+    """Preferred walking speed, in metres per second."""
+    pedestrian_radius: Range = (0.25, 0.35)
+    """Radius of a pedestrian's disc, in metres."""
+    cyclist_speed: Range = (3.0, 6.0)
+    """Preferred cycling speed, in metres per second."""
+    scooter_speed: Range = (2.0, 5.0)
+    """Preferred scooter speed, in metres per second."""
+
+
+class TaskConfig(SpecModel):
+    """Stage 6: the robot's task."""
+
+    kind: Literal[
+        "nav-clear",
+        "nav-static",
+        "nav-dynamic",
+        "loco-flat",
+        "loco-slope",
+        "loco-stair",
+        "loco-rough",
+        "traverse",
+    ] = "nav-dynamic"
+    robot: Robot = "wheeled"
+    min_distance: Float = Field(default=5.0, ge=0.0, le=100_000.0)
+    """Minimum walkable (geodesic) distance from start to goal, in metres."""
+    time_limit: Float = Field(default=20.0, ge=0.1, le=86_400.0)
+    """Episode time limit in seconds (paper: 200 steps)."""
+    goal_tolerance: Float = Field(default=0.5, ge=0.01, le=10.0)
+    """Distance from the goal that counts as reached, in metres."""
+
+
+class GeneratorConfig(SpecModel):
+    """Everything the generator samples a scene from."""
+
+    format: Literal["citygen.config/1"] = "citygen.config/1"
+    size: Vec2 = (10.0, 10.0)
+    """Width (x) and depth (y) of the scene, in metres."""
+    layout: Literal["region", "blocks", "curriculum", "track"] = "region"
+    """``region`` for small roadless scenes, ``blocks`` for road networks, ``curriculum`` for
+    locomotion grids, ``track`` for the Urban-Tra-Standard running track."""
+    region: RegionConfig = RegionConfig()
+    blocks: BlocksConfig = BlocksConfig()
+    ground: GroundConfig = GroundConfig()
+    terrain: TerrainConfig = TerrainConfig()
+    placement: PlacementConfig = PlacementConfig()
+    agents: AgentsConfig = AgentsConfig()
+    task: TaskConfig = TaskConfig()
+
+
+class SplitConfig(SpecModel):
+    """A named split: how many scenes, from which master seed, sampled from which config."""
+
+    name: Identifier
+    """For example ``urban-nav-2-train``."""
+    description: str = Field(default="", max_length=2_000)
+    scenes: Int = Field(ge=1, le=10_000_000)
+    """Number of scenes in the split."""
+    seed: Int = Field(default=0, ge=0, le=2**64 - 1)
+    """Master seed; scene ``i``'s seed derives from (master seed, split name, i)."""
+    config: GeneratorConfig = GeneratorConfig()
+
+
+class SplitManifest(SpecModel):
+    """A ``seeds/*.toml`` file: one family of named splits."""
+
+    schema_: str | None = Field(default=None, alias="$schema", max_length=1_000)
+    format: Literal["citygen.splits/1"]
+    splits: tuple[SplitConfig, ...] = Field(min_length=1, max_length=1_000)
+
+
+# --- semantic checks ---------------------------------------------------------------
+
+
+def check_config(config: BaseModel, path: str = "$") -> list[Problem]:
+    """Problems a JSON Schema cannot express: ranges with ``low > high``, all-zero weights,
+    duplicate split names.
+
+    >>> check_config(TerrainConfig(step_height=(0.3, 0.1)))
+    [Problem(path='$.step_height', expected='[low, high] with low <= high', found='[0.3, 0.1]')]
+    """
+    problems: list[Problem] = []
+    for name, field in type(config).model_fields.items():
+        value = getattr(config, name)
+        where = f"{path}.{field.alias or name}"
+        if isinstance(value, BaseModel):
+            problems += check_config(value, where)
+        elif isinstance(value, tuple) and value and isinstance(value[0], BaseModel):
+            for i, item in enumerate(value):
+                problems += check_config(item, f"{where}[{i}]")
+        elif field.annotation in _RANGE_TYPES and value is not None and value[0] > value[1]:
+            problems.append(Problem(where, "[low, high] with low <= high", f"[{value[0]}, {value[1]}]"))
+    if isinstance(config, RegionShapes | BlockWeights | TerrainMix | PeopleMix) and not any(
+        getattr(config, name) > 0 for name in type(config).model_fields
+    ):
+        problems.append(Problem(path, "at least one weight above 0", "all weights 0"))
+    if isinstance(config, SplitManifest):
+        seen: set[str] = set()
+        for i, split in enumerate(config.splits):
+            if split.name in seen:
+                problems.append(
+                    Problem(f"{path}.splits[{i}].name", "a split name used once", repr(split.name))
+                )
+            seen.add(split.name)
+    return problems
+
+
+_RANGE_TYPES = (Range, IntRange)

@@ -1,0 +1,165 @@
+"""Terrain (stage 3): a grid of tiles, each flat, slope, stair or rough.
+
+The grid starts at ``origin`` (its minimum x, y corner); tile ``(row, col)`` is
+``tiles[row * cols + col]`` and covers ``x`` in ``origin.x + [col, col + 1] * tile_size``
+and ``y`` in ``origin.y + [row, row + 1] * tile_size``.
+
+A tile is described by its parameters only; its edge heights follow from them
+(:func:`edge_profile`) rather than being stored beside them, so raising a step by
+hand can never leave a stale copy behind. Neighbouring tiles must agree on the
+profile of their shared edge, which :func:`citygen.validate` checks: there are
+no accidental cliffs.
+
+Shapes, with ``h`` the tile's ``height`` and ``s`` the grid's ``tile_size``:
+
+- **flat**: level at ``h``.
+- **slope**: a plane rising from ``h`` at its low edge towards ``ascent``, at ``angle``
+  radians, reaching ``h + s * tan(angle)`` at the opposite edge.
+- **stair**: ``step_count`` risers of ``step_height`` dividing the tile into
+  ``step_count + 1`` treads of depth ``s / (step_count + 1)``; the first tread is
+  at ``h``, the last at ``h + step_count * step_height``.
+- **rough**: noise of peak ``amplitude`` and wavelength ``scale`` around ``h``,
+  tapered to zero at the edges, reproducible from ``seed``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Literal
+
+from pydantic import Field
+
+from citygen.spec import limits
+from citygen.spec.base import Float, Int, SpecModel, Vec2
+from citygen.spec.surfaces import Material
+
+Direction = Literal["+x", "+y", "-x", "-y"]
+Side = Literal["north", "east", "south", "west"]
+"""Tile sides: north is +y, east is +x."""
+SIDES: tuple[Side, ...] = ("north", "east", "south", "west")
+
+Height = Annotated[Float, Field(ge=-1_000.0, le=1_000.0)]
+
+
+class _Tile(SpecModel):
+    height: Height = 0.0
+    """Base height in metres: the level of a flat tile, the low edge of a slope or stair."""
+    material: Material | None = None
+    """Surface material; when left out, the zone's (or concrete where no zone is)."""
+    friction: Float | None = Field(default=None, ge=0.0, le=2.0)
+    """Sliding friction coefficient; when left out, the material's default."""
+
+
+class FlatTile(_Tile):
+    """Level ground (a pathway, a plaza)."""
+
+    kind: Literal["flat"]
+
+
+class SlopeTile(_Tile):
+    """An inclined plane (an assistive ramp, a sloped street)."""
+
+    kind: Literal["slope"]
+    angle: Float = Field(ge=0.0, le=0.9)
+    """Inclination in radians (0.0833 rad is the 1:12 ramp limit of accessibility codes)."""
+    ascent: Direction = "+x"
+    """The direction in which the ground rises."""
+
+
+class StairTile(_Tile):
+    """A flight of steps (front steps, steps between plaza levels)."""
+
+    kind: Literal["stair"]
+    step_height: Float = Field(ge=0.005, le=0.5)
+    """Riser height in metres."""
+    step_count: Int = Field(ge=1, le=64)
+    """Number of risers; the tile holds ``step_count + 1`` equal treads."""
+    ascent: Direction = "+x"
+    """The direction in which the steps rise."""
+
+
+class RoughTile(_Tile):
+    """Uneven ground (cracked or cobbled paving, a gravel trail)."""
+
+    kind: Literal["rough"]
+    amplitude: Float = Field(ge=0.0, le=0.5)
+    """Peak deviation from ``height`` in metres."""
+    scale: Float = Field(ge=0.01, le=20.0)
+    """Spatial wavelength of the bumps in metres."""
+    seed: Int = Field(default=0, ge=0, le=2**32 - 1)
+    """Seed of the noise pattern, so every reader builds the same surface."""
+
+
+Tile = Annotated[FlatTile | SlopeTile | StairTile | RoughTile, Field(discriminator="kind")]
+TILE_TYPES = (FlatTile, SlopeTile, StairTile, RoughTile)
+
+
+class Terrain(SpecModel):
+    """A ``rows`` x ``cols`` grid of square tiles."""
+
+    origin: Vec2
+    """Minimum ``[x, y]`` corner of the grid, in metres."""
+    tile_size: Float = Field(ge=0.25, le=100.0)
+    """Side of one square tile, in metres."""
+    rows: Int = Field(ge=1, le=limits.MAX_GRID_SIDE)
+    """Tiles along y."""
+    cols: Int = Field(ge=1, le=limits.MAX_GRID_SIDE)
+    """Tiles along x."""
+    tiles: tuple[Tile, ...] = Field(min_length=1, max_length=limits.MAX_TILES)
+    """``rows * cols`` tiles in row-major order: ``tiles[row * cols + col]``."""
+
+    def tile(self, row: int, col: int) -> FlatTile | SlopeTile | StairTile | RoughTile:
+        return self.tiles[row * self.cols + col]
+
+
+# --- edge profiles ---------------------------------------------------------------
+
+_OUTWARD = {"north": "+y", "east": "+x", "south": "-y", "west": "-x"}
+_OPPOSITE = {"+x": "-x", "-x": "+x", "+y": "-y", "-y": "+y"}
+
+EdgeProfile = tuple
+"""``("level", h)``, ``("ramp", h_start, h_end)`` or ``("steps", h_start, h_end, n)``;
+heights run along the edge in increasing x (north, south) or increasing y (east, west)."""
+
+
+def rise(tile: FlatTile | SlopeTile | StairTile | RoughTile, tile_size: float) -> float:
+    """Height gained across the tile in its ascent direction, in metres."""
+    if isinstance(tile, SlopeTile):
+        return tile_size * math.tan(tile.angle)
+    if isinstance(tile, StairTile):
+        return tile.step_count * tile.step_height
+    return 0.0
+
+
+def edge_profile(
+    tile: FlatTile | SlopeTile | StairTile | RoughTile, side: Side, tile_size: float
+) -> EdgeProfile:
+    """The height profile of one edge of a tile; neighbours must have equal profiles."""
+    h = tile.height
+    if not isinstance(tile, SlopeTile | StairTile):
+        return ("level", h)
+    top = h + rise(tile, tile_size)
+    outward = _OUTWARD[side]
+    if outward == tile.ascent:
+        return ("level", top)
+    if outward == _OPPOSITE[tile.ascent]:
+        return ("level", h)
+    # A side edge: the profile climbs along it; it runs in increasing x or y, so it
+    # climbs when the ascent is positive and descends otherwise.
+    start, end = (h, top) if tile.ascent.startswith("+") else (top, h)
+    if isinstance(tile, SlopeTile):
+        return ("ramp", start, end)
+    return ("steps", start, end, tile.step_count)
+
+
+def profiles_match(a: EdgeProfile, b: EdgeProfile, tol: float = 1e-3) -> bool:
+    """Whether two edge profiles are the same shape at the same heights, within ``tol`` metres."""
+    if (a[0] == "ramp" and b[0] == "level") or (a[0] == "level" and b[0] == "ramp"):
+        # A ramp with no rise is level ground.
+        a = ("level", a[1]) if a[0] == "ramp" and abs(a[1] - a[2]) <= tol else a
+        b = ("level", b[1]) if b[0] == "ramp" and abs(b[1] - b[2]) <= tol else b
+    if a[0] != b[0] or len(a) != len(b):
+        return False
+    if a[0] == "steps" and a[3] != b[3]:
+        return False
+    return all(abs(x - y) <= tol for x, y in zip(a[1:3], b[1:3], strict=False))
