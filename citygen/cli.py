@@ -1,0 +1,125 @@
+"""The ``citygen`` command: a thin layer over the library's public functions.
+
+Every error a user can cause is a :class:`~citygen.errors.CitygenError`; it is
+printed as one line per problem on stderr and the command exits with code 2.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+import citygen
+from citygen.errors import CitygenError, SpecError
+
+app = typer.Typer(
+    name="citygen",
+    help="Seeded urban scenes for robot learning: generate, validate and export them.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+    rich_markup_mode="markdown",
+    context_settings={"help_option_names": ["-h", "--help"]},
+)
+
+
+def _version(value: bool) -> None:
+    if value:
+        typer.echo(f"citygen {citygen.__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: Annotated[
+        bool, typer.Option("--version", callback=_version, is_eager=True, help="Print the version and exit.")
+    ] = False,
+) -> None:
+    """Seeded urban scenes for robot learning: generate, validate and export them."""
+
+
+@app.command()
+def validate(
+    files: Annotated[
+        list[Path], typer.Argument(help="Scene files (.json) or split manifests (.toml).", show_default=False)
+    ],
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="Print only problems.")] = False,
+) -> None:
+    """Check scene files (and split manifests): their shape against the schema, then their meaning.
+
+    Semantic checks: polygons valid and inside the bounds, zones and objects not
+    overlapping, neighbouring terrain tiles agreeing on shared edges, agents and the
+    task on walkable ground, mesh paths staying inside the scene's folder. Exits 0
+    when every file is valid, 2 otherwise, with one line per problem:
+    `FILE: $.json.path: expected ..., got ...`
+    """
+    from citygen.io import load_manifest
+
+    bad = 0
+    for file in files:
+        try:
+            if file.suffix.lower() == ".toml":
+                load_manifest(file)  # split manifests are checked entirely on loading
+                problems = []
+            else:
+                problems = citygen.validate(citygen.load_scene(file), base_dir=file.parent)
+        except SpecError as exc:
+            _print_error(exc)
+            bad += 1
+            continue
+        if problems:
+            _print_error(SpecError(problems, file=str(file)))
+            bad += 1
+        elif not quiet:
+            typer.echo(f"{file}: valid")
+    if bad:
+        raise typer.Exit(2)
+
+
+@app.command()
+def schema(
+    out: Annotated[Path, typer.Option("--out", "-o", help="Folder to write the schema files into.")] = Path(
+        "schemas"
+    ),
+    check: Annotated[
+        bool,
+        typer.Option("--check", help="Write nothing; exit 2 if the files in OUT differ from the models."),
+    ] = False,
+) -> None:
+    """Write the JSON Schema files (scene, split manifest) generated from the spec models."""
+    from citygen.schema import stale_schemas, write_schemas
+
+    if check:
+        stale = stale_schemas(out)
+        for name in stale:
+            typer.echo(
+                f"{out / name}: out of date with the models; run 'citygen schema --out {out}'", err=True
+            )
+        raise typer.Exit(2 if stale else 0)
+    for path in write_schemas(out):
+        typer.echo(f"wrote {path}")
+
+
+def _print_error(exc: CitygenError) -> None:
+    for line in exc.lines():
+        typer.echo(line, err=True)
+
+
+def main() -> None:
+    """Entry point of the ``citygen`` console script.
+
+    Click handles its own usage errors (exit 2), ``--help`` and Ctrl-C; citygen's
+    errors are printed here, one line per problem, with exit code 2.
+    """
+    try:
+        app()
+    except CitygenError as exc:
+        _print_error(exc)
+        sys.exit(2)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,324 @@
+"""Reading and writing spec documents: strict JSON in, canonical bytes out.
+
+Reading never raises anything but :class:`~citygen.errors.SpecError`, whatever the
+file holds (nothing, half a document, Latin-1 text, ``NaN``, a duplicated key, the
+wrong shape); each problem names the JSON path. Writing is atomic (a temporary
+file renamed into place) and canonical: the same model always gives the same
+bytes, in any process, on any machine.
+"""
+
+from __future__ import annotations
+
+import difflib
+import json
+import math
+import os
+import tempfile
+import tomllib
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, TypeVar
+
+from pydantic import BaseModel, ValidationError
+
+from citygen.errors import Problem, SpecError
+from citygen.spec import limits
+from citygen.spec.base import to_jsonable
+from citygen.spec.config import SplitManifest, check_config
+from citygen.spec.scene import SCENE_FORMAT, Scene
+
+M = TypeVar("M", bound=BaseModel)
+
+# Files are created with the permissions an ordinary open() would give them.
+_UMASK = os.umask(0o022)
+os.umask(_UMASK)
+
+# --- reading ------------------------------------------------------------------
+
+
+class _Duplicate(ValueError):
+    pass
+
+
+def _reject_constant(name: str) -> float:
+    raise ValueError(f"non-finite number {name}")
+
+
+def _finite_float(text: str) -> float:
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError(f"number {text} is out of range")
+    return value
+
+
+def _no_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    obj: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in obj:
+            raise _Duplicate(key)
+        obj[key] = value
+    return obj
+
+
+def read_json(path: str | Path) -> Any:
+    """The JSON document in ``path``, or a :class:`SpecError` saying why there is none."""
+    file = str(path)
+
+    def fail(expected: str, found: str) -> SpecError:
+        return SpecError([Problem("$", expected, found)], file=file)
+
+    p = Path(path)
+    try:
+        size = p.stat().st_size
+        if p.is_dir():
+            raise fail("a JSON file", "a directory")
+        if size > limits.MAX_FILE_BYTES:
+            raise fail(f"a file of at most {limits.MAX_FILE_BYTES} bytes", f"{size} bytes")
+        data = p.read_bytes()
+    except FileNotFoundError:
+        raise fail("an existing file", "no such file") from None
+    except PermissionError:
+        raise fail("a readable file", "permission denied") from None
+    except OSError as exc:
+        raise fail("a readable file", exc.strerror or type(exc).__name__) from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise fail("UTF-8 text", f"byte 0x{data[exc.start]:02x} at offset {exc.start}") from None
+    text = text.removeprefix("\ufeff")
+    if not text.strip():
+        raise fail("a JSON document", "an empty file")
+    try:
+        return json.loads(
+            text,
+            parse_constant=_reject_constant,
+            parse_float=_finite_float,
+            object_pairs_hook=_no_duplicates,
+        )
+    except json.JSONDecodeError as exc:
+        where = f"at line {exc.lineno} column {exc.colno}"
+        if exc.pos >= len(text.rstrip()):
+            raise fail("valid JSON", f"the end of the file {where} (truncated?)") from None
+        raise fail("valid JSON", f"{exc.msg.lower()} {where}") from None
+    except _Duplicate as exc:
+        raise fail("each key once per object", f"key {str(exc)!r} twice") from None
+    except ValueError as exc:
+        raise fail("finite numbers (JSON has no NaN or Infinity)", str(exc)) from None
+    except RecursionError:
+        raise fail("a document nested at most a few hundred levels deep", "deeper nesting") from None
+
+
+def read_document(path: str | Path) -> Any:
+    """A JSON (``.json``) or TOML (``.toml``) document, or a :class:`SpecError` saying why not."""
+    if Path(path).suffix.lower() != ".toml":
+        return read_json(path)
+    file = str(path)
+    try:
+        data = Path(path).read_bytes()
+        return tomllib.loads(data.decode("utf-8").removeprefix("\ufeff"))
+    except FileNotFoundError:
+        raise SpecError([Problem("$", "an existing file", "no such file")], file=file) from None
+    except IsADirectoryError:
+        raise SpecError([Problem("$", "a TOML file", "a directory")], file=file) from None
+    except OSError as exc:
+        raise SpecError([Problem("$", "a readable file", exc.strerror or "an error")], file=file) from None
+    except UnicodeDecodeError as exc:
+        raise SpecError(
+            [Problem("$", "UTF-8 text", f"a bad byte at offset {exc.start}")], file=file
+        ) from None
+    except tomllib.TOMLDecodeError as exc:
+        raise SpecError([Problem("$", "valid TOML", str(exc))], file=file) from None
+
+
+def load_manifest(path: str | Path) -> SplitManifest:
+    """Read a split manifest (``seeds/*.toml``), checking its shape and its ranges."""
+    document = read_document(path)
+    manifest = parse(SplitManifest, document, file=str(path))
+    problems = check_config(manifest)
+    if problems:
+        raise SpecError(problems, file=str(path))
+    return manifest
+
+
+def parse(model: type[M], document: Any, file: str | None = None) -> M:
+    """Validate a parsed JSON document against a spec model, as strictly as its JSON Schema."""
+    try:
+        # Validate the JSON text, not the Python object: JSON mode is what the schema
+        # describes (arrays for tuples, numbers for floats).
+        return model.model_validate_json(json.dumps(document, allow_nan=False))
+    except ValidationError as exc:
+        raise SpecError(problems_from(exc, document), file=file) from None
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read and shape-check a scene file. Semantic checks are :func:`citygen.validate`'s.
+
+    >>> scene = load_scene("examples/nav_static_10m.json")
+    >>> scene.task.kind
+    'nav-static'
+    """
+    document = read_json(path)
+    _check_format(document, str(path))
+    return parse(Scene, document, file=str(path))
+
+
+def _check_format(document: Any, file: str) -> None:
+    if not isinstance(document, dict):
+        raise SpecError([Problem("$", "a JSON object (a scene)", _kind_of(document))], file=file)
+    fmt = document.get("format")
+    if fmt is not None and fmt != SCENE_FORMAT:
+        raise SpecError(
+            [Problem("$.format", f"{SCENE_FORMAT!r} (the only version this citygen reads)", repr(fmt))],
+            file=file,
+        )
+
+
+# --- pydantic errors as problems ------------------------------------------------
+
+
+def problems_from(exc: ValidationError, document: Any) -> list[Problem]:
+    """One :class:`Problem` per pydantic error, located by JSON path in ``document``."""
+    errors = exc.errors(include_url=False)
+    located = [(*_locate(document, err["loc"]), err) for err in errors]
+    # A misspelt key shows up twice: unknown where it is, missing where it belongs.
+    missing = {path: err for path, _, err in located if err["type"] == "missing"}
+    problems, paired = [], set()
+    for path, node, err in located:
+        parent, _, name = path.rpartition(".")
+        if err["type"] == "extra_forbidden":
+            guesses = [p for p in missing if p.rpartition(".")[0] == parent]
+            best = difflib.get_close_matches(name, [g.rpartition(".")[2] for g in guesses], 1, 0.6)
+            if best:
+                paired.add(f"{parent}.{best[0]}")
+                problems.append(Problem(path, f"{best[0]!r} (misspelt?)", f"unknown field {name!r}"))
+                continue
+        problems.append(Problem(path, *_describe(err, node)))
+    drop = {i for i, (path, _, err) in enumerate(located) if err["type"] == "missing" and path in paired}
+    return [p for i, p in enumerate(problems) if i not in drop]
+
+
+def _locate(document: Any, loc: Sequence[int | str]) -> tuple[str, Any]:
+    """JSON path of a pydantic location, dropping the union tags pydantic inserts."""
+    path, node = "$", document
+    for part in loc:
+        if isinstance(part, int) and isinstance(node, list) and 0 <= part < len(node):
+            path, node = f"{path}[{part}]", node[part]
+        elif isinstance(part, str) and isinstance(node, dict) and part in node:
+            path, node = f"{path}.{_key(part)}", node[part]
+        elif isinstance(part, str) and isinstance(node, dict) and node.get("kind") == part:
+            continue  # a discriminated union's tag, not a key of the document
+        elif isinstance(part, str) and part.startswith(("function-", "tagged-union[")):
+            continue
+        else:
+            path, node = (f"{path}[{part}]" if isinstance(part, int) else f"{path}.{_key(part)}"), None
+    return path, node
+
+
+def _key(name: str) -> str:
+    return name if name.isidentifier() else json.dumps(name)
+
+
+def _show(value: Any, limit: int = 60) -> str:
+    text = json.dumps(value, allow_nan=False) if value is not None else "null"
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _kind_of(value: Any) -> str:
+    names = {dict: "an object", list: "an array", str: "a string", bool: "a boolean", type(None): "null"}
+    return names.get(type(value), "a number") + ("" if isinstance(value, dict | list) else f" {_show(value)}")
+
+
+def _describe(err: dict[str, Any], node: Any) -> tuple[str, str]:
+    kind, ctx, value = err["type"], err.get("ctx") or {}, err.get("input")
+    msg = err["msg"]
+    if kind == "missing" and err["loc"] and isinstance(err["loc"][-1], int):
+        return f"an item at index {err['loc'][-1]} (too few items)", "nothing"
+    if kind == "missing":
+        return "a value (required field)", "nothing"
+    if kind == "extra_forbidden":
+        return "only the fields the schema defines", f"unknown field {_show(err['loc'][-1])}"
+    if kind in ("union_tag_invalid", "union_tag_not_found"):
+        tags = ctx.get("expected_tags", "")
+        found = _show(value.get("kind")) if isinstance(value, dict) and "kind" in value else "no 'kind'"
+        guess = (
+            difflib.get_close_matches(str(value.get("kind", "")), [t.strip(" '") for t in tags.split(",")], 1)
+            if isinstance(value, dict)
+            else []
+        )
+        hint = f" (did you mean {guess[0]!r}?)" if guess else ""
+        return f"'kind' one of {tags}", found + hint
+    if kind == "literal_error":
+        expected = ctx.get("expected", "")
+        guess = difflib.get_close_matches(
+            str(value), [t.strip(" '") for t in expected.replace(" or ", ",").split(",")], 1
+        )
+        hint = f" (did you mean {guess[0]!r}?)" if guess else ""
+        return f"one of {expected}", _show(value) + hint
+    if kind in ("too_short", "too_long"):
+        return msg.split(" should have ", 1)[-1].split(" after validation")[0].replace("item", "item"), (
+            f"{ctx.get('actual_length')} items"
+        )
+    if kind in ("model_type", "model_attributes_type", "dict_type"):
+        return "an object", _kind_of(value)
+    if kind in ("tuple_type", "list_type"):
+        return "an array", _kind_of(value)
+    expected = msg.removeprefix("Input should be ").removeprefix("Value error, ")
+    if kind == "string_pattern_mismatch" and err["loc"] and err["loc"][-1] == "asset":
+        expected = "a catalog id like 'bench/0012' or a relative mesh path like 'meshes/kiosk.obj'"
+    return expected, _show(value) if node is not None or value is not None else "nothing"
+
+
+# --- writing --------------------------------------------------------------------
+
+
+def dumps(model: BaseModel) -> str:
+    """Canonical JSON text of a model: fields in model order, floats as quantised, arrays of
+    numbers (and arrays of short number arrays) on one line, a final newline."""
+    return _format(to_jsonable(model), "") + "\n"
+
+
+def _is_flat(value: Any) -> bool:
+    return isinstance(value, list) and all(
+        not isinstance(v, dict | list)
+        or (isinstance(v, list) and all(not isinstance(w, dict | list) for w in v))
+        for v in value
+    )
+
+
+def _format(value: Any, indent: str) -> str:
+    if isinstance(value, dict):
+        if not value:
+            return "{}"
+        inner = indent + "  "
+        items = ",\n".join(f"{inner}{json.dumps(k)}: {_format(v, inner)}" for k, v in value.items())
+        return "{\n" + items + "\n" + indent + "}"
+    if isinstance(value, list):
+        if _is_flat(value):
+            return json.dumps(value, allow_nan=False, separators=(", ", ": "))
+        inner = indent + "  "
+        return "[\n" + ",\n".join(inner + _format(v, inner) for v in value) + "\n" + indent + "]"
+    return json.dumps(value, allow_nan=False)
+
+
+def write_atomic(path: str | Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` through a temporary file in the same folder and a rename,
+    so a reader (or a killed writer) never sees half a file."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        os.fchmod(fd, 0o666 & ~_UMASK)
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def save_scene(scene: Scene, path: str | Path) -> Path:
+    """Write a scene atomically as canonical JSON; returns the path written."""
+    write_atomic(path, dumps(scene).encode("utf-8"))
+    return Path(path)

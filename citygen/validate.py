@@ -1,0 +1,428 @@
+"""Semantic checks of a scene: everything its JSON Schema cannot say.
+
+:func:`validate` returns a list of :class:`~citygen.errors.Problem` (empty when the
+scene is sound) and never raises for bad content. Checks, in order: bounds;
+unique ids; block connections; zone polygons (valid, inside the bounds, not
+overlapping); the terrain grid (size, inside the bounds, neighbours agreeing on
+shared edges); placements (assets resolvable, mesh paths inside the scene's
+folder, inside the bounds, not overlapping each other or buildings); agents and
+the task (inside the bounds, on walkable ground, not inside an object).
+
+Geometry work is vectorised with shapely's STRtree, so the cost grows with the
+number of items and their actual neighbours, not with their pairs.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from functools import lru_cache
+from pathlib import Path, PurePosixPath
+
+import numpy as np
+import shapely
+from shapely.geometry import Point, Polygon, box
+from shapely.validation import explain_validity
+
+from citygen.errors import Problem
+from citygen.spec import limits
+from citygen.spec.agents import Person
+from citygen.spec.scene import Scene
+from citygen.spec.surfaces import WALKABLE_ZONES
+from citygen.spec.task import NavTask, TraverseTask
+from citygen.spec.terrain import edge_profile, profiles_match
+
+#: Overlap area (m^2) below which two shapes are taken to merely touch.
+AREA_TOL = 1e-6
+#: Distance (m) by which a point may lie outside a region and still count as inside.
+DIST_TOL = 1e-4
+
+
+def validate(scene: Scene, base_dir: str | Path | None = None) -> list[Problem]:
+    """All semantic problems of ``scene``; ``base_dir`` is the scene file's folder, used
+    to check that mesh files exist (without it, only that their paths stay inside it).
+
+    >>> from citygen.io import load_scene
+    >>> validate(load_scene("examples/nav_static_10m.json"), "examples")
+    []
+    """
+    problems = _check_bounds(scene)
+    if problems:
+        return problems  # everything else is measured against the bounds
+    problems += _check_unique_ids(scene)
+    problems += _check_blocks(scene)
+    problems += _check_zones(scene)
+    problems += _check_terrain(scene)
+    footprints, more = _placement_footprints(scene, base_dir)
+    problems += more
+    problems += _check_placements(scene, footprints)
+    problems += _check_agents_and_task(scene, footprints)
+    return problems
+
+
+def _fmt(x: float) -> str:
+    return f"{x:.4g}"
+
+
+def _pt(p: Sequence[float]) -> str:
+    return "[" + ", ".join(_fmt(v) for v in p) + "]"
+
+
+# --- bounds and ids -------------------------------------------------------------------
+
+
+def _check_bounds(scene: Scene) -> list[Problem]:
+    (x0, y0), (x1, y1) = scene.bounds.min, scene.bounds.max
+    if x1 <= x0 or y1 <= y0:
+        return [
+            Problem(
+                "$.bounds", "max greater than min on both axes", f"min {_pt((x0, y0))}, max {_pt((x1, y1))}"
+            )
+        ]
+    if max(x1 - x0, y1 - y0) > limits.MAX_EXTENT_M:
+        return [
+            Problem(
+                "$.bounds",
+                f"sides of at most {limits.MAX_EXTENT_M:g} m",
+                f"{_fmt(x1 - x0)} m x {_fmt(y1 - y0)} m",
+            )
+        ]
+    return []
+
+
+def _check_unique_ids(scene: Scene) -> list[Problem]:
+    problems = []
+    for name in ("blocks", "zones", "placements", "agents"):
+        first: dict[str, int] = {}
+        for i, item in enumerate(getattr(scene, name)):
+            if item.id in first:
+                problems.append(
+                    Problem(
+                        f"$.{name}[{i}].id",
+                        f"an id not used before in {name}",
+                        f"{item.id!r}, also $.{name}[{first[item.id]}]",
+                    )
+                )
+            else:
+                first[item.id] = i
+    return problems
+
+
+# --- blocks ----------------------------------------------------------------------
+
+
+def _check_blocks(scene: Scene) -> list[Problem]:
+    problems = []
+    sockets = {b.id: {s.id for s in b.sockets} for b in scene.blocks}
+    links = {(b.id, c.socket): (c.block, c.to_socket) for b in scene.blocks for c in b.connections}
+    for i, block in enumerate(scene.blocks):
+        for j, conn in enumerate(block.connections):
+            where = f"$.blocks[{i}].connections[{j}]"
+            if conn.socket not in sockets[block.id]:
+                problems.append(
+                    Problem(
+                        f"{where}.socket",
+                        f"one of this block's sockets {sorted(sockets[block.id])}",
+                        repr(conn.socket),
+                    )
+                )
+            elif conn.block not in sockets:
+                problems.append(Problem(f"{where}.block", "the id of a block in $.blocks", repr(conn.block)))
+            elif conn.to_socket not in sockets[conn.block]:
+                problems.append(
+                    Problem(f"{where}.to_socket", f"a socket of block {conn.block!r}", repr(conn.to_socket))
+                )
+            elif links.get((conn.block, conn.to_socket)) != (block.id, conn.socket):
+                problems.append(
+                    Problem(
+                        where,
+                        f"block {conn.block!r} to connect its socket {conn.to_socket!r} back to this one",
+                        "a one-way connection",
+                    )
+                )
+    return problems
+
+
+# --- zones -----------------------------------------------------------------------
+
+
+def _bounds_box(scene: Scene) -> Polygon:
+    return box(*scene.bounds.min, *scene.bounds.max)
+
+
+def _zone_polygons(scene: Scene) -> list[Polygon]:
+    return [Polygon(z.polygon, z.holes) for z in scene.zones]
+
+
+def _check_zones(scene: Scene) -> list[Problem]:
+    problems = []
+    area = _bounds_box(scene).buffer(DIST_TOL, join_style="mitre")
+    polys = _zone_polygons(scene)
+    good = []
+    for i, (zone, poly) in enumerate(zip(scene.zones, polys, strict=True)):
+        where = f"$.zones[{i}]"
+        if zone.strip is not None and zone.kind != "sidewalk":
+            problems.append(
+                Problem(f"{where}.strip", "no strip on a zone that is not a sidewalk", repr(zone.strip))
+            )
+        if not poly.is_valid:
+            problems.append(
+                Problem(f"{where}.polygon", "a valid simple polygon", explain_validity(poly).lower())
+            )
+            continue
+        if poly.area <= AREA_TOL:
+            problems.append(
+                Problem(f"{where}.polygon", "a polygon with positive area", f"area {poly.area:.3g} m^2")
+            )
+            continue
+        if not area.covers(poly):
+            outside = poly.difference(area).area
+            problems.append(
+                Problem(f"{where}.polygon", "a polygon inside $.bounds", f"{outside:.4g} m^2 outside")
+            )
+        good.append(i)
+    problems += _overlaps(
+        [polys[i] for i in good],
+        [f"$.zones[{i}]" for i in good],
+        "no overlap with other zones",
+    )
+    return problems
+
+
+def _overlaps(geoms: list[Polygon], paths: list[str], expected: str) -> list[Problem]:
+    """Pairs of shapes whose intersection has area, found with an STRtree."""
+    if len(geoms) < 2:
+        return []
+    arr = np.asarray(geoms, dtype=object)
+    tree = shapely.STRtree(arr)
+    left, right = tree.query(arr, predicate="intersects")
+    keep = left < right
+    left, right = left[keep], right[keep]
+    areas = shapely.area(shapely.intersection(arr[left], arr[right]))
+    return [
+        Problem(paths[a], expected, f"{areas[k]:.4g} m^2 shared with {paths[b]}")
+        for k, (a, b) in enumerate(zip(left.tolist(), right.tolist(), strict=True))
+        if areas[k] > AREA_TOL
+    ]
+
+
+# --- terrain ---------------------------------------------------------------------
+
+
+def _describe_profile(p: tuple) -> str:
+    if p[0] == "level":
+        return f"level at {_fmt(p[1])} m"
+    if p[0] == "ramp":
+        return f"a ramp {_fmt(p[1])} -> {_fmt(p[2])} m"
+    return f"{p[3]} steps {_fmt(p[1])} -> {_fmt(p[2])} m"
+
+
+def _check_terrain(scene: Scene) -> list[Problem]:
+    t = scene.terrain
+    if t is None:
+        return []
+    if len(t.tiles) != t.rows * t.cols:
+        return [Problem("$.terrain.tiles", f"rows x cols = {t.rows * t.cols} tiles", f"{len(t.tiles)} tiles")]
+    if t.rows * t.cols > limits.MAX_TILES:
+        return [Problem("$.terrain", f"at most {limits.MAX_TILES} tiles", f"{t.rows} x {t.cols}")]
+    problems = []
+    grid = box(
+        t.origin[0], t.origin[1], t.origin[0] + t.cols * t.tile_size, t.origin[1] + t.rows * t.tile_size
+    )
+    if not _bounds_box(scene).buffer(DIST_TOL, join_style="mitre").covers(grid):
+        problems.append(
+            Problem("$.terrain", "a tile grid inside $.bounds", f"a grid spanning {_pt(grid.bounds)}")
+        )
+    s = t.tile_size
+    for r in range(t.rows):
+        for c in range(t.cols):
+            tile = t.tile(r, c)
+            here = f"$.terrain.tiles[{r * t.cols + c}]"
+            for side, dr, dc, their in (("east", 0, 1, "west"), ("north", 1, 0, "south")):
+                rr, cc = r + dr, c + dc
+                if rr >= t.rows or cc >= t.cols:
+                    continue
+                mine, other = edge_profile(tile, side, s), edge_profile(t.tile(rr, cc), their, s)
+                if not profiles_match(mine, other):
+                    problems.append(
+                        Problem(
+                            here,
+                            f"its {side} edge to match the {their} edge of tiles[{rr * t.cols + cc}] "
+                            f"(row {rr}, col {cc}), with no cliff between them",
+                            f"{_describe_profile(mine)} against {_describe_profile(other)}",
+                        )
+                    )
+    return problems
+
+
+# --- placements ------------------------------------------------------------------
+
+
+def _safe_mesh_path(asset: str) -> str | None:
+    """Why a mesh path could leave the scene's folder, or None when it cannot."""
+    p = PurePosixPath(asset)
+    if p.is_absolute() or asset.startswith("~") or (len(asset) > 1 and asset[1] == ":"):
+        return "an absolute path"
+    depth = 0
+    for part in p.parts:
+        depth += -1 if part == ".." else (0 if part == "." else 1)
+        if depth < 0:
+            return "a path leading out of the scene's folder"
+    return None
+
+
+@lru_cache(maxsize=4096)
+def _catalog_footprint(asset_id: str) -> np.ndarray | str:
+    from citygen import assets
+
+    try:
+        fp = assets.resolve(asset_id).footprint
+    except assets.UnknownAsset as exc:
+        return str(exc)
+    return np.asarray(fp.exterior.coords)
+
+
+def _mesh_footprint(path: Path) -> np.ndarray | str:
+    import trimesh
+
+    try:
+        mesh = trimesh.load(path, force="mesh")
+    except Exception as exc:  # trimesh raises many types for unreadable files
+        return f"an unreadable mesh ({type(exc).__name__})"
+    if len(mesh.vertices) < 3:
+        return "a mesh with no vertices"
+    hull = shapely.MultiPoint(mesh.vertices[:, :2]).convex_hull
+    return np.asarray(hull.exterior.coords) if isinstance(hull, Polygon) else "a mesh with no footprint"
+
+
+def _placement_footprints(
+    scene: Scene, base_dir: str | Path | None
+) -> tuple[list[Polygon | None], list[Problem]]:
+    """World-frame footprint of every placement (None where its asset is unusable)."""
+    problems: list[Problem] = []
+    out: list[Polygon | None] = []
+    base = Path(base_dir).resolve() if base_dir is not None else None
+    for i, pl in enumerate(scene.placements):
+        where = f"$.placements[{i}].asset"
+        if pl.is_mesh:
+            why = _safe_mesh_path(pl.asset)
+            if why:
+                problems.append(
+                    Problem(
+                        where, "a mesh path relative to the scene's folder, inside it", f"{why}: {pl.asset!r}"
+                    )
+                )
+                out.append(None)
+                continue
+            if base is None:
+                out.append(None)  # nothing to measure; the path itself is fine
+                continue
+            file = (base / pl.asset).resolve()
+            if not file.is_relative_to(base):
+                problems.append(
+                    Problem(where, "a mesh file inside the scene's folder", f"a link leading to {file}")
+                )
+                out.append(None)
+                continue
+            if not file.is_file():
+                problems.append(
+                    Problem(where, "an existing mesh file", f"no file {pl.asset!r} beside the scene")
+                )
+                out.append(None)
+                continue
+            coords = _mesh_footprint(file)
+        else:
+            coords = _catalog_footprint(pl.asset)
+        if isinstance(coords, str):
+            problems.append(Problem(where, "an asset citygen can resolve", coords))
+            out.append(None)
+            continue
+        c, s = math.cos(pl.yaw), math.sin(pl.yaw)
+        xy = coords * pl.scale @ np.array([[c, s], [-s, c]]) + np.asarray(pl.position[:2])
+        out.append(Polygon(xy))
+    return out, problems
+
+
+def _check_placements(scene: Scene, footprints: list[Polygon | None]) -> list[Problem]:
+    problems = []
+    area = _bounds_box(scene).buffer(DIST_TOL, join_style="mitre")
+    present = [i for i, fp in enumerate(footprints) if fp is not None]
+    for i in present:
+        if not area.covers(footprints[i]):
+            problems.append(
+                Problem(
+                    f"$.placements[{i}].position",
+                    "an object standing inside $.bounds",
+                    f"{_pt(scene.placements[i].position)}, partly outside",
+                )
+            )
+    problems += _overlaps(
+        [footprints[i] for i in present],
+        [f"$.placements[{i}]" for i in present],
+        "no overlap with other objects",
+    )
+    buildings = [(j, Polygon(z.polygon, z.holes)) for j, z in enumerate(scene.zones) if z.kind == "building"]
+    if buildings and present:
+        tree = shapely.STRtree([b for _, b in buildings])
+        objs = np.asarray([footprints[i] for i in present], dtype=object)
+        left, right = tree.query(objs, predicate="intersects")
+        for a, b in zip(left.tolist(), right.tolist(), strict=True):
+            shared = objs[a].intersection(buildings[b][1]).area
+            if shared > AREA_TOL:
+                problems.append(
+                    Problem(
+                        f"$.placements[{present[a]}]",
+                        "no overlap with building zones",
+                        f"{shared:.4g} m^2 inside $.zones[{buildings[b][0]}]",
+                    )
+                )
+    return problems
+
+
+# --- agents and task -----------------------------------------------------------------
+
+
+class _Ground:
+    """Point queries against the scene's bounds, walkable zones, roadway and objects."""
+
+    def __init__(self, scene: Scene, footprints: Iterable[Polygon | None]):
+        self.area = _bounds_box(scene).buffer(DIST_TOL, join_style="mitre")
+        walk = [Polygon(z.polygon, z.holes) for z in scene.zones if z.kind in WALKABLE_ZONES]
+        road = [Polygon(z.polygon, z.holes) for z in scene.zones if z.kind in ("roadway", "parking")]
+        # A scene without zones (a locomotion grid) is walkable everywhere.
+        self.walkable = shapely.union_all(walk).buffer(DIST_TOL) if scene.zones else self.area
+        self.road = shapely.union_all(road).buffer(DIST_TOL) if road else None
+        objs = [f for f in footprints if f is not None]
+        self.objects = shapely.union_all(objs) if objs else None
+        shapely.prepare(self.walkable)
+
+    def check(self, where: str, p: Sequence[float], need: str) -> Problem | None:
+        pt = Point(p[0], p[1])
+        if not self.area.covers(pt):
+            return Problem(where, "a point inside $.bounds", _pt(p))
+        if need == "walkable" and not self.walkable.covers(pt):
+            return Problem(where, "a point on walkable ground (sidewalk, crosswalk, plaza or trail)", _pt(p))
+        if need == "road" and self.road is not None and not self.road.covers(pt):
+            return Problem(where, "a point on the roadway", _pt(p))
+        if self.objects is not None and self.objects.contains(pt):
+            return Problem(where, "a point not inside a static object", _pt(p))
+        return None
+
+
+def _check_agents_and_task(scene: Scene, footprints: list[Polygon | None]) -> list[Problem]:
+    if not scene.agents and scene.task is None:
+        return []
+    ground = _Ground(scene, footprints)
+    found = []
+    for i, agent in enumerate(scene.agents):
+        need = "walkable" if isinstance(agent, Person) else "road"
+        for end in ("start", "goal"):
+            found.append(ground.check(f"$.agents[{i}].{end}", getattr(agent, end), need))
+    task = scene.task
+    if task is not None:
+        found.append(ground.check("$.task.start.position", task.start.position, "walkable"))
+        if isinstance(task, NavTask):
+            found.append(ground.check("$.task.goal", task.goal, "walkable"))
+        elif isinstance(task, TraverseTask):
+            found += [ground.check(f"$.task.route[{k}]", p, "walkable") for k, p in enumerate(task.route)]
+    return [p for p in found if p is not None]
