@@ -1,0 +1,307 @@
+"""Convex parts, the pieces every catalog asset is made of (metres, z up).
+
+Every part is convex, so it is at once a collision shape every engine accepts
+(box, cylinder, capsule or convex mesh) and a watertight piece of the asset's
+visual mesh. Coordinates are in the asset frame: origin at the centre of the
+asset's base, at ground level, z up. They are stored as Python floats rounded to
+1 micrometre, so a part's ``repr`` is the same on every run and platform.
+
+Round parts are meshed with :data:`SEGMENTS` sides. Their footprint is the
+polygon *circumscribing* the exact circle, so it contains both the exact
+primitive an engine simulates and its mesh.
+
+>>> Box((0.4, 0.2, 0.1), (0.0, 0.0, 0.05)).footprint().bounds
+(-0.2, -0.1, 0.2, 0.1)
+>>> round(Cylinder(0.1, 1.0, (0.0, 0.0, 0.5)).to_manifold().volume(), 3)
+0.031
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import manifold3d
+import numpy as np
+import shapely
+import trimesh
+from shapely.geometry import MultiPoint, Polygon
+
+#: Sides of the polygon that stands for a circle in meshes and footprints.
+SEGMENTS = 24
+#: Decimal places kept for every coordinate and size (1 micrometre).
+DECIMALS = 6
+
+Vec3 = tuple[float, float, float]
+RGBA = tuple[float, float, float, float]
+
+
+def _floats(field: str, value: Iterable[float], n: int, positive: bool = False) -> tuple[float, ...]:
+    """``value`` as ``n`` finite rounded floats, or a ValueError naming the field."""
+    try:
+        out = tuple(round(float(v), DECIMALS) + 0.0 for v in value)
+    except (TypeError, ValueError):
+        out = ()
+    if len(out) != n or not all(math.isfinite(v) and (v > 0 or not positive) for v in out):
+        kind = "positive" if positive else "finite"
+        raise ValueError(f"{field}: expected {n} {kind} numbers (metres), got {value!r}")
+    return out
+
+
+def _length(field: str, value: float, minimum: float = 0.0) -> float:
+    """A finite length > ``minimum`` (or >= 0 when ``minimum`` is 0 and ``value`` is 0)."""
+    (out,) = _floats(field, (value,), 1)
+    if out < minimum or (minimum > 0 and out == minimum):
+        raise ValueError(f"{field}: expected a length > {minimum} m, got {value!r}")
+    return out
+
+
+@dataclass(frozen=True, slots=True)
+class Look:
+    """A part's material: what it is made of and what colour it has.
+
+    ``name`` is the material kind (``"metal"``, ``"wood"``, ``"concrete"`` ...),
+    matching :data:`citygen.spec.surfaces.MATERIALS` where one fits, so exporters can
+    look up friction; ``rgba`` is the colour, each channel in [0, 1].
+    """
+
+    name: str
+    rgba: RGBA
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise ValueError(f"Look.name: expected a non-empty string, got {self.name!r}")
+        rgba = _floats("Look.rgba", self.rgba, 4)
+        if not all(0.0 <= c <= 1.0 for c in rgba):
+            raise ValueError(f"Look.rgba: expected 4 numbers in [0, 1], got {self.rgba!r}")
+        object.__setattr__(self, "rgba", rgba)
+
+
+#: The look of a part whose builder did not give one.
+DEFAULT_LOOK = Look("metal", (0.5, 0.5, 0.5, 1.0))
+
+
+class _Convex:
+    """Shared behaviour: a part is the convex hull of :meth:`hull_points`."""
+
+    __slots__ = ()
+    material: Look
+
+    def hull_points(self) -> np.ndarray:
+        """``(n, 3)`` points (m) whose convex hull is the part's mesh."""
+        raise NotImplementedError
+
+    def _outline(self) -> np.ndarray:
+        """``(n, 2)`` points (m) whose convex hull is the part's footprint."""
+        return self.hull_points()[:, :2]
+
+    def footprint(self) -> Polygon:
+        """The part's projection on the ground plane (m), in the asset frame."""
+        hull = MultiPoint(self._outline()).convex_hull
+        if not isinstance(hull, Polygon):  # a part seen exactly edge-on from above
+            hull = hull.buffer(1e-6, quad_segs=1)
+        return shapely.normalize(hull)
+
+    def to_manifold(self) -> manifold3d.Manifold:
+        """The part as a watertight manifold3d solid."""
+        return manifold3d.Manifold.hull_points(self.hull_points())
+
+    def to_trimesh(self) -> trimesh.Trimesh:
+        """The part as a watertight trimesh, faces coloured by its material."""
+        return manifold_to_trimesh(self.to_manifold(), self.material.rgba)
+
+
+def manifold_to_trimesh(solid: manifold3d.Manifold, rgba: RGBA | None = None) -> trimesh.Trimesh:
+    """A trimesh of a manifold3d solid (float64 vertices), optionally with one face colour."""
+    mesh = solid.to_mesh64()
+    vertices = np.asarray(mesh.vert_properties, dtype=np.float64)[:, :3]
+    faces = np.asarray(mesh.tri_verts, dtype=np.int64)
+    out = trimesh.Trimesh(vertices, faces, process=False)
+    if rgba is not None:
+        out.visual.face_colors = np.round(np.asarray(rgba) * 255).astype(np.uint8)
+    return out
+
+
+def _ring(radius: float, z: float, center: Sequence[float], sides: int = SEGMENTS) -> np.ndarray:
+    """``sides`` points on a horizontal circle, the first one on +x."""
+    angles = np.arange(sides) * (2 * np.pi / sides)
+    return np.column_stack(
+        [
+            center[0] + radius * np.cos(angles),
+            center[1] + radius * np.sin(angles),
+            np.full(sides, z),
+        ]
+    )
+
+
+def _circumscribed(radius: float, center: Sequence[float]) -> np.ndarray:
+    """The polygon with :data:`SEGMENTS` sides around a circle, in phase with :func:`_ring`."""
+    return _ring(radius / math.cos(math.pi / SEGMENTS), 0.0, center)[:, :2]
+
+
+@dataclass(frozen=True, slots=True)
+class Box(_Convex):
+    """A box of ``size`` (x, y, z; m) centred at ``pos`` (m), turned by ``yaw`` (rad) about +Z."""
+
+    size: Vec3
+    pos: Vec3
+    yaw: float = 0.0
+    material: Look = DEFAULT_LOOK
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "size", _floats("Box.size", self.size, 3, positive=True))
+        object.__setattr__(self, "pos", _floats("Box.pos", self.pos, 3))
+        object.__setattr__(self, "yaw", _floats("Box.yaw", (self.yaw,), 1)[0])
+
+    def hull_points(self) -> np.ndarray:
+        signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+        local = signs * np.asarray(self.size) / 2
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        return local @ turn.T + np.asarray(self.pos)
+
+
+@dataclass(frozen=True, slots=True)
+class Cylinder(_Convex):
+    """A cylinder of ``radius`` and ``height`` (m) along +Z, centred at ``pos`` (m)."""
+
+    radius: float
+    height: float
+    pos: Vec3
+    material: Look = DEFAULT_LOOK
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "radius", _length("Cylinder.radius", self.radius, 1e-4))
+        object.__setattr__(self, "height", _length("Cylinder.height", self.height, 1e-4))
+        object.__setattr__(self, "pos", _floats("Cylinder.pos", self.pos, 3))
+
+    def hull_points(self) -> np.ndarray:
+        x, y, z = self.pos
+        half = self.height / 2
+        return np.vstack([_ring(self.radius, z - half, (x, y)), _ring(self.radius, z + half, (x, y))])
+
+    def _outline(self) -> np.ndarray:
+        return _circumscribed(self.radius, self.pos)
+
+
+@dataclass(frozen=True, slots=True)
+class Capsule(_Convex):
+    """A capsule along +Z centred at ``pos`` (m): a cylinder of ``radius`` and ``length`` (m)
+    capped by two hemispheres, so it is ``length + 2 * radius`` tall. ``length`` 0 is a sphere.
+    """
+
+    radius: float
+    length: float
+    pos: Vec3
+    material: Look = DEFAULT_LOOK
+
+    #: Latitude rings per hemisphere in the mesh (the pole is one more point).
+    RINGS = 6
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "radius", _length("Capsule.radius", self.radius, 1e-4))
+        object.__setattr__(self, "length", _length("Capsule.length", self.length))
+        object.__setattr__(self, "pos", _floats("Capsule.pos", self.pos, 3))
+
+    def hull_points(self) -> np.ndarray:
+        x, y, z = self.pos
+        r, half = self.radius, self.length / 2
+        rings = []
+        for k in range(self.RINGS):
+            lat = k / self.RINGS * (math.pi / 2)
+            rr, dz = r * math.cos(lat), r * math.sin(lat)
+            rings += [_ring(rr, z + half + dz, (x, y)), _ring(rr, z - half - dz, (x, y))]
+        poles = np.array([[x, y, z + half + r], [x, y, z - half - r]])
+        return np.vstack([*rings, poles])
+
+    def _outline(self) -> np.ndarray:
+        return _circumscribed(self.radius, self.pos)
+
+
+@dataclass(frozen=True, slots=True)
+class ConvexMesh(_Convex):
+    """The convex hull of ``vertices`` (x, y, z; m). They must span a volume."""
+
+    vertices: tuple[Vec3, ...]
+    material: Look = DEFAULT_LOOK
+
+    def __post_init__(self) -> None:
+        try:
+            points = tuple(_floats("ConvexMesh.vertices[]", v, 3) for v in self.vertices)
+        except TypeError:
+            points = ()
+        spread = np.asarray(points) - np.mean(points, axis=0) if len(points) >= 4 else None
+        if spread is None or np.linalg.svd(spread, compute_uv=False)[-1] < 1e-7:
+            raise ValueError(
+                f"ConvexMesh.vertices: expected >= 4 points (m) spanning a volume, "
+                f"got {len(points)} points that do not"
+            )
+        object.__setattr__(self, "vertices", points)
+
+    def hull_points(self) -> np.ndarray:
+        return np.asarray(self.vertices, dtype=np.float64)
+
+
+Part = Box | Cylinder | Capsule | ConvexMesh
+"""Any convex part."""
+
+
+def _as_mesh(points: np.ndarray, material: Look) -> ConvexMesh:
+    return ConvexMesh(tuple(map(tuple, points.tolist())), material)
+
+
+def rod(
+    radius: float, start: Sequence[float], end: Sequence[float], material: Look = DEFAULT_LOOK
+) -> ConvexMesh:
+    """A cylinder of ``radius`` (m) from ``start`` to ``end`` (m) in any direction.
+
+    >>> rod(0.05, (0, 0, 1), (1, 0, 1)).footprint().bounds
+    (0.0, -0.05, 1.0, 0.05)
+    """
+    a, b = np.asarray(start, float), np.asarray(end, float)
+    axis = b - a
+    if not np.linalg.norm(axis) > 0:
+        raise ValueError(f"rod: start and end must differ, got {tuple(start)} and {tuple(end)}")
+    axis /= np.linalg.norm(axis)
+    helper = np.array([0.0, 0.0, 1.0]) if abs(axis[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    u = np.cross(axis, helper)
+    u /= np.linalg.norm(u)
+    v = np.cross(axis, u)
+    angles = np.arange(SEGMENTS) * (2 * np.pi / SEGMENTS)
+    circle = radius * (np.outer(np.cos(angles), u) + np.outer(np.sin(angles), v))
+    return _as_mesh(np.vstack([a + circle, b + circle]), material)
+
+
+def frustum(
+    r_bottom: float,
+    r_top: float,
+    z_bottom: float,
+    z_top: float,
+    material: Look = DEFAULT_LOOK,
+    xy: Sequence[float] = (0.0, 0.0),
+    sides: int = SEGMENTS,
+) -> ConvexMesh:
+    """A truncated cone along +Z from ``z_bottom`` to ``z_top`` (m), radii in m.
+
+    ``sides`` below :data:`SEGMENTS` gives a faceted prism (4 for a square post).
+    """
+    if not (r_bottom >= 0 and r_top >= 0 and r_bottom + r_top > 0 and z_top > z_bottom):
+        raise ValueError(
+            f"frustum: expected radii >= 0 (not both 0) and z_top > z_bottom (m), got "
+            f"r=({r_bottom}, {r_top}), z=({z_bottom}, {z_top})"
+        )
+    rings = [_ring(r, z, xy, sides) for r, z in ((r_bottom, z_bottom), (r_top, z_top)) if r > 0]
+    apexes = [[xy[0], xy[1], z] for r, z in ((r_bottom, z_bottom), (r_top, z_top)) if r == 0]
+    return _as_mesh(np.vstack([*rings, *([np.array(apexes)] if apexes else [])]), material)
+
+
+def tilted_box(
+    size: Sequence[float], pos: Sequence[float], lean: float, material: Look = DEFAULT_LOOK
+) -> ConvexMesh:
+    """A box of ``size`` (m) centred at ``pos`` (m), its top leaning to +x by ``lean`` (rad)."""
+    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    local = signs * np.asarray(size, float) / 2
+    c, s = math.cos(lean), math.sin(lean)
+    turn = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+    return _as_mesh(local @ turn.T + np.asarray(pos, float), material)
