@@ -51,6 +51,14 @@ def _finite_float(text: str) -> float:
     return value
 
 
+def _sane_int(text: str) -> int:
+    # Integers beyond 2**64 are no seed, count or coordinate citygen can use, and
+    # huge digit strings would cost quadratic time to convert.
+    if len(text.lstrip("-")) > 20:
+        raise ValueError(f"integer {text[:12]}... ({len(text)} digits) is out of range")
+    return int(text)
+
+
 def _no_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     obj: dict[str, Any] = {}
     for key, value in pairs:
@@ -93,6 +101,7 @@ def read_json(path: str | Path) -> Any:
             text,
             parse_constant=_reject_constant,
             parse_float=_finite_float,
+            parse_int=_sane_int,
             object_pairs_hook=_no_duplicates,
         )
     except json.JSONDecodeError as exc:
@@ -103,7 +112,7 @@ def read_json(path: str | Path) -> Any:
     except _Duplicate as exc:
         raise fail("each key once per object", f"key {str(exc)!r} twice") from None
     except ValueError as exc:
-        raise fail("finite numbers (JSON has no NaN or Infinity)", str(exc)) from None
+        raise fail("finite numbers of sane size (JSON has no NaN or Infinity)", str(exc)) from None
     except RecursionError:
         raise fail("a document nested at most a few hundred levels deep", "deeper nesting") from None
 
@@ -145,7 +154,8 @@ def parse(model: type[M], document: Any, file: str | None = None) -> M:
     try:
         # Validate the JSON text, not the Python object: JSON mode is what the schema
         # describes (arrays for tuples, numbers for floats).
-        return model.model_validate_json(json.dumps(document, allow_nan=False))
+        # Only the JSON names count: `schema_` is the Python name of `$schema`, not a key.
+        return model.model_validate_json(json.dumps(document, allow_nan=False), by_alias=True, by_name=False)
     except ValidationError as exc:
         raise SpecError(problems_from(exc, document), file=file) from None
 
@@ -194,6 +204,14 @@ def problems_from(exc: ValidationError, document: Any) -> list[Problem]:
                 continue
         problems.append(Problem(path, *_describe(err, node)))
     drop = {i for i, (path, _, err) in enumerate(located) if err["type"] == "missing" and path in paired}
+    # pydantic counts a list's length without the items it refused; the refused item is
+    # the problem, not the length.
+    inner = {path for path, _, _ in located}
+    drop |= {
+        i
+        for i, (path, _, err) in enumerate(located)
+        if err["type"] in ("too_short", "too_long") and any(q.startswith(path + "[") for q in inner)
+    }
     return [p for i, p in enumerate(problems) if i not in drop]
 
 
@@ -272,8 +290,8 @@ def _describe(err: dict[str, Any], node: Any) -> tuple[str, str]:
 
 
 def dumps(model: BaseModel) -> str:
-    """Canonical JSON text of a model: fields in model order, floats as quantised, arrays of
-    numbers (and arrays of short number arrays) on one line, a final newline."""
+    """Canonical JSON text of a model: ``id`` and ``kind`` first, then fields in model order;
+    floats as quantised; arrays of numbers (and of number arrays) on one line; a final newline."""
     return _format(to_jsonable(model), "") + "\n"
 
 
@@ -285,10 +303,16 @@ def _is_flat(value: Any) -> bool:
     )
 
 
+_LEADING_KEYS = ("id", "kind")
+
+
 def _format(value: Any, indent: str) -> str:
     if isinstance(value, dict):
         if not value:
             return "{}"
+        # A reader looks for what a thing is first: `id` and `kind` lead every object.
+        lead = {k: value[k] for k in _LEADING_KEYS if k in value}
+        value = {**lead, **{k: v for k, v in value.items() if k not in lead}}
         inner = indent + "  "
         items = ",\n".join(f"{inner}{json.dumps(k)}: {_format(v, inner)}" for k, v in value.items())
         return "{\n" + items + "\n" + indent + "}"
@@ -307,8 +331,8 @@ def write_atomic(path: str | Path, data: bytes) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
-        os.fchmod(fd, 0o666 & ~_UMASK)
         with os.fdopen(fd, "wb") as f:
+            os.fchmod(f.fileno(), 0o666 & ~_UMASK)
             f.write(data)
             f.flush()
             os.fsync(f.fileno())

@@ -11,7 +11,7 @@ from typing import Annotated, Literal
 from pydantic import Field
 
 from citygen.spec import limits
-from citygen.spec.base import Float, Identifier, SpecModel, Vec2
+from citygen.spec.base import Identifier, SpecModel, Vec2, bounded_float
 
 
 class _Agent(SpecModel):
@@ -26,9 +26,9 @@ class Person(_Agent):
     """A pedestrian, cyclist or scooter rider, moving on walkable ground."""
 
     kind: Literal["pedestrian", "cyclist", "scooter"]
-    radius: Float = Field(default=0.3, ge=0.1, le=1.5)
+    radius: bounded_float(0.1, 1.5) = 0.3
     """Radius of the disc the agent occupies, in metres."""
-    speed: Float = Field(default=1.3, ge=0.0, le=15.0)
+    speed: bounded_float(0.0, 15.0) = 1.3
     """Preferred speed in metres per second."""
 
 
@@ -36,11 +36,11 @@ class Vehicle(_Agent):
     """A car, van or bus following lanes on the roadway."""
 
     kind: Literal["vehicle"]
-    length: Float = Field(default=4.5, ge=1.5, le=25.0)
+    length: bounded_float(1.5, 25.0) = 4.5
     """Length in metres."""
-    width: Float = Field(default=1.8, ge=0.8, le=3.5)
+    width: bounded_float(0.8, 3.5) = 1.8
     """Width in metres."""
-    speed: Float = Field(default=8.0, ge=0.0, le=40.0)
+    speed: bounded_float(0.0, 40.0) = 8.0
     """Desired speed (IDM's v0) in metres per second."""
     route: tuple[Identifier, ...] = Field(default=(), max_length=limits.MAX_ROUTE_POINTS)
     """Ids of the blocks the vehicle drives through, in order (empty: follow the lane)."""

@@ -45,12 +45,25 @@ def _whole_number(value: Any) -> Any:
 Float = Annotated[float, Strict(), AllowInfNan(False), AfterValidator(quantize)]
 """A finite float, rounded to :data:`PRECISION` decimals."""
 
-Int = Annotated[int, BeforeValidator(_whole_number), Strict()]
+Int = Annotated[int, Strict(), BeforeValidator(_whole_number)]
 """A whole number (``3`` or ``3.0``, never ``true`` or ``"3"``)."""
 
 Bool = Annotated[bool, Strict()]
 
-Yaw = Annotated[Float, Field(ge=-6.2832, le=6.2832)]
+
+def bounded_float(ge: float, le: float) -> Any:
+    """A :data:`Float` within ``[ge, le]``, checked on the number as written (as JSON
+    Schema checks it), then quantised. Bounds must be multiples of 1e-4."""
+    return Annotated[float, Strict(), AllowInfNan(False), Field(ge=ge, le=le), AfterValidator(quantize)]
+
+
+def bounded_int(ge: int, le: int) -> Any:
+    """An :data:`Int` within ``[ge, le]``."""
+    # The before-validator wraps what precedes it, so 3.0 becomes 3 before the bounds.
+    return Annotated[int, Strict(), Field(ge=ge, le=le), BeforeValidator(_whole_number)]
+
+
+Yaw = bounded_float(-6.2832, 6.2832)
 """A heading in radians, counter-clockwise about +Z from +x, within [-2 pi, 2 pi]."""
 
 Vec2 = tuple[Float, Float]

@@ -13,11 +13,11 @@ from typing import Annotated, Literal
 from pydantic import Field
 
 from citygen.spec import limits
-from citygen.spec.base import Float, Identifier, Int, SpecModel, Vec2, Yaw
+from citygen.spec.base import Identifier, SpecModel, Vec2, Yaw, bounded_float, bounded_int
 
-Lanes = Annotated[Int, Field(ge=1, le=4, description="Lanes in each direction.")]
-LaneWidth = Annotated[Float, Field(ge=2.0, le=5.0, description="Width of one lane, in metres.")]
-Length = Annotated[Float, Field(ge=0.5, le=1_000.0)]
+Lanes = bounded_int(1, 4)
+LaneWidth = bounded_float(2.0, 5.0)
+Length = bounded_float(0.5, 1_000.0)
 
 
 class Pose2(SpecModel):
@@ -53,7 +53,9 @@ class _Block(SpecModel):
     pose: Pose2
     """Pose of the entry socket, heading into the block."""
     lanes: Lanes = 1
+    """Lanes in each direction."""
     lane_width: LaneWidth = 3.5
+    """Width of one lane, in metres."""
     sockets: tuple[Socket, ...] = Field(default=(), max_length=limits.MAX_SOCKETS)
     connections: tuple[Connection, ...] = Field(default=(), max_length=limits.MAX_SOCKETS)
 
@@ -70,9 +72,9 @@ class Curve(_Block):
     """A circular arc."""
 
     kind: Literal["curve"]
-    radius: Float = Field(ge=5.0, le=500.0)
+    radius: bounded_float(5.0, 500.0)
     """Radius of the road's centre line, in metres."""
-    angle: Float = Field(ge=-3.1416, le=3.1416)
+    angle: bounded_float(-3.1416, 3.1416)
     """Turned angle in radians; positive turns left (counter-clockwise)."""
 
 
@@ -80,9 +82,9 @@ class Roundabout(_Block):
     """A circular junction with arms at even angles."""
 
     kind: Literal["roundabout"]
-    radius: Float = Field(ge=5.0, le=100.0)
+    radius: bounded_float(5.0, 100.0)
     """Radius of the ring road's centre line, in metres."""
-    arms: Int = Field(default=4, ge=3, le=6)
+    arms: bounded_int(3, 6) = 4
     """Roads meeting at the ring, the entry included."""
 
 
@@ -92,9 +94,10 @@ class Diverge(_Block):
     kind: Literal["diverge"]
     length: Length
     """Length of the main road through the block, in metres."""
-    branch_angle: Float = Field(ge=-1.5708, le=1.5708)
+    branch_angle: bounded_float(-1.5708, 1.5708)
     """Angle of the branch to the main road in radians; positive branches left."""
     branch_lanes: Lanes = 1
+    """Lanes of the branch road in each direction."""
 
 
 class Merge(_Block):
@@ -103,9 +106,10 @@ class Merge(_Block):
     kind: Literal["merge"]
     length: Length
     """Length of the main road through the block, in metres."""
-    branch_angle: Float = Field(ge=-1.5708, le=1.5708)
+    branch_angle: bounded_float(-1.5708, 1.5708)
     """Angle of the joining road to the main road in radians; positive joins from the left."""
     branch_lanes: Lanes = 1
+    """Lanes of the branch road in each direction."""
 
 
 class Intersection(_Block):
@@ -114,7 +118,7 @@ class Intersection(_Block):
     kind: Literal["intersection"]
     arm_length: Length
     """Length of each arm from the centre to its socket, in metres."""
-    corner_radius: Float = Field(default=5.0, ge=0.0, le=50.0)
+    corner_radius: bounded_float(0.0, 50.0) = 5.0
     """Curb radius at the corners, in metres."""
 
 
@@ -124,7 +128,7 @@ class TIntersection(_Block):
     kind: Literal["t_intersection"]
     arm_length: Length
     """Length of each arm from the centre to its socket, in metres."""
-    corner_radius: Float = Field(default=5.0, ge=0.0, le=50.0)
+    corner_radius: bounded_float(0.0, 50.0) = 5.0
     """Curb radius at the corners, in metres."""
     side: Literal["left", "right"] = "left"
     """Which side of the through road the third arm leaves on."""

@@ -17,14 +17,14 @@ from typing import Annotated, Literal
 from pydantic import BaseModel, Field
 
 from citygen.errors import Problem
-from citygen.spec.base import Float, Identifier, Int, SpecModel, Vec2
+from citygen.spec.base import Float, Identifier, Int, SpecModel, Vec2, bounded_float, bounded_int
 from citygen.spec.task import Robot
 
 Range = tuple[Float, Float]
 """``[low, high]``, sampled uniformly."""
 IntRange = tuple[Int, Int]
 """``[low, high]`` inclusive, sampled uniformly."""
-Weight = Annotated[Float, Field(ge=0.0, le=1e6)]
+Weight = bounded_float(0.0, 1e6)
 
 
 class RegionShapes(SpecModel):
@@ -71,7 +71,7 @@ class BlockWeights(SpecModel):
 class BlocksConfig(SpecModel):
     """Stage 1: the road network, as a sequence of connected blocks."""
 
-    count: Int = Field(default=7, ge=1, le=10_000)
+    count: bounded_int(1, 10_000) = 7
     """Blocks in the network (ignored by layouts without roads)."""
     weights: BlockWeights = BlockWeights()
     sequence: tuple[
@@ -92,9 +92,9 @@ class BlocksConfig(SpecModel):
     """Ring radius of roundabouts, in metres."""
     arm_length: Range = (20.0, 40.0)
     """Arm length of intersections, in metres."""
-    clearance: Float = Field(default=2.0, ge=0.0, le=100.0)
+    clearance: bounded_float(0.0, 100.0) = 2.0
     """Minimum gap between roads that do not connect, in metres."""
-    max_tries: Int = Field(default=200, ge=1, le=100_000)
+    max_tries: bounded_int(1, 100_000) = 200
     """Candidate blocks sampled before the generator gives up with a clear error."""
 
 
@@ -107,9 +107,9 @@ class GroundConfig(SpecModel):
     """Width of the sidewalk (frontage + clear + furnishing strips), in metres."""
     crosswalk_width: Range = (3.0, 5.0)
     """Width of a crosswalk across the road, in metres."""
-    midblock_crosswalk_probability: Float = Field(default=0.2, ge=0.0, le=1.0)
+    midblock_crosswalk_probability: bounded_float(0.0, 1.0) = 0.2
     """Chance that a straight block gets a mid-block crosswalk."""
-    plaza_probability: Float = Field(default=0.3, ge=0.0, le=1.0)
+    plaza_probability: bounded_float(0.0, 1.0) = 0.3
     """Chance that an open corner becomes a plaza rather than vegetation."""
     building_setback: Range = (0.0, 4.0)
     """Distance from the sidewalk to building footprints, in metres."""
@@ -129,7 +129,7 @@ class TerrainConfig(SpecModel):
 
     layout: Literal["wfc", "curriculum"] = "wfc"
     """WFC for mixed urban terrain; a difficulty grid (rows of rising difficulty) for locomotion."""
-    tile_size: Float = Field(default=2.5, ge=0.25, le=100.0)
+    tile_size: bounded_float(0.25, 100.0) = 2.5
     """Side of a square tile, in metres."""
     mix: TerrainMix = TerrainMix()
     slope_angle: Range = (0.0, 0.4)
@@ -144,25 +144,23 @@ class TerrainConfig(SpecModel):
     """Wavelength of the bumps in metres."""
     grid: tuple[Int, Int] | None = None
     """``[rows, cols]`` of a curriculum grid (paper: 30 x 30 train, 16 x 16 test)."""
-    max_restarts: Int = Field(default=20, ge=0, le=10_000)
+    max_restarts: bounded_int(0, 10_000) = 20
     """WFC restarts after a contradiction before generation fails with a clear error."""
 
 
 class PlacementConfig(SpecModel):
     """Stage 4: static objects from the asset catalog."""
 
-    count: Int | None = Field(default=4, ge=0, le=1_000_000)
+    count: bounded_int(0, 1_000_000) | None = 4
     """Exact number of objects (paper: 4 in train scenes, 8 in test); ``None`` uses the density."""
-    density_per_100m2: Float = Field(default=4.0, ge=0.0, le=1_000.0)
+    density_per_100m2: bounded_float(0.0, 1_000.0) = 4.0
     """Objects per 100 square metres of suitable zone area, when ``count`` is ``None``."""
-    density_levels: tuple[Annotated[Float, Field(ge=0.0, le=10.0)], ...] = Field(
-        default=(1.0,), min_length=1, max_length=64
-    )
+    density_levels: tuple[bounded_float(0.0, 10.0), ...] = Field(default=(1.0,), min_length=1, max_length=64)
     """Multipliers of the count or density; scene ``i`` of a split uses level
     ``i % len(levels)`` (paper, Urban-Nav-2: 0.5, 1.0, 1.5)."""
     categories: tuple[Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*$")], ...] = ()
     """Asset categories to draw from; empty means every category suited to the zone."""
-    clearance: Float = Field(default=0.5, ge=0.0, le=20.0)
+    clearance: bounded_float(0.0, 20.0) = 0.5
     """Minimum free gap between objects, in metres."""
 
 
@@ -177,14 +175,12 @@ class PeopleMix(SpecModel):
 class AgentsConfig(SpecModel):
     """Stage 5: pedestrians, cyclists, scooter riders and vehicles."""
 
-    people: Int = Field(default=2, ge=0, le=100_000)
+    people: bounded_int(0, 100_000) = 2
     """Pedestrians, cyclists and scooter riders in all (paper: 2 in train scenes, 3 in test)."""
     mix: PeopleMix = PeopleMix()
-    vehicles: Int = Field(default=0, ge=0, le=100_000)
+    vehicles: bounded_int(0, 100_000) = 0
     """Vehicles on the roadway (layouts with roads only)."""
-    density_levels: tuple[Annotated[Float, Field(ge=0.0, le=10.0)], ...] = Field(
-        default=(1.0,), min_length=1, max_length=64
-    )
+    density_levels: tuple[bounded_float(0.0, 10.0), ...] = Field(default=(1.0,), min_length=1, max_length=64)
     """Multipliers of the counts; scene ``i`` of a split uses level ``i % len(levels)``
     (paper, Urban-Nav-3: 0.5, 1.0, 1.5)."""
     pedestrian_speed: Range = (1.0, 1.6)
@@ -211,11 +207,11 @@ class TaskConfig(SpecModel):
         "traverse",
     ] = "nav-dynamic"
     robot: Robot = "wheeled"
-    min_distance: Float = Field(default=5.0, ge=0.0, le=100_000.0)
+    min_distance: bounded_float(0.0, 100_000.0) = 5.0
     """Minimum walkable (geodesic) distance from start to goal, in metres."""
-    time_limit: Float = Field(default=20.0, ge=0.1, le=86_400.0)
+    time_limit: bounded_float(0.1, 86_400.0) = 20.0
     """Episode time limit in seconds (paper: 200 steps)."""
-    goal_tolerance: Float = Field(default=0.5, ge=0.01, le=10.0)
+    goal_tolerance: bounded_float(0.01, 10.0) = 0.5
     """Distance from the goal that counts as reached, in metres."""
 
 
@@ -243,9 +239,9 @@ class SplitConfig(SpecModel):
     name: Identifier
     """For example ``urban-nav-2-train``."""
     description: str = Field(default="", max_length=2_000)
-    scenes: Int = Field(ge=1, le=10_000_000)
+    scenes: bounded_int(1, 10_000_000)
     """Number of scenes in the split."""
-    seed: Int = Field(default=0, ge=0, le=2**64 - 1)
+    seed: bounded_int(0, 2**64 - 1) = 0
     """Master seed; scene ``i``'s seed derives from (master seed, split name, i)."""
     config: GeneratorConfig = GeneratorConfig()
 

@@ -6,11 +6,11 @@ from typing import Annotated
 
 from pydantic import Field, Strict
 
-from citygen.spec.base import Float, Identifier, SpecModel, Vec3, Yaw
+from citygen.spec.base import Identifier, SpecModel, Vec3, Yaw, bounded_float
 
 CATALOG_ID = r"[a-z][a-z0-9_]*/[0-9]{4}"
 """A catalog asset id: ``category/variant``, for example ``bench/0012``."""
-MESH_PATH = r"[^\\\\:*?\"<>|]+\.(obj|stl|ply|glb|gltf|off)"
+MESH_PATH = r'[^\\:*?"<>|]+\.(obj|stl|ply|glb|gltf|off)'
 """A mesh file beside the scene, as a relative POSIX path (``meshes/kiosk.obj``)."""
 
 AssetRef = Annotated[
@@ -36,7 +36,7 @@ class Placement(SpecModel):
     """``[x, y, z]`` of the asset's origin (centre of its base) in metres."""
     yaw: Yaw = 0.0
     """Rotation about +Z in radians."""
-    scale: Float = Field(default=1.0, ge=0.05, le=20.0)
+    scale: bounded_float(0.05, 20.0) = 1.0
     """Uniform scale factor applied to the asset."""
 
     @property

@@ -14,7 +14,7 @@ from pydantic import Field
 
 from citygen.spec import limits
 from citygen.spec.agents import Agent
-from citygen.spec.base import Identifier, Int, SpecModel, Vec2
+from citygen.spec.base import Identifier, SpecModel, Vec2, bounded_int
 from citygen.spec.blocks import Block
 from citygen.spec.placements import Placement
 from citygen.spec.task import Task
@@ -31,9 +31,9 @@ class Meta(SpecModel):
     """What wrote the scene, for example ``citygen 0.1.0``; left out in hand-written scenes."""
     split: Identifier | None = None
     """The named split the scene belongs to, for example ``urban-nav-2-train``."""
-    index: Int | None = Field(default=None, ge=0, le=10_000_000)
+    index: bounded_int(0, 10_000_000) | None = None
     """The scene's index within its split."""
-    seed: Int | None = Field(default=None, ge=0, le=2**64 - 1)
+    seed: bounded_int(0, 2**64 - 1) | None = None
     """The scene's own seed, derived from the split's master seed and the index."""
     description: str | None = Field(default=None, max_length=limits.MAX_TEXT)
     """Free text for people reading the file."""

@@ -7,7 +7,7 @@ from typing import Annotated, Literal
 from pydantic import Field
 
 from citygen.spec import limits
-from citygen.spec.base import Float, SpecModel, Vec2, Vec3
+from citygen.spec.base import SpecModel, Vec2, Vec3, bounded_float
 from citygen.spec.blocks import Pose2
 
 Robot = Literal["wheeled", "quadruped", "wheeled_legged", "humanoid", "wheelchair"]
@@ -20,7 +20,7 @@ class _Task(SpecModel):
     """The embodiment the task is set for."""
     start: Pose2
     """Where the robot starts and which way it faces."""
-    time_limit: Float = Field(ge=0.1, le=86_400.0)
+    time_limit: bounded_float(0.1, 86_400.0)
     """Seconds before the episode ends unsuccessfully."""
 
 
@@ -30,7 +30,7 @@ class NavTask(_Task):
     kind: Literal["nav-clear", "nav-static", "nav-dynamic"]
     goal: Vec2
     """``[x, y]`` to reach, in metres."""
-    goal_tolerance: Float = Field(default=0.5, ge=0.01, le=10.0)
+    goal_tolerance: bounded_float(0.01, 10.0) = 0.5
     """Distance from the goal, in metres, that counts as reached."""
 
 
@@ -48,7 +48,7 @@ class TraverseTask(_Task):
     kind: Literal["traverse"]
     route: tuple[Vec2, ...] = Field(min_length=1, max_length=limits.MAX_ROUTE_POINTS)
     """Waypoints ``[[x, y], ...]`` in metres; the last one is the goal."""
-    goal_tolerance: Float = Field(default=1.0, ge=0.01, le=10.0)
+    goal_tolerance: bounded_float(0.01, 10.0) = 1.0
     """Distance from a waypoint, in metres, that counts as reached."""
 
 

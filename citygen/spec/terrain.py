@@ -30,7 +30,7 @@ from typing import Annotated, Literal
 from pydantic import Field
 
 from citygen.spec import limits
-from citygen.spec.base import Float, Int, SpecModel, Vec2
+from citygen.spec.base import SpecModel, Vec2, bounded_float, bounded_int
 from citygen.spec.surfaces import Material
 
 Direction = Literal["+x", "+y", "-x", "-y"]
@@ -38,7 +38,7 @@ Side = Literal["north", "east", "south", "west"]
 """Tile sides: north is +y, east is +x."""
 SIDES: tuple[Side, ...] = ("north", "east", "south", "west")
 
-Height = Annotated[Float, Field(ge=-1_000.0, le=1_000.0)]
+Height = bounded_float(-1_000.0, 1_000.0)
 
 
 class _Tile(SpecModel):
@@ -46,7 +46,7 @@ class _Tile(SpecModel):
     """Base height in metres: the level of a flat tile, the low edge of a slope or stair."""
     material: Material | None = None
     """Surface material; when left out, the zone's (or concrete where no zone is)."""
-    friction: Float | None = Field(default=None, ge=0.0, le=2.0)
+    friction: bounded_float(0.0, 2.0) | None = None
     """Sliding friction coefficient; when left out, the material's default."""
 
 
@@ -60,7 +60,7 @@ class SlopeTile(_Tile):
     """An inclined plane (an assistive ramp, a sloped street)."""
 
     kind: Literal["slope"]
-    angle: Float = Field(ge=0.0, le=0.9)
+    angle: bounded_float(0.0, 0.9)
     """Inclination in radians (0.0833 rad is the 1:12 ramp limit of accessibility codes)."""
     ascent: Direction = "+x"
     """The direction in which the ground rises."""
@@ -70,9 +70,9 @@ class StairTile(_Tile):
     """A flight of steps (front steps, steps between plaza levels)."""
 
     kind: Literal["stair"]
-    step_height: Float = Field(ge=0.005, le=0.5)
+    step_height: bounded_float(0.005, 0.5)
     """Riser height in metres."""
-    step_count: Int = Field(ge=1, le=64)
+    step_count: bounded_int(1, 64)
     """Number of risers; the tile holds ``step_count + 1`` equal treads."""
     ascent: Direction = "+x"
     """The direction in which the steps rise."""
@@ -82,11 +82,11 @@ class RoughTile(_Tile):
     """Uneven ground (cracked or cobbled paving, a gravel trail)."""
 
     kind: Literal["rough"]
-    amplitude: Float = Field(ge=0.0, le=0.5)
+    amplitude: bounded_float(0.0, 0.5)
     """Peak deviation from ``height`` in metres."""
-    scale: Float = Field(ge=0.01, le=20.0)
+    scale: bounded_float(0.01, 20.0)
     """Spatial wavelength of the bumps in metres."""
-    seed: Int = Field(default=0, ge=0, le=2**32 - 1)
+    seed: bounded_int(0, 2**32 - 1) = 0
     """Seed of the noise pattern, so every reader builds the same surface."""
 
 
@@ -99,11 +99,11 @@ class Terrain(SpecModel):
 
     origin: Vec2
     """Minimum ``[x, y]`` corner of the grid, in metres."""
-    tile_size: Float = Field(ge=0.25, le=100.0)
+    tile_size: bounded_float(0.25, 100.0)
     """Side of one square tile, in metres."""
-    rows: Int = Field(ge=1, le=limits.MAX_GRID_SIDE)
+    rows: bounded_int(1, limits.MAX_GRID_SIDE)
     """Tiles along y."""
-    cols: Int = Field(ge=1, le=limits.MAX_GRID_SIDE)
+    cols: bounded_int(1, limits.MAX_GRID_SIDE)
     """Tiles along x."""
     tiles: tuple[Tile, ...] = Field(min_length=1, max_length=limits.MAX_TILES)
     """``rows * cols`` tiles in row-major order: ``tiles[row * cols + col]``."""

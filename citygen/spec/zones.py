@@ -11,7 +11,7 @@ from __future__ import annotations
 from pydantic import Field
 
 from citygen.spec import limits
-from citygen.spec.base import Float, Identifier, SpecModel, Vec2
+from citygen.spec.base import Identifier, SpecModel, Vec2, bounded_float
 from citygen.spec.surfaces import (
     FRICTION,
     WALKABLE_ZONES,
@@ -36,7 +36,7 @@ class Zone(SpecModel):
     """Interior rings cut out of the polygon (a tree pit in a plaza, a kiosk ...)."""
     material: Material | None = None
     """Surface material; when left out, the kind's default (concrete for sidewalks ...)."""
-    friction: Float | None = Field(default=None, ge=0.0, le=2.0)
+    friction: bounded_float(0.0, 2.0) | None = None
     """Sliding friction coefficient; when left out, the material's default."""
     strip: SidewalkStrip | None = None
     """For sidewalks only: frontage, clear (pedestrian through zone) or furnishing strip."""
