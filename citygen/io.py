@@ -13,6 +13,7 @@ import difflib
 import json
 import math
 import os
+import re
 import tempfile
 import tomllib
 from collections.abc import Sequence
@@ -246,6 +247,13 @@ def _kind_of(value: Any) -> str:
     return names.get(type(value), "a number") + ("" if isinstance(value, dict | list) else f" {_show(value)}")
 
 
+def _suggest(word: Any, quoted_choices: str) -> str:
+    """`` (did you mean 'x'?)`` for the choice in pydantic's "'a', 'b' or 'c'" closest to ``word``."""
+    choices = re.findall(r"'([^']*)'", quoted_choices)
+    guess = difflib.get_close_matches(str(word), choices, 1)
+    return f" (did you mean {guess[0]!r}?)" if guess else ""
+
+
 def _describe(err: dict[str, Any], node: Any) -> tuple[str, str]:
     kind, ctx, value = err["type"], err.get("ctx") or {}, err.get("input")
     msg = err["msg"]
@@ -257,25 +265,16 @@ def _describe(err: dict[str, Any], node: Any) -> tuple[str, str]:
         return "only the fields the schema defines", f"unknown field {_show(err['loc'][-1])}"
     if kind in ("union_tag_invalid", "union_tag_not_found"):
         tags = ctx.get("expected_tags", "")
-        found = _show(value.get("kind")) if isinstance(value, dict) and "kind" in value else "no 'kind'"
-        guess = (
-            difflib.get_close_matches(str(value.get("kind", "")), [t.strip(" '") for t in tags.split(",")], 1)
-            if isinstance(value, dict)
-            else []
-        )
-        hint = f" (did you mean {guess[0]!r}?)" if guess else ""
-        return f"'kind' one of {tags}", found + hint
+        if not (isinstance(value, dict) and "kind" in value):
+            return f"'kind' one of {tags}", "no 'kind'"
+        return f"'kind' one of {tags}", _show(value["kind"]) + _suggest(value["kind"], tags)
     if kind == "literal_error":
         expected = ctx.get("expected", "")
-        guess = difflib.get_close_matches(
-            str(value), [t.strip(" '") for t in expected.replace(" or ", ",").split(",")], 1
-        )
-        hint = f" (did you mean {guess[0]!r}?)" if guess else ""
-        return f"one of {expected}", _show(value) + hint
+        return f"one of {expected}", _show(value) + _suggest(value, expected)
     if kind in ("too_short", "too_long"):
-        return msg.split(" should have ", 1)[-1].split(" after validation")[0].replace("item", "item"), (
-            f"{ctx.get('actual_length')} items"
-        )
+        # "List should have at least 3 items after validation, not 2" -> "at least 3 items"
+        bound = msg.split(" should have ", 1)[-1].split(" after validation")[0]
+        return bound, f"{ctx.get('actual_length')} items"
     if kind in ("model_type", "model_attributes_type", "dict_type"):
         return "an object", _kind_of(value)
     if kind in ("tuple_type", "list_type"):

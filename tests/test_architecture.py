@@ -129,16 +129,22 @@ def test_importing_loads_no_generator_runner_or_engine(module, tmp_path):
     assert [m for m in loaded if m.split(".")[0] not in allowed_engines] == []
 
 
-def test_exporters_import_from_outside_the_checkout(tmp_path):
+def exporters_file(cwd: Path, env: dict | None = None) -> Path:
+    """Where a fresh interpreter started in ``cwd`` imports ``citygen.exporters`` from."""
     proc = subprocess.run(
         [sys.executable, "-c", "import citygen.exporters as e; print(e.__file__)"],
         capture_output=True,
         text=True,
-        cwd=tmp_path,
+        cwd=cwd,
         timeout=60,
+        env=env,
     )
     assert proc.returncode == 0, proc.stderr
-    assert Path(proc.stdout.strip()).name == "__init__.py"
+    return Path(proc.stdout.strip())
+
+
+def test_exporters_import_from_outside_the_checkout(tmp_path):
+    assert exporters_file(tmp_path).name == "__init__.py"
 
 
 @pytest.mark.slow
@@ -177,13 +183,4 @@ def test_wheel_packages_every_module_and_maps_exporters(tmp_path):
         capture_output=True,
         timeout=300,
     )
-    proc = subprocess.run(
-        [sys.executable, "-c", "import citygen.exporters as e; print(e.__file__)"],
-        capture_output=True,
-        text=True,
-        cwd=tmp_path,
-        timeout=60,
-        env={"PYTHONPATH": str(target), "PATH": ""},
-    )
-    assert proc.returncode == 0, proc.stderr
-    assert Path(proc.stdout.strip()).is_relative_to(target)
+    assert exporters_file(tmp_path, env={"PYTHONPATH": str(target), "PATH": ""}).is_relative_to(target)
