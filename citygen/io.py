@@ -69,32 +69,41 @@ def _no_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     return obj
 
 
+def _fail(file: str, expected: str, found: str) -> SpecError:
+    return SpecError([Problem("$", expected, found)], file=file)
+
+
+def _read_text(path: str | Path, what: str) -> str:
+    """The UTF-8 text of a document file (BOM dropped), or a :class:`SpecError` saying why not."""
+    file, p = str(path), Path(path)
+    try:
+        size = p.stat().st_size
+        if p.is_dir():
+            raise _fail(file, f"a {what} file", "a directory")
+        if size > limits.MAX_FILE_BYTES:
+            raise _fail(file, f"a file of at most {limits.MAX_FILE_BYTES} bytes", f"{size} bytes")
+        data = p.read_bytes()
+    except FileNotFoundError:
+        raise _fail(file, "an existing file", "no such file") from None
+    except PermissionError:
+        raise _fail(file, "a readable file", "permission denied") from None
+    except OSError as exc:
+        raise _fail(file, "a readable file", exc.strerror or type(exc).__name__) from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise _fail(file, "UTF-8 text", f"byte 0x{data[exc.start]:02x} at offset {exc.start}") from None
+    return text.removeprefix("\ufeff")
+
+
 def read_json(path: str | Path) -> Any:
     """The JSON document in ``path``, or a :class:`SpecError` saying why there is none."""
     file = str(path)
 
     def fail(expected: str, found: str) -> SpecError:
-        return SpecError([Problem("$", expected, found)], file=file)
+        return _fail(file, expected, found)
 
-    p = Path(path)
-    try:
-        size = p.stat().st_size
-        if p.is_dir():
-            raise fail("a JSON file", "a directory")
-        if size > limits.MAX_FILE_BYTES:
-            raise fail(f"a file of at most {limits.MAX_FILE_BYTES} bytes", f"{size} bytes")
-        data = p.read_bytes()
-    except FileNotFoundError:
-        raise fail("an existing file", "no such file") from None
-    except PermissionError:
-        raise fail("a readable file", "permission denied") from None
-    except OSError as exc:
-        raise fail("a readable file", exc.strerror or type(exc).__name__) from None
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise fail("UTF-8 text", f"byte 0x{data[exc.start]:02x} at offset {exc.start}") from None
-    text = text.removeprefix("\ufeff")
+    text = _read_text(path, "JSON")
     if not text.strip():
         raise fail("a JSON document", "an empty file")
     try:
@@ -122,22 +131,11 @@ def read_document(path: str | Path) -> Any:
     """A JSON (``.json``) or TOML (``.toml``) document, or a :class:`SpecError` saying why not."""
     if Path(path).suffix.lower() != ".toml":
         return read_json(path)
-    file = str(path)
+    text = _read_text(path, "TOML")
     try:
-        data = Path(path).read_bytes()
-        return tomllib.loads(data.decode("utf-8").removeprefix("\ufeff"))
-    except FileNotFoundError:
-        raise SpecError([Problem("$", "an existing file", "no such file")], file=file) from None
-    except IsADirectoryError:
-        raise SpecError([Problem("$", "a TOML file", "a directory")], file=file) from None
-    except OSError as exc:
-        raise SpecError([Problem("$", "a readable file", exc.strerror or "an error")], file=file) from None
-    except UnicodeDecodeError as exc:
-        raise SpecError(
-            [Problem("$", "UTF-8 text", f"a bad byte at offset {exc.start}")], file=file
-        ) from None
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise SpecError([Problem("$", "valid TOML", str(exc))], file=file) from None
+        raise _fail(str(path), "valid TOML", str(exc)) from None
 
 
 def load_manifest(path: str | Path) -> SplitManifest:

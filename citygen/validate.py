@@ -49,14 +49,20 @@ def validate(scene: Scene, base_dir: str | Path | None = None) -> list[Problem]:
     problems = _check_bounds(scene)
     if problems:
         return problems  # everything else is measured against the bounds
+    # Built once and shared: the bounds (with tolerance) and every zone's shape.
+    area = box(*scene.bounds.min, *scene.bounds.max).buffer(DIST_TOL, join_style="mitre")
+    zones = [Polygon(z.polygon, z.holes) for z in scene.zones]
     problems += _check_unique_ids(scene)
     problems += _check_blocks(scene)
-    problems += _check_zones(scene)
-    problems += _check_terrain(scene)
+    problems += _check_zones(scene, zones, area)
+    # Later checks use the zones as shapes; an invalid ring (already reported) is
+    # repaired so that unions and overlap tests never fail on it.
+    zones = [z if z.is_valid else shapely.make_valid(z) for z in zones]
+    problems += _check_terrain(scene, area)
     footprints, more = _placement_footprints(scene, base_dir)
     problems += more
-    problems += _check_placements(scene, footprints)
-    problems += _check_agents_and_task(scene, footprints)
+    problems += _check_placements(scene, footprints, zones, area)
+    problems += _check_agents_and_task(scene, footprints, zones, area)
     return problems
 
 
@@ -146,18 +152,8 @@ def _check_blocks(scene: Scene) -> list[Problem]:
 # --- zones -----------------------------------------------------------------------
 
 
-def _bounds_box(scene: Scene) -> Polygon:
-    return box(*scene.bounds.min, *scene.bounds.max)
-
-
-def _zone_polygons(scene: Scene) -> list[Polygon]:
-    return [Polygon(z.polygon, z.holes) for z in scene.zones]
-
-
-def _check_zones(scene: Scene) -> list[Problem]:
+def _check_zones(scene: Scene, polys: list[Polygon], area: Polygon) -> list[Problem]:
     problems = []
-    area = _bounds_box(scene).buffer(DIST_TOL, join_style="mitre")
-    polys = _zone_polygons(scene)
     good = []
     for i, (zone, poly) in enumerate(zip(scene.zones, polys, strict=True)):
         where = f"$.zones[{i}]"
@@ -217,7 +213,7 @@ def _describe_profile(p: tuple) -> str:
     return f"{p[3]} steps {_fmt(p[1])} -> {_fmt(p[2])} m"
 
 
-def _check_terrain(scene: Scene) -> list[Problem]:
+def _check_terrain(scene: Scene, area: Polygon) -> list[Problem]:
     t = scene.terrain
     if t is None:
         return []
@@ -229,7 +225,7 @@ def _check_terrain(scene: Scene) -> list[Problem]:
     grid = box(
         t.origin[0], t.origin[1], t.origin[0] + t.cols * t.tile_size, t.origin[1] + t.rows * t.tile_size
     )
-    if not _bounds_box(scene).buffer(DIST_TOL, join_style="mitre").covers(grid):
+    if not area.covers(grid):
         problems.append(
             Problem("$.terrain", "a tile grid inside $.bounds", f"a grid spanning {_pt(grid.bounds)}")
         )
@@ -343,9 +339,10 @@ def _placement_footprints(
     return out, problems
 
 
-def _check_placements(scene: Scene, footprints: list[Polygon | None]) -> list[Problem]:
+def _check_placements(
+    scene: Scene, footprints: list[Polygon | None], zones: list[Polygon], area: Polygon
+) -> list[Problem]:
     problems = []
-    area = _bounds_box(scene).buffer(DIST_TOL, join_style="mitre")
     present = [i for i, fp in enumerate(footprints) if fp is not None]
     for i in present:
         if not area.covers(footprints[i]):
@@ -361,7 +358,7 @@ def _check_placements(scene: Scene, footprints: list[Polygon | None]) -> list[Pr
         [f"$.placements[{i}]" for i in present],
         "no overlap with other objects",
     )
-    buildings = [(j, Polygon(z.polygon, z.holes)) for j, z in enumerate(scene.zones) if z.kind == "building"]
+    buildings = [(j, zones[j]) for j, z in enumerate(scene.zones) if z.kind == "building"]
     if buildings and present:
         tree = shapely.STRtree([b for _, b in buildings])
         objs = np.asarray([footprints[i] for i in present], dtype=object)
@@ -385,10 +382,12 @@ def _check_placements(scene: Scene, footprints: list[Polygon | None]) -> list[Pr
 class _Ground:
     """Point queries against the scene's bounds, walkable zones, roadway and objects."""
 
-    def __init__(self, scene: Scene, footprints: Iterable[Polygon | None]):
-        self.area = _bounds_box(scene).buffer(DIST_TOL, join_style="mitre")
-        walk = [Polygon(z.polygon, z.holes) for z in scene.zones if z.kind in WALKABLE_ZONES]
-        road = [Polygon(z.polygon, z.holes) for z in scene.zones if z.kind in ("roadway", "parking")]
+    def __init__(
+        self, scene: Scene, footprints: Iterable[Polygon | None], zones: list[Polygon], area: Polygon
+    ):
+        self.area = area
+        walk = [g for g, z in zip(zones, scene.zones, strict=True) if z.kind in WALKABLE_ZONES]
+        road = [g for g, z in zip(zones, scene.zones, strict=True) if z.kind in ("roadway", "parking")]
         # A scene without zones (a locomotion grid) is walkable everywhere.
         self.walkable = shapely.union_all(walk).buffer(DIST_TOL) if scene.zones else self.area
         self.road = shapely.union_all(road).buffer(DIST_TOL) if road else None
@@ -409,10 +408,12 @@ class _Ground:
         return None
 
 
-def _check_agents_and_task(scene: Scene, footprints: list[Polygon | None]) -> list[Problem]:
+def _check_agents_and_task(
+    scene: Scene, footprints: list[Polygon | None], zones: list[Polygon], area: Polygon
+) -> list[Problem]:
     if not scene.agents and scene.task is None:
         return []
-    ground = _Ground(scene, footprints)
+    ground = _Ground(scene, footprints, zones, area)
     found = []
     for i, agent in enumerate(scene.agents):
         need = "walkable" if isinstance(agent, Person) else "road"

@@ -99,6 +99,10 @@ CASES = {
         _edit(_set(["zones", 2, "polygon"], [[0, 6.25], [10, 10], [10, 6.25], [0, 10]])),
         "$.zones[2].polygon",
     ),
+    "self-intersecting sidewalk under the task": (
+        _edit(_set(["zones", 1, "polygon"], [[0, 3.75], [10, 6.25], [10, 3.75], [0, 6.25]])),
+        "$.zones[1].polygon",
+    ),
     "polygon outside bounds": (
         _edit(_set(["zones", 2, "polygon"], [[0, 6.25], [10, 6.25], [10, 12], [0, 12]])),
         "$.zones[2].polygon",
