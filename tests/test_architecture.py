@@ -1,6 +1,7 @@
 """The dependency rule of DESIGN.md section 3, and the packaging of citygen.exporters.
 
-spec <- assets <- generate; spec, assets <- exporters; spec, exporters <- runner;
+spec <- geometry (height_at, tile meshes: pure functions of the spec);
+spec <- assets <- generate; spec, geometry, assets <- exporters; spec, exporters <- runner;
 everything <- cli. Nothing imports cli; exporters never import generate or runner;
 the generator, the spec and the assets never import mujoco or pxr.
 """
@@ -22,6 +23,7 @@ LAYERS = {
     "citygen.errors": "base",
     "citygen.seeding": "base",
     "citygen.spec": "spec",
+    "citygen.geometry": "geometry",
     "citygen.io": "spec",
     "citygen.schema": "spec",
     "citygen.assets": "assets",
@@ -36,12 +38,13 @@ LAYERS = {
 ALLOWED = {
     "base": {"base"},
     "spec": {"base", "spec"},
+    "geometry": {"base", "spec", "geometry"},
     "assets": {"base", "spec", "assets"},
-    "validate": {"base", "spec", "assets", "validate"},
-    "generate": {"base", "spec", "assets", "validate", "generate"},
-    "exporters": {"base", "spec", "assets", "exporters"},
-    "runner": {"base", "spec", "assets", "exporters", "runner"},
-    "package": {"base", "spec", "validate", "package"},
+    "validate": {"base", "spec", "geometry", "assets", "validate"},
+    "generate": {"base", "spec", "geometry", "assets", "validate", "generate"},
+    "exporters": {"base", "spec", "geometry", "assets", "exporters"},
+    "runner": {"base", "spec", "geometry", "assets", "exporters", "runner"},
+    "package": {"base", "spec", "geometry", "validate", "package"},
     "cli": set(LAYERS.values()),
 }
 # Third-party packages that tie code to a simulator; only these layers may import them.

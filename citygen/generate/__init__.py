@@ -1,0 +1,2 @@
+"""The hierarchical generator: one module per stage (blocks, ground, terrain, placement,
+agents, task), each a pure function ``stage(previous_outputs, cfg, rng) -> outputs``."""
