@@ -5,12 +5,14 @@ The public API at the top level:
 - :func:`load_scene` / :func:`save_scene`: a scene file to a :class:`~citygen.spec.Scene`
   and back, canonically (the same scene always gives the same bytes);
 - :func:`validate`: the semantic problems of a scene, as a list;
+- :func:`height_at`: the ground's height at any points of a scene, vectorised;
 - :mod:`citygen.spec`: the scene spec and generator-config models;
 - :mod:`citygen.exporters`: MJCF, USD, URDF, occupancy maps (importable on their own).
 """
 
 from importlib.metadata import PackageNotFoundError, version
 
+from citygen.geometry.terrain import height_at
 from citygen.io import load_scene, save_scene
 from citygen.spec import Scene
 from citygen.validate import validate
@@ -20,4 +22,4 @@ try:
 except PackageNotFoundError:  # running from a source tree that was never installed
     __version__ = "0.0.0+unknown"
 
-__all__ = ["Scene", "__version__", "load_scene", "save_scene", "validate"]
+__all__ = ["Scene", "__version__", "height_at", "load_scene", "save_scene", "validate"]
