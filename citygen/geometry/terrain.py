@@ -12,7 +12,9 @@ Rules (see ``docs/terrain.md`` for pictures and the exact noise):
   (``col = floor((x - origin.x) / tile_size)``, clipped to the grid), so the east and north
   edges of the grid belong to the last column and row. Neighbours that agree on their
   edge profiles (what :func:`citygen.validate` checks) give the same height there.
-- A stair riser belongs to the upper tread.
+- A stair riser belongs to the upper tread (in a pit, to the inner one).
+- Slopes and stairs with a ``shape`` (``pyramid`` or ``pit``) follow the formulas in
+  :mod:`citygen.spec.terrain`; their edges are level at ``height``.
 - A rough tile is ``height + amplitude * noise(u, v) * taper(u, v)``: value noise on a
   square lattice of spacing ``scale / 2`` whose node values are uniform in ``[-1, 1)``,
   drawn from a SplitMix64 hash of ``(seed, i, j)`` (integer arithmetic only, so every
@@ -123,6 +125,7 @@ class _Table:
     a: np.ndarray  # slope: tan(angle); stair: step height (m); rough: amplitude (m)
     n: np.ndarray  # stair: step count
     asc: np.ndarray  # ascent code, index into _ASCENTS
+    sign: np.ndarray  # 0 a flight, +1 a pyramid, -1 a pit
     scale: np.ndarray  # rough: wavelength (m); 1 elsewhere
     key: np.ndarray  # rough: noise key
 
@@ -132,16 +135,25 @@ def _build_table(tiles: tuple[AnyTile, ...] | list[AnyTile], size: float) -> _Ta
     kind = np.array([_KIND_CODE[type(t)] for t in tiles], dtype=np.int8)
     h = np.array([t.height for t in tiles], dtype=np.float64)
     a, n = np.zeros(m), np.zeros(m, dtype=np.int64)
-    asc, scale, seed = np.zeros(m, dtype=np.int8), np.ones(m), np.zeros(m, dtype=np.uint64)
+    asc, sign = np.zeros(m, dtype=np.int8), np.zeros(m)
+    scale, seed = np.ones(m), np.zeros(m, dtype=np.uint64)
     for k in np.flatnonzero(kind != _FLAT).tolist():
         t = tiles[k]
+        if isinstance(t, SlopeTile | StairTile):
+            asc[k], sign[k] = _ASCENTS.index(t.ascent), _sign(t)
         if isinstance(t, SlopeTile):
-            a[k], asc[k] = math.tan(t.angle), _ASCENTS.index(t.ascent)
+            a[k] = math.tan(t.angle)
         elif isinstance(t, StairTile):
-            a[k], n[k], asc[k] = t.step_height, t.step_count, _ASCENTS.index(t.ascent)
+            a[k], n[k] = t.step_height, t.step_count
         else:
             a[k], scale[k], seed[k] = t.amplitude, t.scale, t.seed
-    return _Table(size, kind, h, a, n, asc, scale, noise_key(seed))
+    return _Table(size, kind, h, a, n, asc, sign, scale, noise_key(seed))
+
+
+def _sign(tile: AnyTile) -> float:
+    """0 for a flight (or a tile that is neither slope nor stair), +1 a pyramid, -1 a pit."""
+    shape = getattr(tile, "shape", None)
+    return 0.0 if shape is None else 1.0 if shape == "pyramid" else -1.0
 
 
 _TABLES: OrderedDict[int, tuple[Terrain, _Table]] = OrderedDict()
@@ -172,14 +184,19 @@ def _evaluate(tab: _Table, t: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.nd
     z = tab.h[t]
     ramps = np.flatnonzero((kind == _SLOPE) | (kind == _STAIR))
     if ramps.size:
-        tr = t[ramps]
-        asc = tab.asc[tr]
-        along = np.where(asc & 2, v[ramps], u[ramps])
-        d = np.where(asc & 1, s - along, along)  # distance from the low edge
-        steps = tab.n[tr]
-        stair = kind[ramps] == _STAIR
-        treads = np.minimum(np.floor(d * (steps + 1) / s), steps)
-        z[ramps] += tab.a[tr] * np.where(stair, treads, d)
+        tr, uu, vv = t[ramps], u[ramps], v[ramps]
+        asc, sign, steps = tab.asc[tr], tab.sign[tr], tab.n[tr]
+        flight = sign == 0
+        along = np.where(asc & 2, vv, uu)
+        low = np.where(asc & 1, s - along, along)  # a flight: distance from its low edge
+        edge = np.minimum(np.minimum(uu, vv), np.minimum(s - uu, s - vv))  # pyramid, pit
+        # Treads of s / (n + 1) along a flight, s / (2n + 2) from a pyramid's edges; a riser
+        # belongs to the tread past it, also where rounding puts it a hair before it.
+        treads = np.where(flight, low * (steps + 1) / s, edge * (2 * steps + 2) / s)
+        treads = np.minimum(np.floor(treads + 1e-9), steps)
+        run = np.where(flight, low, np.minimum(edge, s / 3.0))
+        climb = np.where(kind[ramps] == _STAIR, treads, run)
+        z[ramps] += np.where(flight, 1.0, sign) * tab.a[tr] * climb
     rough = np.flatnonzero(kind == _ROUGH)
     if rough.size:
         tr = t[rough]
@@ -303,8 +320,15 @@ def heightfield(
 # --- solids -------------------------------------------------------------------------------
 
 
-def _lowest(tile: AnyTile) -> float:
-    return tile.height - tile.amplitude if isinstance(tile, RoughTile) else tile.height
+def _lowest(tile: AnyTile, s: float) -> float:
+    """The tile's lowest point (m): a pit's floor, a rough tile's deepest possible dip."""
+    if isinstance(tile, RoughTile):
+        return tile.height - tile.amplitude
+    if _sign(tile) < 0:
+        if isinstance(tile, SlopeTile):
+            return tile.height - s / 3.0 * math.tan(tile.angle)
+        return tile.height - tile.step_count * tile.step_height
+    return tile.height
 
 
 def _bottom(lowest: float, floor: float) -> float:
@@ -314,19 +338,34 @@ def _bottom(lowest: float, floor: float) -> float:
 
 
 def tile_boxes(tile: FlatTile | StairTile, tile_size: float, *, floor: float = -1.0) -> np.ndarray:
-    """A flat or stair tile as boxes (convex parts for physics engines): an array of shape
-    ``(k, 2, 3)`` of ``[min corner, max corner]`` in metres, in the tile's local frame
-    (minimum corner at the origin), from the floor (see :func:`tile_mesh`) to each tread.
+    """A flat or stair tile as boxes that tile it without overlapping (convex parts for
+    physics engines): an array of shape ``(k, 2, 3)`` of ``[min corner, max corner]`` in
+    metres, in the tile's local frame (minimum corner at the origin), each from the floor
+    (see :func:`tile_mesh`) up to its tread. A flight has one box per tread; a pyramid or a
+    pit four per ring of treads and one for the central platform.
 
     >>> tile_boxes(StairTile(kind="stair", step_height=0.1, step_count=1), 2.0)[:, 1].tolist()
     [[1.0, 2.0, 0.0], [2.0, 2.0, 0.1]]
     """
-    s, bottom = tile_size, _bottom(tile.height, floor)
+    if not isinstance(tile, FlatTile | StairTile):
+        raise TypeError(f"only flat and stair tiles are boxes; a {tile.kind} tile is a mesh (tile_mesh)")
+    return _boxes(tile, tile_size, _bottom(_lowest(tile, tile_size), floor))
+
+
+def _boxes(tile: FlatTile | StairTile, s: float, bottom: float) -> np.ndarray:
     if isinstance(tile, FlatTile):
         return np.array([[[0.0, 0.0, bottom], [s, s, tile.height]]])
-    if not isinstance(tile, StairTile):
-        raise TypeError(f"only flat and stair tiles are boxes; a {tile.kind} tile is a mesh (tile_mesh)")
-    n = tile.step_count
+    n, sign = tile.step_count, _sign(tile)
+    if sign:  # rings of treads of depth d around a central platform
+        d = s / (2 * n + 2)
+        rects = []
+        for k in range(n):
+            a, b, c, e = k * d, (k + 1) * d, s - (k + 1) * d, s - k * d
+            rects += [(a, a, e, b, k), (a, c, e, e, k), (a, b, b, c, k), (c, b, e, c, k)]
+        rects.append((n * d, n * d, s - n * d, s - n * d, n))
+        r = np.array(rects)
+        tops = tile.height + sign * tile.step_height * r[:, 4]
+        return np.stack([np.c_[r[:, 0:2], np.full(len(r), bottom)], np.c_[r[:, 2:4], tops]], axis=1)
     edges = np.linspace(0.0, s, n + 2)
     lo, hi = edges[:-1], edges[1:]
     if tile.ascent.startswith("-"):
@@ -338,6 +377,15 @@ def tile_boxes(tile: FlatTile | StairTile, tile_size: float, *, floor: float = -
     boxes[:, 1, 1 - along] = s
     boxes[:, 0, 2], boxes[:, 1, 2] = bottom, tops
     return boxes
+
+
+def _union_of_boxes(boxes: np.ndarray):
+    """The union of boxes that touch face to face, as one closed solid (manifold3d)."""
+    import manifold3d
+
+    parts = [manifold3d.Manifold.cube(tuple(hi - lo)).translate(tuple(lo)) for lo, hi in boxes]
+    mesh = manifold3d.Manifold.batch_boolean(parts, manifold3d.OpType.Add).to_mesh64()
+    return np.asarray(mesh.vert_properties)[:, :3].astype(np.float64), np.asarray(mesh.tri_verts, np.int64)
 
 
 def _profile(tile: FlatTile | SlopeTile | StairTile, s: float, bottom: float) -> np.ndarray:
@@ -387,15 +435,23 @@ def _cells(tile: RoughTile, s: float, resolution: float | None) -> int:
     return int(np.clip(math.ceil(s / resolution - 1e-9), 1, MAX_ROUGH_CELLS))
 
 
-def _closed_heightfield(tile: RoughTile, s: float, bottom: float, cells: int):
-    """A rough tile's surface on a ``cells`` x ``cells`` grid, walled and floored."""
-    k = cells + 1
-    g = np.linspace(0.0, s, k)
+def _closed_heightfield(tile: RoughTile | SlopeTile, s: float, bottom: float, g: np.ndarray):
+    """A tile's surface sampled at ``g x g`` (local coordinates in m), walled and floored."""
+    k = len(g)
     u, v = np.meshgrid(g, g)  # v[i, j] = g[i], u[i, j] = g[j]
     top = np.c_[u.ravel(), v.ravel(), tile_height(tile, s, u, v).ravel()]
     idx = np.arange(k * k).reshape(k, k)
-    a, b, c, d = idx[:-1, :-1], idx[:-1, 1:], idx[1:, 1:], idx[1:, :-1]
-    surface = np.concatenate([np.c_[a.ravel(), b.ravel(), c.ravel()], np.c_[a.ravel(), c.ravel(), d.ravel()]])
+    a, b, c, d = (q.ravel() for q in (idx[:-1, :-1], idx[:-1, 1:], idx[1:, 1:], idx[1:, :-1]))
+    # Cut each cell along the diagonal pointing away from the tile's centre, where a
+    # pyramid's ridges run, so that its planes are exact.
+    mid = (g[:-1] + g[1:]) / 2.0 - s / 2.0
+    outward = ((mid[:, None] * mid[None, :]) >= 0).ravel()
+    surface = np.concatenate(
+        [
+            np.where(outward[:, None], np.c_[a, b, c], np.c_[a, b, d]),
+            np.where(outward[:, None], np.c_[a, c, d], np.c_[b, c, d]),
+        ]
+    )
     # The border, counter-clockwise seen from above; its heights are the tile's level.
     loop = np.concatenate([idx[0, :-1], idx[:-1, -1], idx[-1, :0:-1], idx[:0:-1, 0]])
     base = k * k
@@ -410,7 +466,11 @@ def _closed_heightfield(tile: RoughTile, s: float, bottom: float, cells: int):
 
 def _tile_arrays(tile: AnyTile, s: float, bottom: float, resolution: float | None):
     if isinstance(tile, RoughTile):
-        return _closed_heightfield(tile, s, bottom, _cells(tile, s, resolution))
+        return _closed_heightfield(tile, s, bottom, np.linspace(0.0, s, _cells(tile, s, resolution) + 1))
+    if _sign(tile) and isinstance(tile, SlopeTile):  # planes between the edges and the platform
+        return _closed_heightfield(tile, s, bottom, np.array([0.0, s / 3.0, 2.0 * s / 3.0, s]))
+    if _sign(tile):
+        return _union_of_boxes(_boxes(tile, s, bottom))
     return _prism(tile, s, bottom)
 
 
@@ -420,17 +480,17 @@ def tile_mesh(
     """One tile as a closed, watertight solid in its local frame (minimum corner at the
     origin, ``x, y`` in ``[0, tile_size]``, ``z`` the tile's own heights in metres).
 
-    Flat, slope and stair tiles are exact prisms (a box, a wedge, an extruded flight of
-    steps). A rough tile is its surface sampled on a square grid of spacing ``resolution``
-    metres (default ``scale / 8``, finer for a narrow taper band, at most 256 cells a side;
-    at most 1024 when given), whose
-    vertices lie exactly on :func:`tile_height`, with walls and a floor. The bottom is at
+    Flat, slope and stair tiles are exact: prisms (a box, a wedge, an extruded flight of
+    steps), a pyramid's or pit's planes, or the union of its :func:`tile_boxes`. A rough
+    tile is its surface sampled on a square grid of spacing ``resolution`` metres (default
+    ``scale / 8``, finer for a narrow taper band, at most 256 cells a side; at most 1024
+    when given), whose vertices lie exactly on :func:`tile_height`, with walls and a floor. The bottom is at
     ``z = floor`` (m), lowered to :data:`MIN_THICKNESS` below the tile's lowest point when
     the floor is not that far below it.
     """
     import trimesh
 
-    verts, faces = _tile_arrays(tile, tile_size, _bottom(_lowest(tile), floor), resolution)
+    verts, faces = _tile_arrays(tile, tile_size, _bottom(_lowest(tile, tile_size), floor), resolution)
     return trimesh.Trimesh(verts, faces, process=False)
 
 
@@ -456,7 +516,7 @@ def terrain_mesh(
         raise ValueError("a terrain mesh needs a terrain; this scene has none (its ground is z = 0)")
     _table(terrain)  # checks the tile count
     s = terrain.tile_size
-    bottom = _bottom(min(_lowest(t) for t in terrain.tiles), floor)
+    bottom = _bottom(min(_lowest(t, s) for t in terrain.tiles), floor)
     groups: dict[tuple, list[int]] = {}
     for k, tile in enumerate(terrain.tiles):
         groups.setdefault(_geometry_key(tile), []).append(k)
