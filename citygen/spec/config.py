@@ -25,6 +25,8 @@ Range = tuple[Float, Float]
 IntRange = tuple[Int, Int]
 """``[low, high]`` inclusive, sampled uniformly."""
 Weight = bounded_float(0.0, 1e6)
+LotRange = tuple[bounded_float(2.0, 10_000.0), bounded_float(2.0, 10_000.0)]
+"""``[low, high]`` side of a lot in metres."""
 
 
 class RegionShapes(SpecModel):
@@ -113,6 +115,11 @@ class GroundConfig(SpecModel):
     """Chance that an open corner becomes a plaza rather than vegetation."""
     building_setback: Range = (0.0, 4.0)
     """Distance from the sidewalk to building footprints, in metres."""
+    lot_size: LotRange = (20.0, 45.0)
+    """Side of the lots the land between streets is divided into (a building, a plaza or
+    vegetation each), in metres."""
+    building_probability: bounded_float(0.0, 1.0) = 0.75
+    """Chance that a compact lot facing a street gets a building."""
 
 
 class TerrainMix(SpecModel):
@@ -290,4 +297,4 @@ def check_config(config: BaseModel, path: str = "$") -> list[Problem]:
     return problems
 
 
-_RANGE_TYPES = (Range, IntRange)
+_RANGE_TYPES = (Range, IntRange, LotRange)

@@ -1,0 +1,39 @@
+"""The stages in order: one scene from a generator config and a seed.
+
+Each stage draws only from its own generator (:func:`citygen.seeding.stage_rng`), so
+changing how a later stage samples never changes what an earlier one produced.
+"""
+
+from __future__ import annotations
+
+from importlib.metadata import PackageNotFoundError, version
+
+from citygen.generate.blocks import connect_blocks
+from citygen.generate.ground import ground_margin, plan_ground, plan_region
+from citygen.seeding import stage_rng
+from citygen.spec.config import GeneratorConfig
+from citygen.spec.scene import SCENE_FORMAT, Bounds, Meta, Scene
+
+try:
+    GENERATOR = f"citygen {version('citygen')}"
+except PackageNotFoundError:  # a source tree that was never installed
+    GENERATOR = "citygen"
+
+
+def layout(
+    config: GeneratorConfig, seed: int, *, split: str | None = None, index: int | None = None
+) -> Scene:
+    """Stages 1 and 2: the road blocks (for ``layout="blocks"``) and the zones of a scene."""
+    bounds = Bounds(min=(0.0, 0.0), max=config.size)
+    blocks: tuple = ()
+    if config.layout == "blocks":
+        blocks = connect_blocks(
+            bounds, config.blocks, stage_rng(seed, "blocks"), seed=seed, margin=ground_margin(config.ground)
+        )
+        zones = plan_ground(bounds, blocks, config.ground, stage_rng(seed, "ground"), seed=seed)
+    elif config.layout == "region":
+        zones = plan_region(bounds, config.region, stage_rng(seed, "ground"), seed=seed)
+    else:
+        zones = ()
+    meta = Meta(generator=GENERATOR, split=split, index=index, seed=seed)
+    return Scene(format=SCENE_FORMAT, meta=meta, bounds=bounds, blocks=blocks, zones=zones)

@@ -1,0 +1,259 @@
+"""Road geometry of the blocks of a scene: a pure function of each block's spec.
+
+A block is laid out from its entry socket (``block.pose``: the centre of the road end,
+``yaw`` heading into the block). Roads are two-way: ``lanes`` lanes in each direction
+of ``lane_width`` metres, so a road is ``2 * lanes * lane_width`` wide. Every road end
+is a *socket*: its pose is the centre of the end, its yaw points out of the block.
+
+Shapes, with ``w`` the half width of the road:
+
+- **straight**: a rectangle ``length`` long.
+- **curve**: an annular sector about a centre ``radius`` to the left (``angle > 0``) or
+  right of the entry.
+- **roundabout**: a ring road of centre-line ``radius`` with ``arms`` straight arms at
+  even angles, each reaching :data:`ROUNDABOUT_APPROACH` ``+ w`` beyond the ring's
+  outer edge; the central island is a hole of the outline.
+- **diverge** / **merge**: a straight main road with a branch leaving (joining) it at
+  ``branch_angle``, ``0.35`` (``0.65``) of the way along.
+- **intersection** / **t_intersection**: four (three) arms of ``arm_length`` from the
+  centre, the corners rounded to ``corner_radius``.
+
+Socket ids: ``in`` (the entry) and ``out`` for through roads; ``branch`` for diverge
+and merge; ``left`` and ``right`` for an intersection; ``side`` for a T; ``arm1`` ...
+for a roundabout.
+
+>>> from citygen.spec.blocks import Straight, Pose2
+>>> road = Straight(id="b0", kind="straight", pose=Pose2(position=(0, 0)), length=20, lanes=1,
+...                 lane_width=3.5)
+>>> block_outline(road).bounds
+(0.0, -3.5, 20.0, 3.5)
+>>> [(s.id, s.pose.position) for s in block_sockets(road)]
+[('in', (0.0, 0.0)), ('out', (20.0, 0.0))]
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+import networkx as nx
+import numpy as np
+import shapely
+from shapely.geometry import LineString, Point, Polygon
+
+from citygen.spec.blocks import (
+    Curve,
+    Diverge,
+    Intersection,
+    Merge,
+    Pose2,
+    Roundabout,
+    Socket,
+    Straight,
+    TIntersection,
+)
+
+#: Length of a roundabout's arms beyond the ring's outer edge, plus the road's half width, in metres.
+ROUNDABOUT_APPROACH = 8.0
+#: Where a diverging branch leaves, and a merging branch joins, as a fraction of the length.
+DIVERGE_AT, MERGE_AT = 0.35, 0.65
+#: Radius of the fillets where a branch meets the main road, in metres.
+BRANCH_FILLET = 2.0
+#: Segments per quarter circle of arcs.
+QUAD_SEGS = 8
+
+
+def wrap(yaw: float) -> float:
+    """An angle in ``(-pi, pi]``."""
+    return math.pi - (math.pi - yaw) % (2 * math.pi)
+
+
+@dataclass(frozen=True)
+class Arm:
+    """A road end of a block."""
+
+    socket: str
+    position: tuple[float, float]
+    yaw: float
+    """Pointing out of the block, radians."""
+    half_width: float
+    """Half the road's width at this end, in metres."""
+
+
+@dataclass(frozen=True)
+class CrossingSite:
+    """Where a crosswalk may cross a road: at ``offset`` metres from ``origin`` along ``yaw``."""
+
+    origin: tuple[float, float]
+    yaw: float
+    half_width: float
+    offset: float
+    room: float
+    """Length of road available for the crosswalk beyond ``offset``, in metres."""
+
+
+@dataclass(frozen=True)
+class BlockGeometry:
+    outline: Polygon
+    """The road surface: the roadway of this block."""
+    arms: tuple[Arm, ...]
+    crossings: tuple[CrossingSite, ...]
+    island: Polygon | None = None
+    """A roundabout's central island."""
+
+
+def _dir(yaw: float) -> np.ndarray:
+    return np.array([math.cos(yaw), math.sin(yaw)])
+
+
+def _rect(start: np.ndarray, yaw: float, length: float, half_width: float) -> Polygon:
+    d, n = _dir(yaw), _dir(yaw + math.pi / 2)
+    end = start + length * d
+    return Polygon(
+        [start - half_width * n, end - half_width * n, end + half_width * n, start + half_width * n]
+    )
+
+
+def _pt(p: np.ndarray) -> tuple[float, float]:
+    return (float(p[0]), float(p[1]))
+
+
+def _close(shape, radius: float):
+    """Morphological closing: concave corners rounded to ``radius``, convex ones kept."""
+    if radius <= 0:
+        return shape
+    return shape.buffer(radius, quad_segs=QUAD_SEGS).buffer(-radius, quad_segs=QUAD_SEGS)
+
+
+def _clean(shape) -> Polygon:
+    if not shape.is_valid:
+        shape = shapely.make_valid(shape)
+    if shape.geom_type != "Polygon":
+        parts = [g for g in getattr(shape, "geoms", [shape]) if g.geom_type == "Polygon" and g.area > 0]
+        shape = max(parts, key=lambda g: g.area) if parts else Polygon()
+    return shape
+
+
+def half_width(block) -> float:
+    """Half the width of the block's main road, in metres."""
+    return block.lanes * block.lane_width
+
+
+def branch_length(block: Diverge | Merge) -> float:
+    """Length of a diverge's or merge's branch road, in metres: long enough to leave the
+    main road behind before its socket."""
+    w, wb = half_width(block), block.branch_lanes * block.lane_width
+    return max(0.5 * block.length, (w + wb + 4.0) / max(abs(math.sin(block.branch_angle)), 0.2) + 4.0)
+
+
+@lru_cache(maxsize=65_536)
+def block_geometry(block) -> BlockGeometry:
+    """The outline, road ends and crosswalk sites of one block (cached: blocks are frozen)."""
+    p0 = np.array(block.pose.position, dtype=float)
+    yaw = block.pose.yaw
+    w = half_width(block)
+    back = wrap(yaw + math.pi)
+    entry = Arm("in", _pt(p0), back, w)
+    if isinstance(block, Straight):
+        end = p0 + block.length * _dir(yaw)
+        arms = (entry, Arm("out", _pt(end), wrap(yaw), w))
+        crossings = (CrossingSite(_pt(p0), yaw, w, 0.0, block.length),)
+        return BlockGeometry(_rect(p0, yaw, block.length, w), arms, crossings)
+    if isinstance(block, Curve):
+        side = 1.0 if block.angle >= 0 else -1.0
+        centre = p0 + side * block.radius * _dir(yaw + math.pi / 2)
+        n = max(2, math.ceil(abs(block.angle) / (math.pi / (2 * QUAD_SEGS))) + 1)
+        headings = yaw + np.linspace(0.0, block.angle, n)
+        # Points on the centre line, and the road's left and right edges.
+        normals = np.stack([-np.sin(headings), np.cos(headings)], axis=1)
+        centre_line = centre - side * block.radius * normals
+        left, right = centre_line + w * normals, centre_line - w * normals
+        outline = _clean(Polygon(np.concatenate([right, left[::-1]])))
+        arms = (entry, Arm("out", _pt(centre_line[-1]), wrap(yaw + block.angle), w))
+        return BlockGeometry(outline, arms, ())
+    if isinstance(block, Roundabout):
+        reach = block.radius + w + ROUNDABOUT_APPROACH
+        centre = p0 + reach * _dir(yaw)
+        ring = Point(*centre).buffer(block.radius + w, quad_segs=4 * QUAD_SEGS)
+        island = None
+        if block.radius - w > 0.5:
+            island = Point(*centre).buffer(block.radius - w, quad_segs=4 * QUAD_SEGS)
+            ring = ring.difference(island)
+        parts, arms, crossings = [ring], [], []
+        for i in range(block.arms):
+            out = wrap(back + i * 2 * math.pi / block.arms)
+            start = centre + block.radius * _dir(out)
+            parts.append(_rect(start, out, reach - block.radius, w))
+            end = centre + reach * _dir(out)
+            arms.append(entry if i == 0 else Arm(f"arm{i}", _pt(end), out, w))
+            edge = block.radius + w
+            crossings.append(CrossingSite(_pt(centre), out, w, edge + 1.0, reach - edge - 1.0))
+        outline = _clean(shapely.union_all(parts))
+        return BlockGeometry(outline, tuple(arms), tuple(crossings), island)
+    if isinstance(block, Diverge | Merge):
+        main = _rect(p0, yaw, block.length, w)
+        wb = block.branch_lanes * block.lane_width
+        lb = branch_length(block)
+        end = p0 + block.length * _dir(yaw)
+        if isinstance(block, Diverge):
+            joint = p0 + DIVERGE_AT * block.length * _dir(yaw)
+            out = wrap(yaw + block.branch_angle)
+            branch = _rect(joint, out, lb, wb)
+            tip = joint + lb * _dir(out)
+        else:
+            joint = p0 + MERGE_AT * block.length * _dir(yaw)
+            out = wrap(yaw - block.branch_angle + math.pi)
+            branch = _rect(joint, out, lb, wb)
+            tip = joint + lb * _dir(out)
+        outline = _clean(_close(main.union(branch), BRANCH_FILLET))
+        arms = (entry, Arm("out", _pt(end), wrap(yaw), w), Arm("branch", _pt(tip), out, wb))
+        return BlockGeometry(outline, arms, ())
+    if isinstance(block, Intersection | TIntersection):
+        a = block.arm_length
+        centre = p0 + a * _dir(yaw)
+        names = [("in", back), ("out", wrap(yaw))]
+        if isinstance(block, Intersection):
+            names += [("left", wrap(yaw + math.pi / 2)), ("right", wrap(yaw - math.pi / 2))]
+        else:
+            names.append(("side", wrap(yaw + (1 if block.side == "left" else -1) * math.pi / 2)))
+        parts, arms, crossings = [], [], []
+        for name, out in names:
+            parts.append(_rect(centre - w * _dir(out), out, a + w, w))
+            arms.append(entry if name == "in" else Arm(name, _pt(centre + a * _dir(out)), out, w))
+            offset = w + block.corner_radius + 0.5
+            crossings.append(CrossingSite(_pt(centre), out, w, offset, a - offset))
+        outline = _clean(_close(shapely.union_all(parts), block.corner_radius))
+        return BlockGeometry(outline, tuple(arms), tuple(crossings))
+    raise TypeError(f"not a block: {block!r}")
+
+
+def block_outline(block) -> Polygon:
+    """The road surface of one block, a shapely polygon in metres."""
+    return block_geometry(block).outline
+
+
+def block_sockets(block) -> tuple[Socket, ...]:
+    """The sockets of a block as its builder lays them out (what ``block.sockets`` stores)."""
+    return tuple(
+        Socket(id=a.socket, pose=Pose2(position=a.position, yaw=a.yaw)) for a in block_geometry(block).arms
+    )
+
+
+def road_graph(blocks) -> nx.Graph:
+    """The road network: blocks as nodes (with their ``kind``), connections as edges (with
+    the two sockets they join). Nodes and edges are added in the blocks' order."""
+    graph = nx.Graph()
+    for block in blocks:
+        graph.add_node(block.id, kind=block.kind)
+    for block in blocks:
+        for c in block.connections:
+            if c.block in graph and not graph.has_edge(block.id, c.block):
+                graph.add_edge(block.id, c.block, sockets={block.id: c.socket, c.block: c.to_socket})
+    return graph
+
+
+def centre_line(arm: Arm, length: float) -> LineString:
+    """The first ``length`` metres of road from a road end, back into its block."""
+    p = np.array(arm.position)
+    return LineString([p, p - length * _dir(arm.yaw)])
