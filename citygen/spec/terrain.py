@@ -18,6 +18,18 @@ Shapes, with ``h`` the tile's ``height`` and ``s`` the grid's ``tile_size``:
 - **stair**: ``step_count`` risers of ``step_height`` dividing the tile into
   ``step_count + 1`` treads of depth ``s / (step_count + 1)``; the first tread is
   at ``h``, the last at ``h + step_count * step_height``.
+
+A slope or stair with ``shape`` set is not a flight but a **pyramid** (or, inverted, a
+**pit**), as in Isaac Lab's locomotion curricula: every edge is level at ``h`` and the
+ground rises (a pit: falls) towards a central square platform; ``ascent`` is ignored.
+With ``e = min(u, v, s - u, s - v)`` the distance of a point from the tile's nearest
+edge and ``sign`` +1 for a pyramid, -1 for a pit:
+
+- slope: ``h + sign * tan(angle) * min(e, s / 3)`` (the platform's side is ``s / 3``);
+- stair: ``h + sign * step_height * min(floor(e / d), step_count)`` with treads of depth
+  ``d = s / (2 * step_count + 2)`` (the platform's side is ``2 * d``).
+
+Because their edges are level, pyramids and pits stand side by side in any order.
 - **rough**: noise of peak ``amplitude`` and wavelength ``scale`` around ``h``,
   tapered to zero at the edges, reproducible from ``seed``.
 """
@@ -37,6 +49,8 @@ Direction = Literal["+x", "+y", "-x", "-y"]
 Side = Literal["north", "east", "south", "west"]
 """Tile sides: north is +y, east is +x."""
 SIDES: tuple[Side, ...] = ("north", "east", "south", "west")
+Shape = Literal["pyramid", "pit"]
+"""A slope or stair rising (``pyramid``) or falling (``pit``) from level edges to its centre."""
 
 Height = bounded_float(-1_000.0, 1_000.0)
 
@@ -64,6 +78,8 @@ class SlopeTile(_Tile):
     """Inclination in radians (0.0833 rad is the 1:12 ramp limit of accessibility codes)."""
     ascent: Direction = "+x"
     """The direction in which the ground rises."""
+    shape: Shape | None = None
+    """Left out: a flight (one plane). ``pyramid`` or ``pit``: see the module docstring."""
 
 
 class StairTile(_Tile):
@@ -76,6 +92,8 @@ class StairTile(_Tile):
     """Number of risers; the tile holds ``step_count + 1`` equal treads."""
     ascent: Direction = "+x"
     """The direction in which the steps rise."""
+    shape: Shape | None = None
+    """Left out: a flight of steps. ``pyramid`` or ``pit``: see the module docstring."""
 
 
 class RoughTile(_Tile):
@@ -123,7 +141,10 @@ heights run along the edge in increasing x (north, south) or increasing y (east,
 
 
 def rise(tile: FlatTile | SlopeTile | StairTile | RoughTile, tile_size: float) -> float:
-    """Height gained across the tile in its ascent direction, in metres."""
+    """Height gained across the tile in its ascent direction, in metres (0 for pyramids and
+    pits, whose edges are all at ``height``)."""
+    if getattr(tile, "shape", None) is not None:
+        return 0.0
     if isinstance(tile, SlopeTile):
         return tile_size * math.tan(tile.angle)
     if isinstance(tile, StairTile):
@@ -131,12 +152,28 @@ def rise(tile: FlatTile | SlopeTile | StairTile | RoughTile, tile_size: float) -
     return 0.0
 
 
+def peak(tile: FlatTile | SlopeTile | StairTile | RoughTile, tile_size: float) -> float:
+    """Height of a pyramid's central platform above ``height`` in metres (negative for a pit,
+    0 for every other tile).
+
+    >>> peak(StairTile(kind="stair", step_height=0.1, step_count=3, shape="pit"), 2.0)
+    -0.3
+    """
+    shape = getattr(tile, "shape", None)
+    if shape is None:
+        return 0.0
+    sign = 1.0 if shape == "pyramid" else -1.0
+    if isinstance(tile, SlopeTile):
+        return sign * tile_size / 3.0 * math.tan(tile.angle)
+    return sign * tile.step_count * tile.step_height
+
+
 def edge_profile(
     tile: FlatTile | SlopeTile | StairTile | RoughTile, side: Side, tile_size: float
 ) -> EdgeProfile:
     """The height profile of one edge of a tile; neighbours must have equal profiles."""
     h = tile.height
-    if not isinstance(tile, SlopeTile | StairTile):
+    if not isinstance(tile, SlopeTile | StairTile) or tile.shape is not None:
         return ("level", h)
     top = h + rise(tile, tile_size)
     outward = _OUTWARD[side]
