@@ -156,8 +156,8 @@ def peak(tile: FlatTile | SlopeTile | StairTile | RoughTile, tile_size: float) -
     """Height of a pyramid's central platform above ``height`` in metres (negative for a pit,
     0 for every other tile).
 
-    >>> peak(StairTile(kind="stair", step_height=0.1, step_count=3, shape="pit"), 2.0)
-    -0.3
+    >>> peak(StairTile(kind="stair", step_height=0.125, step_count=4, shape="pit"), 2.0)
+    -0.5
     """
     shape = getattr(tile, "shape", None)
     if shape is None:
