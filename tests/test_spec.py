@@ -77,3 +77,23 @@ def test_discriminated_union_gives_one_error_for_a_wrong_kind():
             ' "agents": [{"id": "a", "kind": "pedestrain", "start": [0, 0], "goal": [1, 1]}]}'
         )
     assert len(info.value.errors()) == 1
+
+
+def test_quantize_array_is_quantize_bit_for_bit():
+    import numpy as np
+
+    from citygen.spec.base import quantize, quantize_array
+
+    rng = np.random.default_rng(0)
+    values = np.concatenate(
+        [
+            rng.uniform(-1e4, 1e4, 20_000),
+            np.round(rng.uniform(-1e3, 1e3, 20_000), 3),
+            (np.arange(-20_000, 20_000) + 0.5) / 1e4,  # halfway cases
+            rng.uniform(-1e-3, 1e-3, 5_000),
+            [-0.0, 0.0, -0.00004, 0.00005],
+        ]
+    )
+    expected = np.array([quantize(float(v)) for v in values])
+    got = quantize_array(values)
+    assert got.tobytes() == expected.tobytes()  # equal bits, -0.0 included

@@ -167,11 +167,14 @@ def connect_blocks(
     lane_width = round(_uniform(rng, cfg.lane_width), 4)
     kinds = np.array(KINDS)
     weights = np.array([getattr(cfg.weights, k) for k in KINDS], dtype=float)
-    weights /= weights.sum()
+    cumulative = np.cumsum(weights)
     count = len(cfg.sequence) or cfg.count
 
     def next_kind(index: int) -> str:
-        return cfg.sequence[index] if cfg.sequence else str(kinds[rng.choice(len(KINDS), p=weights)])
+        if cfg.sequence:
+            return cfg.sequence[index]
+        pick = int(np.searchsorted(cumulative, rng.random() * cumulative[-1], side="right"))
+        return str(kinds[min(pick, len(KINDS) - 1)])
 
     net = _Network(cfg.clearance)
     # Open sockets in the order they appeared: (block index, socket id, pose, lanes).
@@ -202,23 +205,26 @@ def connect_blocks(
         open_sockets.extend((k, a.socket) for a in geometry.arms if a.socket != "in" or parent is None)
         return True
 
-    tries = 0
-    while not net.placed:
-        cx, cy = rng.uniform(0.4, 0.6) * (x1 - x0) + x0, rng.uniform(0.4, 0.6) * (y1 - y0) + y0
-        yaw = float(rng.choice([0.0, math.pi / 2, math.pi, -math.pi / 2]))
-        block = _sample_block(next_kind(0), 0, Pose2(position=(cx, cy), yaw=yaw), lanes, lane_width, cfg, rng)
-        # The first block is centred on the chosen point rather than starting at it.
-        far = block_geometry(block).arms[1].position
-        shift = ((cx - far[0]) / 2, (cy - far[1]) / 2)
-        block = block.model_copy(update={"pose": Pose2(position=(cx + shift[0], cy + shift[1]), yaw=yaw)})
-        block = type(block).model_validate(block.model_dump())
-        place(block, None)
-        tries += 1
-        if tries >= cfg.max_tries and not net.placed:
-            raise GenerationError("blocks", seed, f"no room for a first block in {x1 - x0:g} x {y1 - y0:g} m")
+    def place_first() -> None:
+        for _ in range(cfg.max_tries):
+            cx = float(rng.uniform(0.4, 0.6)) * (x1 - x0) + x0
+            cy = float(rng.uniform(0.4, 0.6)) * (y1 - y0) + y0
+            yaw = float(rng.choice([0.0, math.pi / 2, math.pi, -math.pi / 2]))
+            block = _sample_block(
+                next_kind(0), 0, Pose2(position=(cx, cy), yaw=yaw), lanes, lane_width, cfg, rng
+            )
+            # The first block is centred on the chosen point rather than starting at it.
+            far = block_geometry(block).arms[1].position
+            centred = Pose2(position=((3 * cx - far[0]) / 2, (3 * cy - far[1]) / 2), yaw=yaw)
+            if place(type(block).model_validate({**block.model_dump(), "pose": centred}), None):
+                return
+        raise GenerationError("blocks", seed, f"no room for a first block in {x1 - x0:g} x {y1 - y0:g} m")
 
     failures = 0
     while len(net.placed) < count:
+        if not net.placed:
+            place_first()
+            continue
         candidates = [s for s in open_sockets if s not in dead]
         if candidates and failures < cfg.max_tries:
             parent = candidates[int(rng.integers(len(candidates)))]
@@ -239,7 +245,7 @@ def connect_blocks(
                 dead.add(parent)
             continue
         # Stuck: take the last block back and try again from its parent.
-        if backtracks >= budget or len(net.placed) <= 1:
+        if backtracks >= budget:
             raise GenerationError(
                 "blocks",
                 seed,
@@ -253,7 +259,10 @@ def connect_blocks(
         k = len(net.placed)
         open_sockets[:] = [s for s in open_sockets if s[0] != k]
         dead.difference_update({s for s in dead if s[0] == k})
-        if gone.parent is not None:
+        if gone.parent is None:  # the first block goes: start afresh
+            open_sockets.clear()
+            dead.clear()
+        else:
             del net.placed[gone.parent[0]].children[gone.parent[1]]
             open_sockets.append(gone.parent)
             dead.add(gone.parent)  # that socket already failed once with this block

@@ -18,27 +18,31 @@ Without roads (:func:`plan_region`, the 10 m and 15 m Urban-Nav squares) a walka
 region (sidewalk, trail or plaza) of one of four shapes (straight path, L-turn, crossing,
 open plaza with islands) lies against non-walkable ground (vegetation, roadway).
 
-Zones tile the bounds exactly. Each band is a union of per-block buffers; painting a
-band removes what higher-priority bands already cover, with every overlay snapped to a
-:data:`GRID` so shared boundaries are computed once and agree bit for bit. The scene is
-cut into lots by jittered grid lines, and each lot is painted on its own from clipped
-copies of the bands (cut by recursive bisection, so each cut touches only the geometry
-near it): the work grows with the area, and every zone stays a small polygon.
+Zones tile the bounds exactly. Each band is a union of per-block buffers. The scene is
+cut into lots by jittered grid lines and each lot is divided on its own, from copies of
+the bands clipped by recursive bisection (each cut touches only the geometry near it),
+so the work grows with the area and every zone stays a small polygon. Within a lot, all
+band boundaries are noded once on a :data:`GRID` and polygonised; each face takes the
+kind of the first band covering it (:func:`_arrange`), so neighbouring zones share
+every vertex bit for bit; across lots, both sides of a cut compute its crossings the
+same way.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 
 import numpy as np
 import shapely
 from shapely import affinity
-from shapely.geometry import LineString, Polygon, box
+from shapely.geometry import Polygon, box
 
 from citygen.errors import GenerationError
 from citygen.geometry.roads import block_geometry
 from citygen.seeding import child
+from citygen.spec.base import quantize_array
 from citygen.spec.blocks import Straight
 from citygen.spec.config import GroundConfig, RegionConfig
 from citygen.spec.scene import Bounds
@@ -50,8 +54,8 @@ GRID = 1e-3
 MIN_AREA = 0.01
 #: Segments per quarter circle of buffered corners.
 QUAD_SEGS = 4
-#: Lots farther than this from a street are open land (vegetation), in metres.
-INTERIOR_DEPTH = 60.0
+#: A lot this much farther than the setback from a sidewalk still faces the street, in metres.
+FACING = 3.0
 #: Trails cross open land along every this many rows and columns of lots.
 TRAIL_EVERY = 3
 
@@ -92,63 +96,65 @@ def _polygonal(geom):
     return shapely.MultiPolygon(_polygons(geom))
 
 
-class _Painter:
-    """Zones of one lot, painted in priority order: each new zone is what is left of its
-    shape after the zones before it."""
+Layer = tuple[str, "str | None", object]
+"""``(kind, strip, shape)``: ground of one kind, in priority order."""
 
-    def __init__(self, lot: Polygon) -> None:
-        self.lot = lot
-        self.painted = Polygon()
-        self.pieces: list[tuple[str, str | None, Polygon]] = []
 
-    def paint(self, kind: str, shape, strip: str | None = None):
-        if shape is None or shape.is_empty:
-            return Polygon()
-        inside = _polygonal(shapely.intersection(shape, self.lot, grid_size=GRID))
-        piece = shapely.difference(inside, self.painted, grid_size=GRID)
-        polys = [p for p in _polygons(piece) if p.area > 0]
-        if not polys:
-            return Polygon()
-        self.pieces += [(kind, strip, p) for p in polys]
-        self.painted = shapely.union(self.painted, shapely.union_all(polys), grid_size=GRID)
-        return piece
+Piece = tuple[str, "str | None", Polygon]
 
-    def rest(self):
-        return shapely.difference(self.lot, self.painted, grid_size=GRID)
 
-    def finish(self) -> list[tuple[str, str | None, Polygon]]:
-        """The pieces rebuilt from one noding of all their boundaries, so neighbours share
-        every boundary vertex exactly (separate overlays may snap a shared edge apart)."""
-        if len(self.pieces) <= 1:
-            return self.pieces
-        shapes = np.array([p for _, _, p in self.pieces], dtype=object)
-        lines = shapely.union_all([s.boundary for s in shapes] + [self.lot.boundary], grid_size=GRID)
+def _arrange(lot: Polygon, layers: list[Layer], fill=None) -> list[Piece]:
+    """Divide ``lot`` by ``layers``: each point goes to the first layer that covers it, and
+    what no layer covers to ``fill(part) -> pieces`` (vegetation without one).
+
+    All boundaries are noded once on the :data:`GRID` and polygonised into faces, each
+    face takes the kind of the first layer holding it, and faces of one kind merge by
+    coverage union. Neighbouring zones therefore share every boundary vertex exactly
+    (separate overlays could snap a shared edge apart), and the cost is one noding per
+    lot however many layers there are.
+    """
+    layers = [(k, st, g) for k, st, g in layers if g is not None and not g.is_empty]
+    if layers:
+        lines = shapely.union_all([lot.boundary] + [g.boundary for _, _, g in layers], grid_size=GRID)
         faces = shapely.get_parts(shapely.polygonize(shapely.get_parts(lines)))
         faces = faces[shapely.area(faces) > 0]
-        owner = np.full(len(faces), -1)
-        tree = shapely.STRtree(shapes)
-        face_idx, piece_idx = tree.query(shapely.point_on_surface(faces), predicate="intersects")
-        owner[face_idx[::-1]] = piece_idx[::-1]  # the first piece wins on a shared point
-        for f in np.flatnonzero(owner < 0):  # a sliver the snapping made: to its nearest piece
-            owner[f] = int(np.argmin(shapely.distance(shapes, faces[f])))
-        # Crumbs (the corner of a crosswalk, a sliver between two buffers) join the
-        # neighbour they share the longest edge with, rather than being zones of their own.
-        areas = shapely.area(faces)
-        big = np.flatnonzero(areas >= MIN_AREA)
-        if len(big) < len(faces) and len(big):
-            big_tree = shapely.STRtree(faces[big])
-            for f in np.flatnonzero(areas < MIN_AREA):
-                near = big[big_tree.query(faces[f], predicate="intersects")]
-                if len(near):
-                    shared = shapely.length(shapely.intersection(faces[near], faces[f].boundary))
-                    owner[f] = owner[near[int(np.argmax(shared))]]
-        pieces = []
-        for k, (kind, strip, _) in enumerate(self.pieces):
-            mine = faces[owner == k]
-            if len(mine):
-                merged = mine[0] if len(mine) == 1 else shapely.union_all(mine)
-                pieces += [(kind, strip, part) for part in _polygons(merged)]
-        return pieces
+    else:
+        faces = np.array([lot], dtype=object)
+    points = shapely.point_on_surface(faces)
+    owner = np.full(len(faces), -1)  # -1: left for ``fill``
+    for k, (_, _, shape) in enumerate(layers):
+        free = owner < 0
+        if not free.any():
+            break
+        shapely.prepare(shape)
+        owner[np.flatnonzero(free)[shapely.intersects(shape, points[free])]] = k
+    # Crumbs (a crosswalk's corner, a sliver between two buffers) join the neighbour they
+    # share the longest edge with rather than being zones of their own.
+    areas = shapely.area(faces)
+    big, small = np.flatnonzero(areas >= MIN_AREA), np.flatnonzero(areas < MIN_AREA)
+    if len(small) and len(big):
+        tree = shapely.STRtree(faces[big])
+        for f in small:
+            near = big[tree.query(faces[f], predicate="intersects")]
+            if len(near):
+                shared = shapely.length(shapely.intersection(faces[near], faces[f].boundary))
+                owner[f] = owner[near[int(np.argmax(shared))]]
+    # Faces merge by kind and strip (the setback's lawn and an island's are one zone).
+    keys = [(kind, strip) for kind, strip, _ in layers]
+    order = list(dict.fromkeys(keys))
+    group = np.array([order.index(keys[k]) if k >= 0 else -1 for k in owner])
+    pieces: list[Piece] = []
+    for g, (kind, strip) in enumerate(order):
+        pieces += [(kind, strip, part) for part in _merge(faces[group == g])]
+    for part in _merge(faces[group < 0]):
+        pieces += fill(part) if fill else [("vegetation", None, part)]
+    return pieces
+
+
+def _merge(faces: np.ndarray) -> list[Polygon]:
+    if not len(faces):
+        return []
+    return _polygons(faces[0] if len(faces) == 1 else shapely.coverage_union_all(faces))
 
 
 def _bisect(layers: list, xs: list[float], ys: list[float], i0, i1, j0, j1, out: dict) -> None:
@@ -171,18 +177,32 @@ def _bisect(layers: list, xs: list[float], ys: list[float], i0, i1, j0, j1, out:
         _bisect(layers, xs, ys, i0, i1, mid, j1, out)
 
 
-def _zones(pieces: list[tuple[str, str | None, Polygon]]) -> tuple[Zone, ...]:
+def _zones(pieces: list[Piece]) -> tuple[Zone, ...]:
+    """Zones from pieces, with ids by kind in order. The pieces are valid polygons and
+    every coordinate is quantised here exactly as :class:`~citygen.spec.base.Float` would
+    (:func:`~citygen.spec.base.quantize_array`), so the models are built without
+    re-validating thousands of coordinates one by one."""
+    if not pieces:
+        return ()
+    # A canonical vertex order, whatever GEOS produced; all rings at once.
+    polys = shapely.normalize(np.array([poly for _, _, poly in pieces], dtype=object))
+    rings, owner = shapely.get_rings(polys, return_index=True)
+    coords, ring_of = shapely.get_coordinates(rings, return_index=True)
+    coords = quantize_array(coords).tolist()
+    starts = np.searchsorted(ring_of, np.arange(len(rings) + 1)).tolist()
+    # Each ring without its closing vertex.
+    ring_tuples = [tuple(map(tuple, coords[starts[k] : starts[k + 1] - 1])) for k in range(len(rings))]
+    first = np.searchsorted(owner, np.arange(len(polys) + 1)).tolist()
     counters: dict[str, int] = {}
     zones = []
-    for kind, strip, poly in pieces:
-        poly = shapely.normalize(poly)  # a canonical vertex order, whatever GEOS produced
+    for k, (kind, strip, _) in enumerate(pieces):
         n = counters[kind] = counters.get(kind, 0) + 1
         zones.append(
-            Zone(
+            Zone.model_construct(
                 id=f"{kind}-{n}",
                 kind=kind,
-                polygon=tuple(map(tuple, np.asarray(poly.exterior.coords)[:-1].tolist())),
-                holes=tuple(tuple(map(tuple, np.asarray(r.coords)[:-1].tolist())) for r in poly.interiors),
+                polygon=ring_tuples[first[k]],
+                holes=tuple(ring_tuples[first[k] + 1 : first[k + 1]]),
                 strip=strip,
             )
         )
@@ -201,7 +221,6 @@ def plan_ground(
     if not blocks:
         raise GenerationError("ground", seed, "a road layout needs at least one block")
     (x0, y0), (x1, y1) = bounds.min, bounds.max
-    scene = box(x0, y0, x1, y1)
     geoms = [block_geometry(b) for b in blocks]
     curb = _uniform(rng, cfg.curb_width)
     roads = shapely.union_all([g.outline for g in geoms], grid_size=GRID)
@@ -250,12 +269,11 @@ def plan_ground(
     setback = _uniform(rng, cfg.building_setback)
     street = sidewalks["frontage"]
     near = street.buffer(setback, quad_segs=QUAD_SEGS) if setback > 0.25 else None
-    frontage_reach = street.buffer(setback + 3.0, quad_segs=QUAD_SEGS)
-    interior_reach = street.buffer(INTERIOR_DEPTH, quad_segs=2)
+    shapely.prepare(street)  # for the distance tests of every lot
 
     xs = _cuts(x0, x1, cfg.lot_size, rng)
     ys = _cuts(y0, y1, cfg.lot_size, rng)
-    layers = [crosswalks, roads, curbs, islands, *sidewalks.values(), near, frontage_reach, interior_reach]
+    layers = [crosswalks, roads, curbs, islands, *sidewalks.values(), near]
     for g in layers:
         if g is not None:
             shapely.prepare(g)
@@ -265,60 +283,72 @@ def plan_ground(
 
     pieces: list[tuple[str, str | None, Polygon]] = []
     for (j, i), parts in sorted(clipped.items()):
-        walk, road, curb_band, island, furnish, clear, front, near_band, facing, inner = parts
-        painter = _Painter(box(xs[i], ys[j], xs[i + 1], ys[j + 1]).intersection(scene))
-        painter.paint("crosswalk", walk)
-        painter.paint("roadway", road)
-        painter.paint("curb", curb_band)
-        painter.paint("vegetation", island)
-        painter.paint("sidewalk", furnish, "furnishing")
-        painter.paint("sidewalk", clear, "clear")
-        painter.paint("sidewalk", front, "frontage")
+        walk, road, curb_band, island, furnish, clear, front, near_band = parts
+        lot = box(xs[i], ys[j], xs[i + 1], ys[j + 1])
+        layers: list[Layer] = [
+            ("crosswalk", None, walk),
+            ("roadway", None, road),
+            ("curb", None, curb_band),
+            ("vegetation", None, island),
+            ("sidewalk", "furnishing", furnish),
+            ("sidewalk", "clear", clear),
+            ("sidewalk", "frontage", front),
+        ]
         r = np.random.default_rng([lot_seed, j, i])
         if near_band is not None:
-            painter.paint("plaza" if r.random() < cfg.plaza_probability else "vegetation", near_band)
-        for part in _polygons(painter.rest()):
-            _fill_lot(painter, part, facing, inner, cfg, r, j, i)
-        pieces += painter.finish()
+            layers.append(("plaza" if r.random() < cfg.plaza_probability else "vegetation", None, near_band))
+        open_land = all(g is None or g.is_empty for _, _, g in layers)
+
+        def fill(part, r=r, j=j, i=i, open_land=open_land, lot=lot):
+            return _fill_lot(lot, part, street, setback, cfg, r, j, i, open_land)
+
+        pieces += _arrange(lot, layers, fill)
     return _zones(pieces)
 
 
 def _fill_lot(
-    painter: _Painter, part: Polygon, facing, inner, cfg: GroundConfig, r, row: int, col: int
-) -> None:
-    """A building, a plaza or vegetation (with a trail) on what is left of a lot."""
-    faces_street = facing is not None and not facing.is_empty and part.intersects(facing)
-    interior = inner is None or inner.is_empty or not part.intersects(inner)
+    lot: Polygon,
+    part: Polygon,
+    street,
+    setback: float,
+    cfg: GroundConfig,
+    r: np.random.Generator,
+    row: int,
+    col: int,
+    open_land: bool,
+) -> list[Piece]:
+    """What the streets leave of a lot: a building with its yard, a plaza, or vegetation
+    (crossed by a trail on every few rows and columns of open land).
+
+    The pieces are built exactly (a footprint is a hole of its yard, trails are
+    axis-aligned boxes on the grid), so no vertex moves on the part's boundary."""
+    faces_street = not open_land and shapely.dwithin(street, part, setback + FACING)
     if faces_street and part.area >= 60.0:
         rect = part.minimum_rotated_rectangle
-        sides = sorted(
-            math.dist(a, b) for a, b in zip(rect.exterior.coords, rect.exterior.coords[1:], strict=False)
-        )
+        corners = rect.exterior.coords
+        sides = sorted(math.dist(a, b) for a, b in itertools.pairwise(corners))
         if part.area >= 0.6 * rect.area and sides[0] >= 10.0 and r.random() < cfg.building_probability:
             # Side yards keep neighbouring buildings apart; the yards are lawn.
-            footprint = part.buffer(-_uniform(r, (1.0, 3.0)), join_style="mitre")
-            if footprint.area >= 40.0:
-                painter.paint("building", footprint)
-                painter.paint("vegetation", part)
-                return
-    if faces_street and not interior and r.random() < cfg.plaza_probability:
-        painter.paint("plaza", part)
-        return
-    if part.area >= 300.0 and (row % TRAIL_EVERY == 1 or col % TRAIL_EVERY == 2):
-        # Trails run along every few rows and columns of lots, so they join up into paths
-        # across open land.
-        x0, y0, x1, y1 = painter.lot.bounds
-        x, y = (x0 + x1) / 2, (y0 + y1) / 2
-        width = _uniform(r, (1.5, 2.5))
-        lines = []
-        if row % TRAIL_EVERY == 1:
-            lines.append(LineString([(x0, y), (x1, y)]))
-        if col % TRAIL_EVERY == 2:
-            lines.append(LineString([(x, y0), (x, y1)]))
-        trail = shapely.union_all(lines).buffer(width / 2, cap_style="flat", join_style="mitre")
-        painter.paint("trail", shapely.intersection(trail, part, grid_size=GRID))
-        part = shapely.difference(part, painter.painted, grid_size=GRID)
-    painter.paint("vegetation", part)
+            inset = part.buffer(-_uniform(r, (1.0, 3.0)), join_style="mitre")
+            footprints = [f for f in _polygons(inset) if f.area >= 40.0]
+            if footprints:
+                yard = Polygon(part.exterior, [*part.interiors, *(f.exterior for f in footprints)])
+                return [*(("building", None, f) for f in footprints), ("vegetation", None, yard)]
+    if faces_street and r.random() < cfg.plaza_probability:
+        return [("plaza", None, part)]
+    trail_row, trail_col = row % TRAIL_EVERY == 1, col % TRAIL_EVERY == 2
+    if open_land and (trail_row or trail_col) and part.area >= 300.0:
+        # Trails cross open land along every few rows and columns of lots, so they join up.
+        x0, y0, x1, y1 = lot.bounds
+        x, y = _snap((x0 + x1) / 2), _snap((y0 + y1) / 2)
+        half = _snap(_uniform(r, (1.5, 2.5)) / 2)
+        trail = shapely.union_all(
+            ([box(x0, y - half, x1, y + half)] if trail_row else [])
+            + ([box(x - half, y0, x + half, y1)] if trail_col else [])
+        )
+        rest = shapely.difference(lot, trail)
+        return [("trail", None, trail), *(("vegetation", None, p) for p in _polygons(rest))]
+    return [("vegetation", None, part)]
 
 
 # --- small scenes without roads -----------------------------------------------------------
@@ -383,10 +413,11 @@ def plan_region(
         kind = "plaza"
     else:
         kind = str(cfg.walkable[int(rng.integers(len(cfg.walkable)))])
-    painter = _Painter(box(x0, y0, x1, y1))
-    painter.paint(kind, region)
-    for part in _polygons(painter.rest()):
-        painter.paint(str(cfg.non_walkable[int(rng.integers(len(cfg.non_walkable)))]), part)
-    if not painter.pieces:
+    scene = box(x0, y0, x1, y1)
+    layers: list[Layer] = [(kind, None, region)]
+    for part in _polygons(shapely.difference(scene, region, grid_size=GRID)):
+        layers.append((str(cfg.non_walkable[int(rng.integers(len(cfg.non_walkable)))]), None, part))
+    pieces = _arrange(scene, layers)
+    if not pieces:
         raise GenerationError("ground", seed, "the region layout left no ground")
-    return _zones(painter.finish())
+    return _zones(pieces)

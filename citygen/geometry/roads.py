@@ -25,8 +25,8 @@ for a roundabout.
 >>> from citygen.spec.blocks import Straight, Pose2
 >>> road = Straight(id="b0", kind="straight", pose=Pose2(position=(0, 0)), length=20, lanes=1,
 ...                 lane_width=3.5)
->>> block_outline(road).bounds
-(0.0, -3.5, 20.0, 3.5)
+>>> [round(v, 6) + 0.0 for v in block_outline(road).bounds]
+[0.0, -3.5, 20.0, 3.5]
 >>> [(s.id, s.pose.position) for s in block_sockets(road)]
 [('in', (0.0, 0.0)), ('out', (20.0, 0.0))]
 """
@@ -40,7 +40,7 @@ from functools import lru_cache
 import networkx as nx
 import numpy as np
 import shapely
-from shapely.geometry import LineString, Point, Polygon
+from shapely.geometry import Point, Polygon
 
 from citygen.spec.blocks import (
     Curve,
@@ -251,9 +251,3 @@ def road_graph(blocks) -> nx.Graph:
             if c.block in graph and not graph.has_edge(block.id, c.block):
                 graph.add_edge(block.id, c.block, sockets={block.id: c.socket, c.block: c.to_socket})
     return graph
-
-
-def centre_line(arm: Arm, length: float) -> LineString:
-    """The first ``length`` metres of road from a road end, back into its block."""
-    p = np.array(arm.position)
-    return LineString([p, p - length * _dir(arm.yaw)])
