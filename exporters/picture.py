@@ -92,6 +92,9 @@ MIN_SIZE_PX, MAX_SIZE_PX = 64, 8192
 GLYPH_MIN_PX = 14.0
 #: Most terrain height samples along one side of the grid (one per pixel up to this).
 MAX_HEIGHT_SAMPLES = 1024
+#: Width of zone outlines in points, drawn when zones are typically at least
+#: ``ZONE_EDGE_MIN_PX`` pixels across (on a city map outlines would hide the fills).
+ZONE_EDGE_PT, ZONE_EDGE_MIN_PX = 0.3, 24.0
 #: Blocks beyond this count are drawn without their id labels.
 MAX_BLOCK_LABELS = 60
 
@@ -269,7 +272,12 @@ class _Legend:
         self.handles.append(handle)
 
 
-def _draw_zones(ax: Axes, scene: Scene, alpha: float, legend: _Legend) -> None:
+def _draw_zones(ax: Axes, scene: Scene, px_per_m: float, legend: _Legend) -> None:
+    """One collection per kind present. Zones get a thin darker outline (neighbouring
+    zones of one kind stay apart) unless they are too small for it to leave any fill."""
+    width, height = scene.bounds.size
+    typical_px = math.sqrt(width * height / max(len(scene.zones), 1)) * px_per_m
+    edge_pt = ZONE_EDGE_PT if typical_px >= ZONE_EDGE_MIN_PX else 0.0
     by_kind: dict[str, list[tuple[Any, Sequence[Any]]]] = {}
     for zone in scene.zones:
         by_kind.setdefault(zone.kind, []).append((zone.polygon, zone.holes))
@@ -280,9 +288,8 @@ def _draw_zones(ax: Axes, scene: Scene, alpha: float, legend: _Legend) -> None:
         coll = PathCollection(
             _polygon_paths(by_kind[kind]),
             facecolors=colour,
-            edgecolors=_darker(colour),
-            linewidths=0.3,
-            alpha=alpha,
+            edgecolors=_darker(colour) if edge_pt else "none",
+            linewidths=edge_pt,
             transform=ax.transData,
             zorder=1,
         )
@@ -704,7 +711,7 @@ def _figure(scene: Scene, file: str | None, size_px: int, terrain: bool, legend:
 
     entries = _Legend([])
     shade = terrain and scene.terrain is not None
-    _draw_zones(ax, scene, 1.0, entries)
+    _draw_zones(ax, scene, px_per_m, entries)
     if shade:
         _draw_terrain(ax, scene, px_per_m, entries)
     _draw_blocks(ax, scene, m_per_pt, entries)
