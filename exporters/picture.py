@@ -95,6 +95,8 @@ MAX_HEIGHT_SAMPLES = 1024
 #: Width of zone outlines in points, drawn when zones are typically at least
 #: ``ZONE_EDGE_MIN_PX`` pixels across (on a city map outlines would hide the fills).
 ZONE_EDGE_PT, ZONE_EDGE_MIN_PX = 0.3, 24.0
+#: Socket arrows shorter than this (points) are not drawn at all: the map is too small.
+SOCKET_MIN_PT = 4.0
 #: Blocks beyond this count are drawn without their id labels.
 MAX_BLOCK_LABELS = 60
 
@@ -103,6 +105,7 @@ _OUTSIDE = "#ffffff"
 _OBJECT = "#c0622d"
 _MESH_OBJECT = "#7a3e9d"
 _ROAD_EDGE = "#f2b600"
+_JOINED = "#b8b8b8"
 _GLYPH = "#1b1b1b"
 _START, _GOAL = "#0b8f3a", "#d11f4a"
 _AGENT_COLORS = {"pedestrian": "#e6194b", "cyclist": "#f58231", "scooter": "#911eb4", "vehicle": "#1f5fd1"}
@@ -475,17 +478,7 @@ def _draw_blocks(ax: Axes, scene: Scene, m_per_pt: float, legend: _Legend) -> No
             autolim=False,
         )
         legend.add(Line2D([], [], color=_ROAD_EDGE, linestyle="--", label="road block"))
-    sockets = [(s.pose.position, s.pose.yaw) for b in scene.blocks for s in b.sockets]
-    if sockets:
-        xy = np.array([p for p, _ in sockets])
-        yaw = np.array([y for _, y in sockets])
-        length = 11 * m_per_pt
-        ax.quiver(
-            xy[:, 0], xy[:, 1], length * np.cos(yaw), length * np.sin(yaw),
-            angles="xy", scale_units="xy", scale=1.0, pivot="tip", color=_ROAD_EDGE, edgecolor="black",
-            linewidth=0.4, units="inches", width=1.6 / 72, headwidth=3, headlength=3.5, zorder=7,
-        )  # fmt: skip
-        legend.add(Line2D([], [], color=_ROAD_EDGE, marker=">", linestyle="-", label="socket"))
+    _draw_sockets(ax, scene, m_per_pt, legend)
     if len(scene.blocks) <= MAX_BLOCK_LABELS:
         for block in scene.blocks:
             ax.annotate(
@@ -501,6 +494,37 @@ def _draw_blocks(ax: Axes, scene: Scene, m_per_pt: float, legend: _Legend) -> No
                 zorder=8,
                 annotation_clip=True,
             )
+
+
+def _draw_sockets(ax: Axes, scene: Scene, m_per_pt: float, legend: _Legend) -> None:
+    """Each socket as an arrow ending at the road end, pointing out of its block: open ones
+    (where another block could attach) bright, joined ones grey. An arrow is at most 11 pt
+    and at most 0.8 of its road's width long; on a map too small for that, none is drawn."""
+    joined = {(b.id, c.socket) for b in scene.blocks for c in b.connections}
+    joined |= {(c.block, c.to_socket) for b in scene.blocks for c in b.connections}
+    rows = [
+        (*s.pose.position, s.pose.yaw, 2 * b.lanes * b.lane_width, (b.id, s.id) in joined)
+        for b in scene.blocks
+        for s in b.sockets
+    ]
+    if not rows:
+        return
+    x, y, yaw, road, is_joined = np.array(rows, dtype=float).T
+    length = np.minimum(11 * m_per_pt, 0.8 * road)
+    typical = float(np.median(length))
+    if typical < SOCKET_MIN_PT * m_per_pt:
+        return
+    for mask, colour in ((is_joined == 1, _JOINED), (is_joined == 0, _ROAD_EDGE)):
+        if mask.any():
+            ax.quiver(
+                x[mask], y[mask], (length * np.cos(yaw))[mask], (length * np.sin(yaw))[mask],
+                angles="xy", scale_units="xy", scale=1.0, pivot="tip", color=colour, edgecolor="black",
+                linewidth=0.4, units="xy", width=0.16 * typical, headwidth=3, headlength=3.5, zorder=7,
+            )  # fmt: skip
+    if (is_joined == 0).any():
+        legend.add(Line2D([], [], color=_ROAD_EDGE, marker=">", linestyle="-", label="open socket"))
+    if (is_joined == 1).any():
+        legend.add(Line2D([], [], color=_JOINED, marker=">", linestyle="-", label="joined socket"))
 
 
 def _draw_placements(ax: Axes, scene: Scene, file: str | None, legend: _Legend) -> None:
@@ -665,7 +689,7 @@ def _title(scene: Scene) -> str:
 def _legend_size(scene: Scene, terrain: bool) -> int:
     """How many entries the legend will have at most, to make room for them."""
     n = len({z.kind for z in scene.zones})
-    n += 2 if scene.blocks else 0  # road block, socket
+    n += 3 if scene.blocks else 0  # road block, open and joined sockets
     n += any(not p.is_mesh for p in scene.placements) + any(p.is_mesh for p in scene.placements)
     n += len({a.kind for a in scene.agents})
     if scene.task is not None:

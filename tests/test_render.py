@@ -198,10 +198,10 @@ def test_legend_lists_the_kinds_present_and_only_those():
     labels = _legend(picture.figure(CORNER, size_px=SIZE))
     present = {z.kind for z in scene.zones}
     assert [k for k in labels if k in ZONE_KINDS] == [k for k in ZONE_KINDS if k in present]
-    for what in ("road block", "socket", "object", "pedestrian", "cyclist", "vehicle", "goal"):
+    for what in ("road block", "open socket", "object", "pedestrian", "cyclist", "vehicle", "goal"):
         assert what in labels
     assert "start (wheeled)" in labels
-    assert not {"scooter", "mesh object", "route"} & set(labels)
+    assert not {"scooter", "mesh object", "route", "joined socket"} & set(labels)
     assert not any(label.startswith("terrain") for label in labels)  # the scene has none
     assert picture.figure(CORNER, size_px=SIZE, legend=False).legends == []
 
@@ -317,6 +317,37 @@ def test_everything_else_a_scene_can_hold():
     labels = _legend(picture.figure(loco, size_px=300))
     assert "start (quadruped)" in labels
     assert "goal" not in labels
+
+
+def _two_blocks(bounds: float) -> Scene:
+    def block(name, x, joined, other):
+        theirs = "in" if joined == "out" else "out"
+        return {
+            "id": name,
+            "kind": "straight",
+            "pose": {"position": [x, 6]},
+            "length": 6,
+            "sockets": [
+                {"id": "in", "pose": {"position": [x, 6], "yaw": 3.1416}},
+                {"id": "out", "pose": {"position": [x + 6, 6]}},
+            ],
+            "connections": [{"socket": joined, "block": other, "to_socket": theirs}],
+        }
+
+    doc = {
+        "format": "citygen.scene/1",
+        "bounds": {"min": [0, 0], "max": [bounds, bounds]},
+        "blocks": [block("a", 0, "out", "b"), block("b", 6, "in", "a")],
+    }
+    return Scene.model_validate(doc)
+
+
+def test_sockets_open_and_joined_and_left_out_when_too_small():
+    labels = _legend(picture.figure(_two_blocks(12), size_px=400))
+    assert {"road block", "open socket", "joined socket"} <= set(labels)
+    labels = _legend(picture.figure(_two_blocks(1200), size_px=300))  # a 7 m road is a pixel wide
+    assert "road block" in labels
+    assert not {"open socket", "joined socket"} & set(labels)
 
 
 def test_unknown_asset_names_the_placement():
