@@ -44,7 +44,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from citygen.spec.scene import Scene
-from citygen.spec.terrain import FlatTile, RoughTile, SlopeTile, StairTile, Terrain
+from citygen.spec.terrain import FlatTile, RoughTile, SlopeTile, StairTile, Terrain, peak
 
 if TYPE_CHECKING:
     import trimesh
@@ -324,11 +324,7 @@ def _lowest(tile: AnyTile, s: float) -> float:
     """The tile's lowest point (m): a pit's floor, a rough tile's deepest possible dip."""
     if isinstance(tile, RoughTile):
         return tile.height - tile.amplitude
-    if _sign(tile) < 0:
-        if isinstance(tile, SlopeTile):
-            return tile.height - s / 3.0 * math.tan(tile.angle)
-        return tile.height - tile.step_count * tile.step_height
-    return tile.height
+    return tile.height + min(0.0, peak(tile, s))
 
 
 def _bottom(lowest: float, floor: float) -> float:
