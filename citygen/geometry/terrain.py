@@ -1,8 +1,9 @@
 """Terrain heights and tile solids: the one definition of the ground every reader uses.
 
 :func:`height_at` is the single source of truth for the ground's height: the exporters'
-heightfields and meshes, the validator and the runner's height-map observation all
-derive from it (or from :func:`tile_height`, which it calls). Units are metres, Z up.
+heightfields and meshes, the generator's placement on the ground and the runner's
+height-map observation all derive from it (or from :func:`tile_height`, which it calls).
+Units are metres, Z up.
 
 Rules (see ``docs/terrain.md`` for pictures and the exact noise):
 
@@ -37,7 +38,6 @@ Rules (see ``docs/terrain.md`` for pictures and the exact noise):
 from __future__ import annotations
 
 import math
-from collections import OrderedDict
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -156,14 +156,14 @@ def _sign(tile: AnyTile) -> float:
     return 0.0 if shape is None else 1.0 if shape == "pyramid" else -1.0
 
 
-_TABLES: OrderedDict[int, tuple[Terrain, _Table]] = OrderedDict()
+_TABLES: dict[int, tuple[Terrain, _Table]] = {}
 
 
 def _table(terrain: Terrain) -> _Table:
-    """The terrain's table, cached by identity (terrains are immutable) for the last few."""
+    """The terrain's table, cached by identity (terrains are immutable) for the last few
+    terrains built; the cache only saves time, never changes a result."""
     hit = _TABLES.get(id(terrain))
     if hit is not None and hit[0] is terrain:
-        _TABLES.move_to_end(id(terrain))
         return hit[1]
     if len(terrain.tiles) != terrain.rows * terrain.cols:
         raise ValueError(
@@ -172,8 +172,8 @@ def _table(terrain: Terrain) -> _Table:
         )
     table = _build_table(terrain.tiles, terrain.tile_size)
     _TABLES[id(terrain)] = (terrain, table)
-    while len(_TABLES) > 8:
-        _TABLES.popitem(last=False)
+    for key in list(_TABLES)[:-8]:  # oldest first; tolerant of other threads evicting too
+        _TABLES.pop(key, None)
     return table
 
 
