@@ -391,3 +391,9 @@ def test_the_stage_lays_out_a_curriculum_within_the_bounds():
     unsized = cfg.model_copy(update={"grid": None})
     t = build_terrain(Bounds(min=(0.0, 0.0), max=(24.0, 40.0)), (), unsized, stage_rng(0, "terrain"))
     assert (t.rows, t.cols) == (5, 3)
+
+
+def test_a_grid_beyond_the_specs_limits_is_a_clear_error():
+    huge = Bounds(min=(0.0, 0.0), max=(10_000.0, 10_000.0))
+    with pytest.raises(GenerationError, match=r"4000 x 4000 tiles .* use a larger tile_size"):
+        build_terrain(huge, (), TerrainConfig(), stage_rng(0, "terrain"), seed=1)

@@ -23,23 +23,27 @@ variants a kind has.
 
 With the spec's four tile kinds a flight can only end at the edge of the grid (there is
 no corner tile), so level changes are straight terraces across the whole grid; they
-appear where no pinned tile stands in their way.
+appear where no pinned tile stands in their way. The mix therefore holds on average, not
+in every scene (``benchmarks/bench_wfc.py`` measures it over 10,000 seeds). The stage's
+generator is split with :func:`~citygen.seeding.child`: key 0 draws the boundaries, 1
+drives WFC, 2 draws the rough tiles.
 
 **Zones.** The grid starts at the bounds' minimum corner with tiles of ``tile_size``.
 When a side of the bounds is not a whole number of tiles, the tile side shrinks to the
 largest value (down to 3/4 of ``tile_size``) that divides both sides into whole numbers
 of tiles; failing that, the grid keeps ``tile_size`` and covers all but a strip of less
 than one tile along the far sides, where the ground is at 0 (outside a grid it is at 0),
-so the grid's outer edges there are pinned level at 0: no cliff. A tile with more than
-:data:`HARD_MARGIN` of its side (a sliver along its edges is tolerated) on roadway, bike
-lane, parking, curb, crosswalk, building or water is pinned flat at level 0, so the street
-stays flat (stricter than "mostly": a rough or sloped tile reaching into the road would
-lift the road). Roads, crosswalks
-and sidewalks share base height 0 in this model, so a crosswalk meets the sidewalk flush
-(a curb ramp with no rise) and needs no ramp tile. Sidewalks, plazas, trails, vegetation
-and ground no zone covers get WFC tiles from the mix; level changes there are terraces
+so the grid's outer edges there are pinned level at 0: no cliff. A tile into which
+roadway, bike lane, parking, curb, crosswalk, building or water reaches more than
+:data:`HARD_MARGIN` of its side (a sliver along its edges is tolerated) is pinned flat at
+level 0, so the street stays flat; this is stricter than "mostly on hard ground", because
+a rough or sloped tile reaching into the road would lift the road. Roads, crosswalks and
+sidewalks share base height 0 in this model, so a crosswalk meets the sidewalk flush (a
+curb ramp with no rise) and needs no ramp tile. Sidewalks, plazas, trails, vegetation and
+ground no zone covers get WFC tiles from the mix; level changes there are terraces
 between plaza or garden levels (stairs and ramps). Points in ``flat_at`` (the task's
 start and goal) get flat tiles (any level) on every tile within :data:`FLAT_RADIUS`.
+Every pin admits flat ground at level 0, so the stage's WFC always has a solution.
 
 **Locomotion curriculum** (``layout="curriculum"``, :func:`build_curriculum`), as Isaac
 Lab's terrain generator lays it out: ``cfg.grid = [rows, cols]`` regions of one tile each;
@@ -66,6 +70,7 @@ from shapely.geometry import Polygon
 from citygen.errors import GenerationError
 from citygen.generate.wfc import Prototype, Tileset, solve
 from citygen.seeding import child
+from citygen.spec import limits
 from citygen.spec.base import quantize
 from citygen.spec.config import TerrainConfig, TerrainMix
 from citygen.spec.scene import Bounds
@@ -378,6 +383,13 @@ def build_terrain(
         )
     grid = grid_for(bounds, cfg.tile_size)
     s = grid.tile_size
+    if max(grid.rows, grid.cols) > limits.MAX_GRID_SIDE or grid.rows * grid.cols > limits.MAX_TILES:
+        raise GenerationError(
+            "terrain",
+            seed,
+            f"{grid.rows} x {grid.cols} tiles of {s:g} m exceed the spec's limits ({limits.MAX_GRID_SIDE} "
+            f"a side, {limits.MAX_TILES} in all); use a larger tile_size",
+        )
     levels = LEVELS if (cfg.mix.slope > 0 or cfg.mix.stair > 0) else 1
     # 1. One rise per level boundary, and which flights may cross it.
     brng = child(rng, 0)
