@@ -232,3 +232,19 @@ def test_plan_region_is_pure():
     one = plan_region(bounds, RegionConfig(), stage_rng(1, "ground"))
     two = plan_region(bounds, RegionConfig(), stage_rng(1, "ground"))
     assert one == two
+
+
+def test_the_street_network_example_writes_a_valid_scene_and_its_picture(tmp_path):
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "examples" / "street_network.py"), str(tmp_path), "--seed", "3"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert proc.returncode == 0, proc.stderr
+    from citygen.io import load_scene
+
+    scene = load_scene(tmp_path / "street_network.json")
+    assert len(scene.blocks) == 7 and scene.terrain is not None
+    assert validate(scene) == []
+    assert (tmp_path / "street_network.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -10,6 +10,7 @@ from importlib.metadata import PackageNotFoundError, version
 
 from citygen.generate.blocks import connect_blocks
 from citygen.generate.ground import ground_margin, plan_ground, plan_region
+from citygen.generate.terrain import build_terrain
 from citygen.seeding import stage_rng
 from citygen.spec.config import GeneratorConfig
 from citygen.spec.scene import SCENE_FORMAT, Bounds, Meta, Scene
@@ -37,3 +38,13 @@ def layout(
         zones = ()
     meta = Meta(generator=GENERATOR, split=split, index=index, seed=seed)
     return Scene(format=SCENE_FORMAT, meta=meta, bounds=bounds, blocks=blocks, zones=zones)
+
+
+def generate(
+    config: GeneratorConfig, seed: int, *, split: str | None = None, index: int | None = None
+) -> Scene:
+    """Stages 1 to 3: :func:`layout`, then the terrain grid over it (WFC inside the zones,
+    or the locomotion curriculum)."""
+    scene = layout(config, seed, split=split, index=index)
+    terrain = build_terrain(scene.bounds, scene.zones, config.terrain, stage_rng(seed, "terrain"), seed=seed)
+    return scene.model_copy(update={"terrain": terrain})
