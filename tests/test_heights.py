@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import importlib.util
 import math
-import time
 
 import numpy as np
 import pytest
@@ -284,19 +283,14 @@ def mixed_terrain(rows: int, cols: int, seed: int = 0) -> Terrain:
     return Terrain(origin=(-3.0, 4.0), tile_size=SIZE, rows=rows, cols=cols, tiles=tiles)
 
 
-def test_a_million_points_take_well_under_a_second():
+def test_a_million_points_at_once_agree_with_one_at_a_time():
+    # Speed is measured in benchmarks/bench_wfc.py, not here: this checks the vectorised path.
     terrain = mixed_terrain(20, 20)
     rng = np.random.default_rng(0)
     xs = rng.uniform(-4.0, 48.0, 1_000_000)
     ys = rng.uniform(3.0, 55.0, 1_000_000)
-    height_at(terrain, xs[:10], ys[:10])  # the per-terrain table is built once
-    best = math.inf
-    for _ in range(3):
-        start = time.perf_counter()
-        z = height_at(terrain, xs, ys)
-        best = min(best, time.perf_counter() - start)
+    z = height_at(terrain, xs, ys)
     assert z.shape == (1_000_000,)
-    assert best < 1.0, f"{best:.2f} s for 1e6 points"
     # ... and the vectorised answer is each point's own tile's answer.
     pick = rng.choice(xs.size, 300, replace=False)
     for k in pick.tolist():
