@@ -355,6 +355,11 @@ def test_curriculum_rows_rise_in_difficulty_and_regions_meet_level(split):
             values = [getattr(t.tile(r, c), name) for r in range(rows)]
             assert values[0] == lo and values[-1] == hi
             assert all(a < b for a, b in itertools.pairwise(values)), values
+    fixed = {"stair": "step_count", "rough": "scale"}  # widths do not scale with difficulty
+    for c in range(cols):
+        name = fixed.get(t.tile(0, c).kind)
+        if name:
+            assert len({getattr(t.tile(r, c), name) for r in range(rows)}) == 1
     assert mismatches(t) == []
     extent = Bounds(min=(0.0, 0.0), max=(cols * cfg.tile_size, rows * cfg.tile_size))
     assert validate(Scene(format="citygen.scene/1", bounds=extent, terrain=t)) == []

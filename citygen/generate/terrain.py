@@ -47,8 +47,10 @@ Every pin admits flat ground at level 0, so the stage's WFC always has a solutio
 
 **Locomotion curriculum** (``layout="curriculum"``, :func:`build_curriculum`), as Isaac
 Lab's terrain generator lays it out: ``cfg.grid = [rows, cols]`` regions of one tile each;
-row ``r`` has difficulty ``d = r / (rows - 1)``, and every ranged parameter is
-``low + d * (high - low)`` of its configured range (the step count rounded); columns cycle
+row ``r`` has difficulty ``d = r / (rows - 1)``, and the slope angle, the step height and
+the roughness amplitude are ``low + d * (high - low)`` of their configured ranges; the step
+count and the roughness wavelength stay at the middle of theirs (Isaac Lab too scales
+only heights and inclinations with difficulty, not step widths or noise steps); columns cycle
 through the kinds in proportion to the mix weights (smooth weighted round robin). Slopes
 and stairs are pyramids and pits (alternating by column), whose edges are level at 0, so
 any two regions meet without a cliff. :func:`loc_config` gives the paper's Urban-Loc train
@@ -541,7 +543,7 @@ def build_curriculum(
             elif kind == "slope":
                 tiles.append(SlopeTile(kind="slope", angle=_at(cfg.slope_angle, d), shape=shapes[c]))
             elif kind == "stair":
-                n = round(_at(cfg.step_count, d))
+                n = round(_at(cfg.step_count, 0.5))
                 tiles.append(
                     StairTile(
                         kind="stair", step_height=_at(cfg.step_height, d), step_count=n, shape=shapes[c]
@@ -552,7 +554,7 @@ def build_curriculum(
                     RoughTile(
                         kind="rough",
                         amplitude=_at(cfg.roughness_amplitude, d),
-                        scale=_at(cfg.roughness_scale, d),
+                        scale=_at(cfg.roughness_scale, 0.5),
                         seed=int(seeds[r, c]),
                     )
                 )
