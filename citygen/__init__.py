@@ -10,16 +10,10 @@ The public API at the top level:
 - :mod:`citygen.exporters`: MJCF, USD, URDF, occupancy maps (importable on their own).
 """
 
-from importlib.metadata import PackageNotFoundError, version
-
+from citygen._version import __version__
 from citygen.geometry.terrain import height_at
 from citygen.io import load_scene, save_scene
 from citygen.spec import Scene
 from citygen.validate import validate
-
-try:
-    __version__ = version("citygen")
-except PackageNotFoundError:  # running from a source tree that was never installed
-    __version__ = "0.0.0+unknown"
 
 __all__ = ["Scene", "__version__", "height_at", "load_scene", "save_scene", "validate"]

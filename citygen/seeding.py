@@ -63,6 +63,16 @@ def child(rng: np.random.Generator, key: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(seq.entropy, spawn_key=(*seq.spawn_key, int(key))))
 
 
+def uniform(rng: np.random.Generator, lo_hi) -> float:
+    """A uniform draw from a config range ``[low, high]``; ``low`` itself when the range is empty.
+
+    >>> uniform(np.random.default_rng(0), (2.0, 2.0))
+    2.0
+    """
+    lo, hi = lo_hi
+    return float(rng.uniform(lo, hi)) if hi > lo else float(lo)
+
+
 def scene_seed(master_seed: int, split: str, index: int) -> int:
     """The seed of scene ``index`` of a named split, from the split's master seed.
 

@@ -20,6 +20,7 @@ from tests.conftest import ROOT
 
 # Layer of each module prefix (longest prefix wins) and the layers it may import.
 LAYERS = {
+    "citygen._version": "base",
     "citygen.errors": "base",
     "citygen.seeding": "base",
     "citygen.spec": "spec",

@@ -177,7 +177,8 @@ def test_region_layouts_tile_and_have_walkable_ground_across(shape, side):
     config = GeneratorConfig(size=(side, side), region=RegionConfig(shapes=RegionShapes(**weights)))
     for seed in range(25):
         scene = layout(config, seed)
-        assert tiling_error(scene)[0] < 1e-6 and tiling_error(scene)[1] < 1e-6
+        gap, overlap = tiling_error(scene)
+        assert gap < 1e-6 and overlap < 1e-6
         assert validate(scene) == []
         walkable = shapely.union_all(
             [Polygon(z.polygon, z.holes) for z in scene.zones if z.kind in WALKABLE_ZONES]

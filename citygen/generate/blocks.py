@@ -29,7 +29,8 @@ import shapely
 from shapely.geometry import Polygon, box
 
 from citygen.errors import GenerationError
-from citygen.geometry.roads import block_geometry, wrap
+from citygen.geometry.roads import block_geometry, block_sockets, wrap
+from citygen.seeding import uniform
 from citygen.spec.blocks import (
     BLOCK_TYPES,
     Connection,
@@ -39,7 +40,6 @@ from citygen.spec.blocks import (
     Merge,
     Pose2,
     Roundabout,
-    Socket,
     Straight,
     TIntersection,
 )
@@ -66,31 +66,26 @@ class _Placed:
     """This block's socket -> (index of the attached block, its socket)."""
 
 
-def _uniform(rng: np.random.Generator, lo_hi: tuple[float, float]) -> float:
-    lo, hi = lo_hi
-    return float(rng.uniform(lo, hi)) if hi > lo else float(lo)
-
-
 def _sample_block(kind: str, index: int, pose: Pose2, lanes: int, lane_width: float, cfg, rng):
     common = {"id": f"b{index}", "kind": kind, "pose": pose, "lanes": lanes, "lane_width": lane_width}
     sign = 1.0 if rng.random() < 0.5 else -1.0
     if kind == "straight":
-        return Straight(**common, length=_uniform(rng, cfg.straight_length))
+        return Straight(**common, length=uniform(rng, cfg.straight_length))
     if kind == "curve":
-        angle = math.radians(_uniform(rng, cfg.curve_angle_deg))
-        return Curve(**common, radius=_uniform(rng, cfg.curve_radius), angle=sign * angle)
+        angle = math.radians(uniform(rng, cfg.curve_angle_deg))
+        return Curve(**common, radius=uniform(rng, cfg.curve_radius), angle=sign * angle)
     if kind == "roundabout":
-        radius = max(_uniform(rng, cfg.roundabout_radius), lanes * lane_width + 2.0)
+        radius = max(uniform(rng, cfg.roundabout_radius), lanes * lane_width + 2.0)
         return Roundabout(**common, radius=radius, arms=int(rng.integers(3, 6)))
     if kind in ("diverge", "merge"):
         model = Diverge if kind == "diverge" else Merge
         return model(
             **common,
-            length=_uniform(rng, cfg.straight_length),
+            length=uniform(rng, cfg.straight_length),
             branch_angle=sign * math.radians(float(rng.uniform(20.0, 45.0))),
             branch_lanes=int(rng.integers(min(cfg.lanes[0], lanes), lanes + 1)),
         )
-    arm = _uniform(rng, cfg.arm_length)
+    arm = uniform(rng, cfg.arm_length)
     width = lanes * lane_width
     corner = float(np.clip(rng.uniform(3.0, 8.0), 0.0, max(arm - width - 6.0, 0.0)))
     if kind == "intersection":
@@ -164,7 +159,7 @@ def connect_blocks(
     if area.is_empty or area.area <= 0:
         raise GenerationError("blocks", seed, f"the scene is too small for roads with a {margin:g} m margin")
     lanes = int(rng.integers(cfg.lanes[0], cfg.lanes[1] + 1))
-    lane_width = round(_uniform(rng, cfg.lane_width), 4)
+    lane_width = round(uniform(rng, cfg.lane_width), 4)
     kinds = np.array(KINDS)
     weights = np.array([getattr(cfg.weights, k) for k in KINDS], dtype=float)
     cumulative = np.cumsum(weights)
@@ -177,7 +172,7 @@ def connect_blocks(
         return str(kinds[min(pick, len(KINDS) - 1)])
 
     net = _Network(cfg.clearance)
-    # Open sockets in the order they appeared: (block index, socket id, pose, lanes).
+    # Open sockets in the order they appeared: (block index, socket id).
     open_sockets: list[tuple[int, str]] = []
     dead: set[tuple[int, str]] = set()
     backtracks, budget = 0, 4 * count + 8
@@ -193,7 +188,7 @@ def connect_blocks(
             return False
         joint = None
         if parent is not None:
-            arm = next(a for a in block_geometry(net.placed[parent[0]].block).arms if a.socket == parent[1])
+            arm = _arm(net.placed[parent[0]].block, parent[1])
             joint = (arm.position, arm.yaw)
         if not net.fits(outline, None if parent is None else parent[0], joint):
             return False
@@ -229,13 +224,11 @@ def connect_blocks(
         if candidates and failures < cfg.max_tries:
             parent = candidates[int(rng.integers(len(candidates)))]
             lanes_here = socket_lanes(*parent)
+            arm = _arm(net.placed[parent[0]].block, parent[1])
+            pose = Pose2(position=arm.position, yaw=wrap(arm.yaw))
+            index = len(net.placed)
             ok = False
             for _ in range(SOCKET_TRIES):
-                arm = next(
-                    a for a in block_geometry(net.placed[parent[0]].block).arms if a.socket == parent[1]
-                )
-                pose = Pose2(position=arm.position, yaw=wrap(arm.yaw))
-                index = len(net.placed)
                 block = _sample_block(next_kind(index), index, pose, lanes_here, lane_width, cfg, rng)
                 failures += 1
                 if place(block, parent):
@@ -270,19 +263,23 @@ def connect_blocks(
     return _finish(net)
 
 
+def _arm(block, socket: str):
+    """The road end of ``block`` at ``socket``."""
+    return next(a for a in block_geometry(block).arms if a.socket == socket)
+
+
 def _finish(net: _Network) -> tuple:
     """Frozen blocks with their sockets and two-way connections."""
     blocks = []
     for k, placed in enumerate(net.placed):
-        arms = block_geometry(placed.block).arms
-        sockets = tuple(Socket(id=a.socket, pose=Pose2(position=a.position, yaw=a.yaw)) for a in arms)
+        sockets = block_sockets(placed.block)
         links = dict(placed.children)
         if placed.parent is not None:
             links["in"] = placed.parent
         connections = tuple(
-            Connection(socket=a.socket, block=f"b{links[a.socket][0]}", to_socket=links[a.socket][1])
-            for a in arms
-            if a.socket in links
+            Connection(socket=a.id, block=f"b{links[a.id][0]}", to_socket=links[a.id][1])
+            for a in sockets
+            if a.id in links
         )
         assert placed.block.id == f"b{k}"
         blocks.append(placed.block.model_copy(update={"sockets": sockets, "connections": connections}))

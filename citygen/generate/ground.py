@@ -41,7 +41,7 @@ from shapely.geometry import Polygon, box
 
 from citygen.errors import GenerationError
 from citygen.geometry.roads import block_geometry
-from citygen.seeding import child
+from citygen.seeding import child, uniform
 from citygen.spec.base import quantize_array
 from citygen.spec.blocks import Straight
 from citygen.spec.config import GroundConfig, RegionConfig
@@ -60,11 +60,6 @@ FACING = 3.0
 TRAIL_EVERY = 3
 
 
-def _uniform(rng: np.random.Generator, lo_hi: Sequence[float]) -> float:
-    lo, hi = lo_hi
-    return float(rng.uniform(lo, hi)) if hi > lo else float(lo)
-
-
 def _snap(value: float) -> float:
     return round(round(value / GRID) * GRID, 6)
 
@@ -73,7 +68,7 @@ def _cuts(lo: float, hi: float, size: Sequence[float], rng: np.random.Generator)
     """Jittered grid lines from ``lo`` to ``hi``, spaced by draws from ``size``."""
     cuts, x = [lo], lo
     while True:
-        x += _uniform(rng, size)
+        x += uniform(rng, size)
         if x >= hi - 0.5 * size[0]:
             break
         cuts.append(_snap(x))
@@ -87,13 +82,6 @@ def _polygons(geom) -> list[Polygon]:
     if geom.geom_type == "Polygon":
         return [geom]
     return [g for part in getattr(geom, "geoms", ()) for g in _polygons(part)]
-
-
-def _polygonal(geom):
-    """The polygons of a geometry, without the lines and points an overlay may leave."""
-    if geom.geom_type in ("Polygon", "MultiPolygon"):
-        return geom
-    return shapely.MultiPolygon(_polygons(geom))
 
 
 Layer = tuple[str, "str | None", object]
@@ -222,7 +210,7 @@ def plan_ground(
         raise GenerationError("ground", seed, "a road layout needs at least one block")
     (x0, y0), (x1, y1) = bounds.min, bounds.max
     geoms = [block_geometry(b) for b in blocks]
-    curb = _uniform(rng, cfg.curb_width)
+    curb = uniform(rng, cfg.curb_width)
     roads = shapely.union_all([g.outline for g in geoms], grid_size=GRID)
     curbs = roads.buffer(curb, quad_segs=QUAD_SEGS)
 
@@ -234,7 +222,7 @@ def plan_ground(
         if isinstance(block, Straight):
             sites = sites if r.random() < cfg.midblock_crosswalk_probability else ()
         for site in sites:
-            depth = _uniform(r, cfg.crosswalk_width)
+            depth = uniform(r, cfg.crosswalk_width)
             if site.room < depth + 0.5:
                 continue
             offset = site.offset + (site.room - depth) / 2 if isinstance(block, Straight) else site.offset
@@ -256,9 +244,9 @@ def plan_ground(
     bands: dict[str, list] = {"furnishing": [], "clear": [], "frontage": []}
     for k, g in enumerate(geoms):
         r = child(rng, len(blocks) + k)
-        width = _uniform(r, cfg.sidewalk_width)
-        furnishing = width * _uniform(r, (0.2, 0.3))
-        frontage = width * _uniform(r, (0.1, 0.2))
+        width = uniform(r, cfg.sidewalk_width)
+        furnishing = width * uniform(r, (0.2, 0.3))
+        frontage = width * uniform(r, (0.1, 0.2))
         for strip, reach in (
             ("furnishing", curb + furnishing),
             ("clear", curb + width - frontage),
@@ -266,7 +254,7 @@ def plan_ground(
         ):
             bands[strip].append(g.outline.buffer(reach, quad_segs=QUAD_SEGS))
     sidewalks = {strip: shapely.union_all(shapes) for strip, shapes in bands.items()}
-    setback = _uniform(rng, cfg.building_setback)
+    setback = uniform(rng, cfg.building_setback)
     street = sidewalks["frontage"]
     near = street.buffer(setback, quad_segs=QUAD_SEGS) if setback > 0.25 else None
     shapely.prepare(street)  # for the distance tests of every lot
@@ -329,7 +317,7 @@ def _fill_lot(
         sides = sorted(math.dist(a, b) for a, b in itertools.pairwise(corners))
         if part.area >= 0.6 * rect.area and sides[0] >= 10.0 and r.random() < cfg.building_probability:
             # Side yards keep neighbouring buildings apart; the yards are lawn.
-            inset = part.buffer(-_uniform(r, (1.0, 3.0)), join_style="mitre")
+            inset = part.buffer(-uniform(r, (1.0, 3.0)), join_style="mitre")
             footprints = [f for f in _polygons(inset) if f.area >= 40.0]
             if footprints:
                 yard = Polygon(part.exterior, [*part.interiors, *(f.exterior for f in footprints)])
@@ -341,7 +329,7 @@ def _fill_lot(
         # Trails cross open land along every few rows and columns of lots, so they join up.
         x0, y0, x1, y1 = lot.bounds
         x, y = _snap((x0 + x1) / 2), _snap((y0 + y1) / 2)
-        half = _snap(_uniform(r, (1.5, 2.5)) / 2)
+        half = _snap(uniform(r, (1.5, 2.5)) / 2)
         trail = shapely.union_all(
             ([box(x0, y - half, x1, y + half)] if trail_row else [])
             + ([box(x - half, y0, x + half, y1)] if trail_col else [])
@@ -356,14 +344,14 @@ def _fill_lot(
 
 def _region_shape(shape: str, w: float, h: float, rng: np.random.Generator, cfg: RegionConfig):
     """The walkable region of a ``w`` x ``h`` scene with its minimum corner at the origin."""
-    width = min(_uniform(rng, cfg.path_width), 0.6 * min(w, h))
+    width = min(uniform(rng, cfg.path_width), 0.6 * min(w, h))
     if shape == "plaza":
         region = box(0, 0, w, h)
         islands = []
         for _ in range(int(rng.integers(1, 4)) * 8):
             if len(islands) >= 3:
                 break
-            radius = _uniform(rng, (0.5, 0.12 * min(w, h)))
+            radius = uniform(rng, (0.5, 0.12 * min(w, h)))
             cx, cy = rng.uniform(radius + 1.0, w - radius - 1.0), rng.uniform(radius + 1.0, h - radius - 1.0)
             if rng.random() < 0.5:
                 island = box(cx - radius, cy - radius, cx + radius, cy + radius)

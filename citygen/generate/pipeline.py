@@ -6,8 +6,7 @@ changing how a later stage samples never changes what an earlier one produced.
 
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version
-
+from citygen._version import __version__
 from citygen.generate.blocks import connect_blocks
 from citygen.generate.ground import ground_margin, plan_ground, plan_region
 from citygen.generate.terrain import build_terrain
@@ -15,10 +14,7 @@ from citygen.seeding import stage_rng
 from citygen.spec.config import GeneratorConfig
 from citygen.spec.scene import SCENE_FORMAT, Bounds, Meta, Scene
 
-try:
-    GENERATOR = f"citygen {version('citygen')}"
-except PackageNotFoundError:  # a source tree that was never installed
-    GENERATOR = "citygen"
+GENERATOR = f"citygen {__version__}"
 
 
 def layout(

@@ -71,7 +71,7 @@ from shapely.geometry import Polygon
 
 from citygen.errors import GenerationError
 from citygen.generate.wfc import Prototype, Tileset, solve
-from citygen.seeding import child
+from citygen.seeding import child, uniform
 from citygen.spec import limits
 from citygen.spec.base import quantize
 from citygen.spec.config import TerrainConfig, TerrainMix
@@ -212,11 +212,6 @@ class Boundary:
     """``(step_count, step_height)`` of stairs across it; ``None`` when stairs may not."""
 
 
-def _uniform(rng: np.random.Generator, lo_hi: Sequence[float]) -> float:
-    lo, hi = lo_hi
-    return float(rng.uniform(lo, hi)) if hi > lo else float(lo)
-
-
 def _inside(x: float, lo_hi: Sequence[float]) -> bool:
     return lo_hi[0] <= x <= lo_hi[1]
 
@@ -228,18 +223,18 @@ def draw_boundary(cfg: TerrainConfig, tile_size: float, rng: np.random.Generator
     n_lo, n_hi = cfg.step_count
 
     def slope_only() -> Boundary:
-        angle = quantize(_uniform(rng, cfg.slope_angle))
+        angle = quantize(uniform(rng, cfg.slope_angle))
         return Boundary(s * math.tan(angle), angle, None)
 
     def stair_only() -> Boundary:
-        n, h = int(rng.integers(n_lo, n_hi + 1)), quantize(_uniform(rng, cfg.step_height))
+        n, h = int(rng.integers(n_lo, n_hi + 1)), quantize(uniform(rng, cfg.step_height))
         return Boundary(n * h, None, (n, h))
 
     if wants["slope"] and wants["stair"]:
         p_slope = cfg.mix.slope / (cfg.mix.slope + cfg.mix.stair)
         for _ in range(RISE_TRIES):
             if rng.random() < p_slope:  # the slope's angle drawn, a step count that fits it
-                angle = quantize(_uniform(rng, cfg.slope_angle))
+                angle = quantize(uniform(rng, cfg.slope_angle))
                 rise = s * math.tan(angle)
                 fits = [n for n in range(n_lo, n_hi + 1) if _inside(quantize(rise / n), cfg.step_height)]
                 if not fits:
@@ -247,7 +242,7 @@ def draw_boundary(cfg: TerrainConfig, tile_size: float, rng: np.random.Generator
                 n = fits[int(rng.integers(len(fits)))]
                 h = quantize(rise / n)
             else:  # the stair drawn, the angle that matches it
-                n, h = int(rng.integers(n_lo, n_hi + 1)), quantize(_uniform(rng, cfg.step_height))
+                n, h = int(rng.integers(n_lo, n_hi + 1)), quantize(uniform(rng, cfg.step_height))
                 angle = quantize(math.atan(n * h / s))
                 if not _inside(angle, cfg.slope_angle):
                     continue
