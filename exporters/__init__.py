@@ -9,10 +9,11 @@ write ``from citygen.exporters import mjcf`` with no generator involved.
 
 from __future__ import annotations
 
+import hashlib
 from pathlib import Path
 from typing import Protocol
 
-from citygen.io import load_scene
+from citygen.io import load_scene, write_atomic
 from citygen.spec.scene import Scene
 
 
@@ -28,3 +29,26 @@ def as_scene(scene: Scene | str | Path) -> tuple[Scene, Path | None]:
         return scene, None
     path = Path(scene)
     return load_scene(path), path.parent
+
+
+class ExportWarning(UserWarning):
+    """Something in the scene the target format cannot express, and what was done instead.
+
+    Exporters never drop content silently: they ``warnings.warn(ExportWarning(...))``
+    with a one-line message naming the JSON path (``$.agents[2]``) and what the
+    format lost; ``citygen export`` prints these on stderr.
+    """
+
+
+def shared_file(out_dir: str | Path, data: bytes, suffix: str) -> Path:
+    """Write ``data`` once under ``out_dir/assets/`` named by its content digest.
+
+    Repeated assets (the same bench in many scenes of a dataset exported to one
+    folder) are written once and shared; an existing file with the same name has
+    the same bytes, so it is left alone. The write is atomic. Returns the path.
+    """
+    digest = hashlib.sha256(data).hexdigest()[:20]
+    path = Path(out_dir) / "assets" / f"{digest}{suffix}"
+    if not path.exists():
+        write_atomic(path, data)
+    return path

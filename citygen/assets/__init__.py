@@ -17,12 +17,11 @@ True
 from citygen.assets.catalog import (
     CATEGORIES,
     Asset,
-    AssetBuilder,
-    Category,
     UnknownAsset,
     categories,
     resolve,
 )
+from citygen.assets.category import AssetBuilder, Category
 from citygen.assets.parts import Box, Capsule, ConvexMesh, Cylinder, Look, Part
 
 __all__ = [

@@ -3,7 +3,8 @@
 An asset id is ``category/NNNN`` (``bench/0012``): the category's builder, run
 with a generator seeded by ``SeedSequence([sha256(category), NNNN])``, gives the
 same parts in every process and on every machine. Adding a category is one
-builder function (see :class:`AssetBuilder`) plus one :data:`CATEGORIES` entry.
+builder function (see :class:`~citygen.assets.category.AssetBuilder`) plus one entry in its
+module's ``CATEGORIES``.
 
 Asset frame: origin at the centre of the asset's base at ground level, z up, the
 asset's front (where one sits, the outlet, the lamp's arm) facing +x, so a
@@ -18,7 +19,6 @@ import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Protocol
 
 import manifold3d
 import numpy as np
@@ -26,91 +26,29 @@ import shapely
 import trimesh
 from shapely.geometry import Polygon
 
-from citygen.assets import furniture
+from citygen.assets import furniture, outdoor, street
+from citygen.assets.category import Category
 from citygen.assets.parts import Box, Capsule, ConvexMesh, Cylinder, Part
 from citygen.spec.placements import CATALOG_ID
-from citygen.spec.surfaces import ZONE_KINDS
 
 _ID = re.compile(f"^{CATALOG_ID}$")
 _PART_TYPES = (Box, Cylinder, Capsule, ConvexMesh)
-Range = tuple[float, float]
 
 
-class AssetBuilder(Protocol):
-    """Builds one variant of a category from ``rng``, the only source of randomness.
-
-    Returns the asset's convex parts in the asset frame (metres), resting on z = 0.
-    """
-
-    def __call__(self, rng: np.random.Generator) -> list[Part]: ...
-
-
-@dataclass(frozen=True)
-class Category:
-    """A kind of asset: its builder and what placement and export need to know about it.
-
-    ``height``, ``size_x`` and ``size_y`` are the ranges (m) the builder promises for
-    every variant: its height and its footprint's extent along x (front to back)
-    and y (side to side). The tests hold the builder to them.
-    """
-
-    build: AssetBuilder
-    semantic_class: str
-    zones: frozenset[str]
-    """Zone kinds (:data:`citygen.spec.surfaces.ZONE_KINDS`) the asset belongs in."""
-    clearance: float
-    """Free space (m) the asset wants around its footprint."""
-    height: Range
-    size_x: Range
-    size_y: Range
-
-    def __post_init__(self) -> None:
-        unknown = sorted(set(self.zones) - set(ZONE_KINDS))
-        if not self.zones or unknown:
-            raise ValueError(
-                f"Category.zones: expected a non-empty set of {', '.join(ZONE_KINDS)}, got unknown {unknown}"
-            )
-        if not self.clearance >= 0:
-            raise ValueError(f"Category.clearance: expected >= 0 m, got {self.clearance!r}")
-        for name in ("height", "size_x", "size_y"):
-            low, high = getattr(self, name)
-            if not 0 < low <= high:
-                raise ValueError(f"Category.{name}: expected 0 < low <= high (m), got {(low, high)}")
+def _merge(*registries: Mapping[str, Category]) -> dict[str, Category]:
+    merged: dict[str, Category] = {}
+    for registry in registries:
+        twice = sorted(set(merged) & set(registry))
+        if twice:
+            raise ValueError(f"asset categories defined twice: {twice}")
+        merged.update(registry)
+    return dict(sorted(merged.items()))
 
 
-def _zones(*kinds: str) -> frozenset[str]:
-    return frozenset(kinds)
-
-
-#: Every category, by name. One entry per builder; the tests cover each one.
+#: Every category, by name, merged from the builder modules; sorted. The tests cover each one.
 CATEGORIES: Mapping[str, Category] = MappingProxyType(
-    {
-        "bench": Category(
-            furniture.bench, "bench", _zones("sidewalk", "plaza", "trail"), 0.6,
-            height=(0.40, 1.00), size_x=(0.38, 0.72), size_y=(1.20, 2.40),
-        ),
-        "trash_bin": Category(
-            furniture.trash_bin, "trash_bin", _zones("sidewalk", "plaza", "trail"), 0.4,
-            height=(0.74, 1.20), size_x=(0.43, 0.74), size_y=(0.37, 0.74),
-        ),
-        "bollard": Category(
-            furniture.bollard, "bollard", _zones("sidewalk", "plaza", "curb"), 0.4,
-            height=(0.80, 1.10), size_x=(0.10, 0.35), size_y=(0.10, 0.35),
-        ),
-        "planter": Category(
-            furniture.planter, "planter", _zones("sidewalk", "plaza"), 0.4,
-            height=(0.35, 1.90), size_x=(0.50, 1.20), size_y=(0.50, 1.80),
-        ),
-        "lamp_post": Category(
-            furniture.lamp_post, "lamp_post", _zones("sidewalk", "curb", "plaza", "trail"), 0.4,
-            height=(3.80, 8.40), size_x=(0.35, 3.00), size_y=(0.20, 0.61),
-        ),
-        "fire_hydrant": Category(
-            furniture.fire_hydrant, "fire_hydrant", _zones("sidewalk", "curb"), 0.9,
-            height=(0.54, 0.90), size_x=(0.20, 0.45), size_y=(0.28, 0.50),
-        ),
-    }
-)  # fmt: skip
+    _merge(furniture.CATEGORIES, street.CATEGORIES, outdoor.CATEGORIES)
+)
 
 
 def categories() -> tuple[str, ...]:

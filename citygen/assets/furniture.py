@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 
+from citygen.assets.category import Category, zones
 from citygen.assets.parts import Box, Capsule, ConvexMesh, Cylinder, Look, Part, frustum, rod
 from citygen.assets.parts import tilted_box as tilted
 
@@ -383,3 +384,32 @@ def fire_hydrant(rng: np.random.Generator) -> list[Part]:
         parts.append(rod(pump_r, (0.0, 0.0, z_out), (pump, 0.0, z_out), look))
         parts.append(rod(pump_r + 0.008, (pump - 0.01, 0.0, z_out), (pump + 0.03, 0.0, z_out), caps))
     return parts
+
+
+#: The categories built here, registered by :mod:`citygen.assets.catalog`.
+CATEGORIES: dict[str, Category] = {
+    "bench": Category(
+        bench, "bench", zones("sidewalk", "plaza", "trail"), 0.6,
+        height=(0.40, 1.00), size_x=(0.38, 0.72), size_y=(1.20, 2.40),
+    ),
+    "trash_bin": Category(
+        trash_bin, "trash_bin", zones("sidewalk", "plaza", "trail"), 0.4,
+        height=(0.74, 1.20), size_x=(0.43, 0.74), size_y=(0.37, 0.74),
+    ),
+    "bollard": Category(
+        bollard, "bollard", zones("sidewalk", "plaza", "curb"), 0.4,
+        height=(0.80, 1.10), size_x=(0.10, 0.35), size_y=(0.10, 0.35),
+    ),
+    "planter": Category(
+        planter, "planter", zones("sidewalk", "plaza"), 0.4,
+        height=(0.35, 1.90), size_x=(0.50, 1.20), size_y=(0.50, 1.80),
+    ),
+    "lamp_post": Category(
+        lamp_post, "lamp_post", zones("sidewalk", "curb", "plaza", "trail"), 0.4,
+        height=(3.80, 8.40), size_x=(0.35, 3.00), size_y=(0.20, 0.61),
+    ),
+    "fire_hydrant": Category(
+        fire_hydrant, "fire_hydrant", zones("sidewalk", "curb"), 0.9,
+        height=(0.54, 0.90), size_x=(0.20, 0.45), size_y=(0.28, 0.50),
+    ),
+}  # fmt: skip
