@@ -8,7 +8,7 @@ Builder modules (:mod:`~citygen.assets.furniture`, :mod:`~citygen.assets.street`
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Literal, Protocol, get_args
 
 import numpy as np
 
@@ -16,6 +16,25 @@ from citygen.assets.parts import Part
 from citygen.spec.surfaces import ZONE_KINDS
 
 Range = tuple[float, float]
+
+Anchor = Literal["free", "curb", "crossing", "frontage", "lot"]
+"""Where placement puts an asset within its zones, and how it turns it:
+
+- ``free``: anywhere in a suitable zone, turned to one of the zone's principal axes
+  (benches, planters on a plaza; everything in small region scenes without roads);
+- ``curb``: in the sidewalk's furnishing strip (or on the curb), lined up with the
+  curb, its front (+x) facing the roadway (the lamp's arm, the hydrant's outlet,
+  the shelter's open side; bins, parking meters, parked scooters);
+- ``crossing``: like ``curb``, but near the ends of a crosswalk (hydrants, traffic
+  lights, bollards);
+- ``frontage``: in the sidewalk's frontage strip along the building line, back to
+  the building, front (+x) facing the street (cafe tables, advertising boards);
+- ``lot``: fills a building zone, scaled and turned to fit it (building massing).
+
+Scenes without sidewalk strips (the small region layouts) treat every anchor but
+``lot`` as ``free``.
+"""
+ANCHORS: tuple[str, ...] = get_args(Anchor)
 
 
 class AssetBuilder(Protocol):
@@ -45,6 +64,8 @@ class Category:
     height: Range
     size_x: Range
     size_y: Range
+    anchor: Anchor = "free"
+    """Where in its zones placement puts the asset (see :data:`Anchor`)."""
 
     def __post_init__(self) -> None:
         unknown = sorted(set(self.zones) - set(ZONE_KINDS))
@@ -52,6 +73,8 @@ class Category:
             raise ValueError(
                 f"Category.zones: expected a non-empty set of {', '.join(ZONE_KINDS)}, got unknown {unknown}"
             )
+        if self.anchor not in ANCHORS:
+            raise ValueError(f"Category.anchor: expected one of {', '.join(ANCHORS)}, got {self.anchor!r}")
         if not self.clearance >= 0:
             raise ValueError(f"Category.clearance: expected >= 0 m, got {self.clearance!r}")
         for name in ("height", "size_x", "size_y"):

@@ -394,11 +394,11 @@ CATEGORIES: dict[str, Category] = {
     ),
     "trash_bin": Category(
         trash_bin, "trash_bin", zones("sidewalk", "plaza", "trail"), 0.4,
-        height=(0.74, 1.20), size_x=(0.43, 0.74), size_y=(0.37, 0.74),
+        height=(0.74, 1.20), size_x=(0.43, 0.74), size_y=(0.37, 0.74), anchor="curb",
     ),
     "bollard": Category(
         bollard, "bollard", zones("sidewalk", "plaza", "curb"), 0.4,
-        height=(0.80, 1.10), size_x=(0.10, 0.35), size_y=(0.10, 0.35),
+        height=(0.80, 1.10), size_x=(0.10, 0.35), size_y=(0.10, 0.35), anchor="crossing",
     ),
     "planter": Category(
         planter, "planter", zones("sidewalk", "plaza"), 0.4,
@@ -406,10 +406,10 @@ CATEGORIES: dict[str, Category] = {
     ),
     "lamp_post": Category(
         lamp_post, "lamp_post", zones("sidewalk", "curb", "plaza", "trail"), 0.4,
-        height=(3.80, 8.40), size_x=(0.35, 3.00), size_y=(0.20, 0.61),
+        height=(3.80, 8.40), size_x=(0.35, 3.00), size_y=(0.20, 0.61), anchor="curb",
     ),
     "fire_hydrant": Category(
         fire_hydrant, "fire_hydrant", zones("sidewalk", "curb"), 0.9,
-        height=(0.54, 0.90), size_x=(0.20, 0.45), size_y=(0.28, 0.50),
+        height=(0.54, 0.90), size_x=(0.20, 0.45), size_y=(0.28, 0.50), anchor="crossing",
     ),
 }  # fmt: skip
