@@ -272,10 +272,25 @@ def _catalog_footprint(asset_id: str) -> np.ndarray | str:
     from citygen import assets
 
     try:
-        fp = assets.resolve(asset_id).footprint
+        fp = assets.resolve(asset_id).base
     except assets.UnknownAsset as exc:
         return str(exc)
     return np.asarray(fp.exterior.coords)
+
+
+def _lot_assets(scene: Scene) -> set[int]:
+    """Placements of catalog assets that belong in building lots (building massing)."""
+    from citygen import assets
+
+    out = set()
+    for i, pl in enumerate(scene.placements):
+        if not pl.is_mesh:
+            try:
+                if "building" in assets.resolve(pl.asset).zones:
+                    out.add(i)
+            except assets.UnknownAsset:
+                pass
+    return out
 
 
 def _mesh_footprint(path: Path) -> np.ndarray | str:
@@ -358,21 +373,40 @@ def _check_placements(
         [f"$.placements[{i}]" for i in present],
         "no overlap with other objects",
     )
-    buildings = [(j, zones[j]) for j, z in enumerate(scene.zones) if z.kind == "building"]
-    if buildings and present:
-        tree = shapely.STRtree([b for _, b in buildings])
-        objs = np.asarray([footprints[i] for i in present], dtype=object)
-        left, right = tree.query(objs, predicate="intersects")
-        for a, b in zip(left.tolist(), right.tolist(), strict=True):
-            shared = objs[a].intersection(buildings[b][1]).area
-            if shared > AREA_TOL:
-                problems.append(
-                    Problem(
-                        f"$.placements[{present[a]}]",
-                        "no overlap with building zones",
-                        f"{shared:.4g} m^2 inside $.zones[{buildings[b][0]}]",
-                    )
-                )
+    lots = _lot_assets(scene)
+    problems += _inside_zones(scene, footprints, zones, present, lots)
+    return problems
+
+
+def _inside_zones(
+    scene: Scene, footprints: list[Polygon | None], zones: list[Polygon], present: list[int], lots: set[int]
+) -> list[Problem]:
+    """No object on the roadway; none in a building lot, except building massing, which
+    stands inside one lot."""
+    problems: list[Problem] = []
+    kinds = [z.kind for z in scene.zones]
+    if not present or not zones:
+        return problems
+    tree = shapely.STRtree(zones)
+    objs = np.asarray([footprints[i] for i in present], dtype=object)
+    left, right = tree.query(objs, predicate="intersects")
+    inside_lot = set()
+    for a, b in zip(left.tolist(), right.tolist(), strict=True):
+        i, kind = present[a], kinds[b]
+        if kind not in ("roadway", "building"):
+            continue
+        if kind == "building" and i in lots:
+            if zones[b].buffer(DIST_TOL).covers(objs[a]):
+                inside_lot.add(i)
+            continue
+        shared = objs[a].intersection(zones[b]).area
+        if shared > AREA_TOL:
+            expected = f"no overlap with {'the roadway' if kind == 'roadway' else 'building zones'}"
+            problems.append(Problem(f"$.placements[{i}]", expected, f"{shared:.4g} m^2 inside $.zones[{b}]"))
+    for i in sorted(lots & set(present) - inside_lot):
+        problems.append(
+            Problem(f"$.placements[{i}]", "a building standing inside one building zone", "it is not")
+        )
     return problems
 
 

@@ -1,4 +1,4 @@
-"""Generate a 7-block street network with zones and terrain, save it and draw it.
+"""Generate a 7-block street network: zones, terrain, objects, people, traffic and a traverse.
 
     python examples/street_network.py [OUT_DIR] [--seed N]
 
@@ -14,9 +14,23 @@ from pathlib import Path
 from citygen import save_scene, validate
 from citygen.exporters import picture
 from citygen.generate import generate
-from citygen.spec.config import BlocksConfig, GeneratorConfig
+from citygen.spec.config import (
+    AgentsConfig,
+    BlocksConfig,
+    GeneratorConfig,
+    PeopleMix,
+    PlacementConfig,
+    TaskConfig,
+)
 
-CONFIG = GeneratorConfig(size=(250.0, 250.0), layout="blocks", blocks=BlocksConfig(count=7))
+CONFIG = GeneratorConfig(
+    size=(250.0, 250.0),
+    layout="blocks",
+    blocks=BlocksConfig(count=7),
+    placement=PlacementConfig(count=None, density_per_100m2=2.0),
+    agents=AgentsConfig(people=40, mix=PeopleMix(pedestrian=6, cyclist=1, scooter=1), vehicles=8),
+    task=TaskConfig(kind="traverse", min_distance=120.0, time_limit=600.0),
+)
 
 
 def main() -> None:
@@ -32,7 +46,8 @@ def main() -> None:
     kinds = sorted({z.kind for z in scene.zones})
     print(
         f"{len(scene.blocks)} blocks, {len(scene.zones)} zones ({', '.join(kinds)}), "
-        f"{scene.terrain.rows} x {scene.terrain.cols} terrain tiles -> {args.out_dir}"
+        f"{scene.terrain.rows} x {scene.terrain.cols} terrain tiles, {len(scene.placements)} objects, "
+        f"{len(scene.agents)} agents, a {len(scene.task.route)}-waypoint traverse -> {args.out_dir}"
     )
 
 

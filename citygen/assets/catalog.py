@@ -32,6 +32,8 @@ from citygen.assets.parts import Box, Capsule, ConvexMesh, Cylinder, Part
 from citygen.spec.placements import CATALOG_ID
 
 _ID = re.compile(f"^{CATALOG_ID}$")
+BASE_HEIGHT = 2.0
+"""Parts whose bottom is below this height (m) stand in the way at ground level."""
 _PART_TYPES = (Box, Cylinder, Capsule, ConvexMesh)
 
 
@@ -84,6 +86,10 @@ class Asset:
     """Convex parts: the collision geometry."""
     footprint: Polygon = field(compare=False)
     """Union of the parts' ground projections (m), holes filled; derived from ``parts``."""
+    base: Polygon = field(compare=False)
+    """The footprint of the parts reaching below :data:`BASE_HEIGHT`: what a pedestrian or a
+    robot can walk into. A lamp's arm or a tree's crown overhead is in ``footprint`` only.
+    Placement keeps bases apart and on suitable ground; the occupancy map marks bases."""
     height: float
     """Top of the highest part above the ground (m)."""
     zones: frozenset[str]
@@ -143,6 +149,7 @@ def resolve(asset_id: str) -> Asset:
         semantic_class=category.semantic_class,
         parts=parts,
         footprint=_footprint(parts),
+        base=_footprint(tuple(p for p in parts if p.hull_points()[:, 2].min() < BASE_HEIGHT)),
         height=max(float(p.hull_points()[:, 2].max()) for p in parts),
         zones=category.zones,
         clearance=category.clearance,

@@ -1,16 +1,22 @@
 """The stages in order: one scene from a generator config and a seed.
 
 Each stage draws only from its own generator (:func:`citygen.seeding.stage_rng`), so
-changing how a later stage samples never changes what an earlier one produced.
+changing how a later stage samples never changes what an earlier one produced. The
+task stage (6) picks its start and goal right after the ground, so that the terrain
+keeps them flat and placement keeps them clear and connected; it still draws from its
+own generator, so its numbering is the order of the spec, not of the calls.
 """
 
 from __future__ import annotations
 
 from citygen._version import __version__
+from citygen.generate.agents import place_agents
 from citygen.generate.blocks import connect_blocks
 from citygen.generate.ground import ground_margin, plan_ground, plan_region
+from citygen.generate.placement import place_objects
+from citygen.generate.task import choose_endpoints, make_task, robot_clearance
 from citygen.generate.terrain import build_terrain
-from citygen.seeding import stage_rng
+from citygen.seeding import child, stage_rng
 from citygen.spec.config import GeneratorConfig
 from citygen.spec.scene import SCENE_FORMAT, Bounds, Meta, Scene
 
@@ -39,8 +45,50 @@ def layout(
 def generate(
     config: GeneratorConfig, seed: int, *, split: str | None = None, index: int | None = None
 ) -> Scene:
-    """Stages 1 to 3: :func:`layout`, then the terrain grid over it (WFC inside the zones,
-    or the locomotion curriculum)."""
+    """Every stage: :func:`layout` (blocks, ground), the task's endpoints, the terrain grid
+    (WFC inside the zones, or the locomotion curriculum), objects, agents and the task.
+
+    ``index`` (the scene's place in its split) picks the density levels of objects and
+    agents: level ``index % len(levels)``.
+    """
     scene = layout(config, seed, split=split, index=index)
-    terrain = build_terrain(scene.bounds, scene.zones, config.terrain, stage_rng(seed, "terrain"), seed=seed)
-    return scene.model_copy(update={"terrain": terrain})
+    ends = choose_endpoints(scene.bounds, scene.zones, config.task, stage_rng(seed, "task"), seed=seed)
+    terrain = build_terrain(
+        scene.bounds,
+        scene.zones,
+        config.terrain,
+        stage_rng(seed, "terrain"),
+        seed=seed,
+        flat_at=ends.points if ends is not None else (),
+    )
+    k = index or 0
+    placements = place_objects(
+        scene.bounds,
+        scene.zones,
+        terrain,
+        config.placement,
+        stage_rng(seed, "placement"),
+        level=_level(config.placement.density_levels, k),
+        ends=ends,
+        seed=seed,
+    )
+    agents = place_agents(
+        scene.bounds,
+        scene.zones,
+        scene.blocks,
+        placements,
+        config.agents,
+        stage_rng(seed, "agents"),
+        level=_level(config.agents.density_levels, k),
+        ends=ends,
+        robot_radius=robot_clearance(config.task),
+        seed=seed,
+    )
+    task = make_task(config.task, ends, terrain, child(stage_rng(seed, "task"), 1))
+    return scene.model_copy(
+        update={"terrain": terrain, "placements": placements, "agents": agents, "task": task}
+    )
+
+
+def _level(levels: tuple[float, ...], index: int) -> float:
+    return levels[index % len(levels)]

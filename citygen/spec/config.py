@@ -198,6 +198,12 @@ class AgentsConfig(SpecModel):
     """Preferred cycling speed, in metres per second."""
     scooter_speed: Range = (2.0, 5.0)
     """Preferred scooter speed, in metres per second."""
+    cyclist_radius: Range = (0.5, 0.8)
+    """Radius of the disc a cyclist and bicycle occupy, in metres."""
+    scooter_radius: Range = (0.35, 0.5)
+    """Radius of the disc a scooter rider occupies, in metres."""
+    vehicle_speed: Range = (8.0, 14.0)
+    """Desired vehicle speed (IDM's v0), in metres per second."""
 
 
 class TaskConfig(SpecModel):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from types import MappingProxyType
 from typing import Annotated, Literal
 
 from pydantic import Field
@@ -13,6 +14,13 @@ from citygen.spec.blocks import Pose2
 Robot = Literal["wheeled", "quadruped", "wheeled_legged", "humanoid", "wheelchair"]
 """The embodiments of the runner: a wheeled delivery robot, a Go2-like quadruped, a
 B2-W-like wheeled-legged robot, a G1-like humanoid, an electric wheelchair."""
+
+#: Radius (m) of the disc each embodiment occupies on the ground: what the task stage
+#: keeps clear at the start and goal and along a walkable path between them, and what
+#: the runner's planner inflates the occupancy map by.
+ROBOT_RADIUS = MappingProxyType(
+    {"wheeled": 0.35, "quadruped": 0.4, "wheeled_legged": 0.5, "humanoid": 0.3, "wheelchair": 0.45}
+)
 
 
 class _Task(SpecModel):

@@ -1,0 +1,249 @@
+"""Stage 5: pedestrians, cyclists and scooter riders on walkable ground, vehicles on lanes.
+
+People start and end in one connected piece of walkable ground wide enough for them
+(the walkable zones shrunk by the largest radius of their kind, minus the objects
+grown by it: :mod:`citygen.generate.space`), so a path between them exists; their
+discs do not overlap each other or the robot's at the start. Radius and preferred
+speed follow a normal distribution centred in the config's range (sd a quarter of
+the range), truncated to it: walking speeds cluster around 1.3 m/s in field studies.
+
+Vehicles drive on the right: each starts in the rightmost lane of a random block's
+road end, heading in, and follows a random route through the road graph (no block
+twice) to a road end of its last block. Cars, vans and buses in 75 : 15 : 10.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+import shapely
+from shapely.geometry import Point
+
+from citygen.assets import resolve
+from citygen.errors import GenerationError
+from citygen.generate.space import GRID, Sampler, free_space, pieces, walkable_ground, zone_polygon
+from citygen.generate.task import Endpoints
+from citygen.geometry.roads import block_geometry, road_graph
+from citygen.seeding import child
+from citygen.spec.agents import Person, Vehicle
+from citygen.spec.blocks import Block
+from citygen.spec.config import AgentsConfig, Range
+from citygen.spec.placements import Placement
+from citygen.spec.scene import Bounds
+from citygen.spec.zones import Zone
+
+#: Vehicle types: (weight, length range m, width range m).
+VEHICLE_TYPES = (
+    (0.75, (4.2, 4.9), (1.75, 1.95)),  # car
+    (0.15, (5.0, 6.2), (1.95, 2.1)),  # van
+    (0.10, (10.5, 12.0), (2.5, 2.55)),  # bus
+)
+GAP = 0.1
+"""Space (m) kept between agents' discs, and between them and the robot's, at the start."""
+TRIP = 30.0
+"""Longest straight-line distance (m) a person's trip is asked to span (less in small scenes)."""
+
+
+def truncated_normal(rng: np.random.Generator, span: Range) -> float:
+    """A draw from a normal centred in ``span`` with sd a quarter of it, truncated to it."""
+    lo, hi = span
+    if hi <= lo:
+        return float(lo)
+    for _ in range(16):
+        v = float(rng.normal((lo + hi) / 2, (hi - lo) / 4))
+        if lo <= v <= hi:
+            return v
+    return float(np.clip(v, lo, hi))
+
+
+def place_agents(
+    bounds: Bounds,
+    zones: Sequence[Zone],
+    blocks: Sequence[Block],
+    placements: Sequence[Placement],
+    cfg: AgentsConfig,
+    rng: np.random.Generator,
+    *,
+    level: float = 1.0,
+    ends: Endpoints | None = None,
+    robot_radius: float = 0.0,
+    seed: int = 0,
+) -> tuple[Person | Vehicle, ...]:
+    """People and vehicles of one scene; ``level`` scales the config's counts."""
+    people = _people(bounds, zones, placements, cfg, child(rng, 0), level, ends, robot_radius, seed)
+    vehicles = math.floor(cfg.vehicles * level + 0.5)
+    if vehicles and not blocks:
+        raise GenerationError(
+            "agents",
+            seed,
+            f"{vehicles} vehicles need road blocks to drive on (layout 'blocks'); set vehicles = 0",
+        )
+    cars = _vehicles(zones, blocks, cfg, child(rng, 1), vehicles, seed) if vehicles else []
+    return (*people, *cars)
+
+
+def _people(bounds, zones, placements, cfg, rng, level, ends, robot_radius, seed) -> list[Person]:
+    count = math.floor(cfg.people * level + 0.5)
+    if count == 0:
+        return []
+    kinds = ("pedestrian", "cyclist", "scooter")
+    weights = np.array([cfg.mix.pedestrian, cfg.mix.cyclist, cfg.mix.scooter], dtype=float)
+    radius = {
+        "pedestrian": cfg.pedestrian_radius,
+        "cyclist": cfg.cyclist_radius,
+        "scooter": cfg.scooter_radius,
+    }
+    speed = {"pedestrian": cfg.pedestrian_speed, "cyclist": cfg.cyclist_speed, "scooter": cfg.scooter_speed}
+    ground = walkable_ground(zones, (*bounds.min, *bounds.max))
+    bases = [_base(p) for p in placements if not p.is_mesh]
+    spaces: dict[str, list] = {}
+    taken: list[tuple[float, float, float]] = []
+    if ends is not None:
+        taken.append((*ends.start, robot_radius))
+    trip = min(TRIP, 0.5 * min(bounds.size))
+    out = []
+    for i in range(count):
+        kind = kinds[int(rng.choice(3, p=weights / weights.sum()))]
+        r = round(truncated_normal(rng, radius[kind]), 3)
+        v = round(truncated_normal(rng, speed[kind]), 3)
+        if kind not in spaces:
+            free = free_space(ground, bases, radius[kind][1])
+            spaces[kind] = [(p, Sampler(p)) for p in pieces(free)[:64]]
+        if not spaces[kind]:
+            raise GenerationError(
+                "agents",
+                seed,
+                f"no walkable ground wide enough for a {kind} ({2 * radius[kind][1]:g} m across)",
+            )
+        pair = _trip(spaces[kind], rng, trip, r, taken)
+        if pair is None:
+            raise GenerationError(
+                "agents", seed, f"no free start on walkable ground for {kind} {i + 1} of {count}"
+            )
+        start, goal = pair
+        taken.append((*start, r))
+        out.append(Person(id=f"{kind}-{i + 1}", kind=kind, start=start, goal=goal, radius=r, speed=v))
+    return out
+
+
+def _base(p: Placement) -> shapely.Polygon:
+    ring = np.asarray(resolve(p.asset).base.exterior.coords) * p.scale
+    c, s = math.cos(p.yaw), math.sin(p.yaw)
+    return shapely.Polygon(ring @ np.array([[c, s], [-s, c]]) + np.asarray(p.position[:2]))
+
+
+def _trip(spaces, rng, trip, r, taken):
+    """A start clear of every disc in ``taken`` and a goal in the same piece, as far as
+    ``trip`` when the piece allows, else the farthest of a few draws."""
+    areas = np.array([p.area for p, _ in spaces])
+    for _ in range(64):
+        k = int(rng.choice(len(spaces), p=areas / areas.sum()))
+        piece, sampler = spaces[k]
+        start = sampler.point(rng)
+        if not piece.covers(Point(start)):
+            continue
+        if any(math.dist(start, (x, y)) < r + q + GAP for x, y, q in taken):
+            continue
+        best = None
+        for _ in range(16):
+            goal = sampler.point(rng)
+            if not piece.covers(Point(goal)):
+                continue
+            d = math.dist(start, goal)
+            if d >= trip:
+                return start, goal
+            if best is None or d > best[0]:
+                best = (d, goal)
+        if best is not None:
+            return start, best[1]
+    return None
+
+
+def _vehicles(zones, blocks, cfg, rng, count, seed) -> list[Vehicle]:
+    graph = road_graph(blocks)
+    by_id = {b.id: b for b in blocks}
+    roads = [zone_polygon(z) for z in zones if z.kind in ("roadway", "parking")]
+    road = shapely.union_all(roads, grid_size=GRID) if roads else None
+    if road is not None:
+        shapely.prepare(road)
+    order = [b.id for b in blocks]
+    out: list[Vehicle] = []
+    starts: list[tuple[float, float, float]] = []
+    weights = np.array([w for w, _, _ in VEHICLE_TYPES])
+    for i in range(count):
+        _, length_range, width_range = VEHICLE_TYPES[int(rng.choice(len(weights), p=weights / weights.sum()))]
+        length = round(float(rng.uniform(*length_range)), 3)
+        width = round(float(rng.uniform(*width_range)), 3)
+        for _ in range(64):
+            route = _route(graph, order, by_id, rng)
+            first, last = by_id[route[0][0]], by_id[route[-1][0]]
+            start = _lane_point(first, route[0][1], length, road, inward=True)
+            goal = _lane_point(last, route[-1][2], length, road, inward=False)
+            if start is None or goal is None:
+                continue
+            if any(math.dist(start, (x, y)) < (length + q) / 2 + 2.0 for x, y, q in starts):
+                continue
+            starts.append((*start, length))
+            speed = round(float(rng.uniform(*cfg.vehicle_speed)), 3)
+            out.append(
+                Vehicle(
+                    id=f"vehicle-{i + 1}",
+                    kind="vehicle",
+                    start=start,
+                    goal=goal,
+                    length=length,
+                    width=width,
+                    speed=speed,
+                    route=tuple(b for b, _, _ in route),
+                )
+            )
+            break
+        else:
+            raise GenerationError("agents", seed, f"no free lane start for vehicle {i + 1} of {count}")
+    return out
+
+
+def _route(graph, order, by_id, rng) -> list[tuple[str, str, str]]:
+    """A random drive: ``(block id, entry socket, exit socket)`` per block, no block twice,
+    1 to 8 blocks."""
+    here = order[int(rng.integers(len(order)))]
+    arms = [a.socket for a in block_geometry(by_id[here]).arms]
+    entry = arms[int(rng.integers(len(arms)))]
+    route, seen = [], {here}
+    for _ in range(int(rng.integers(1, 9))):
+        exits = [a for a in (a.socket for a in block_geometry(by_id[here]).arms) if a != entry]
+        if not exits:
+            break
+        onward = []
+        for e in exits:
+            for nb in sorted(graph.neighbors(here)):
+                if graph.edges[here, nb]["sockets"][here] == e and nb not in seen:
+                    onward.append((e, nb))
+        if not onward:
+            route.append((here, entry, exits[int(rng.integers(len(exits)))]))
+            return route
+        e, nb = onward[int(rng.integers(len(onward)))]
+        route.append((here, entry, e))
+        entry, here = graph.edges[here, nb]["sockets"][nb], nb
+        seen.add(nb)
+    exits = [a for a in (a.socket for a in block_geometry(by_id[here]).arms) if a != entry] or [entry]
+    route.append((here, entry, exits[int(rng.integers(len(exits)))]))
+    return route
+
+
+def _lane_point(block, socket, length, road, *, inward: bool):
+    """A point in the rightmost lane at the block's ``socket`` end: heading into the block
+    when ``inward`` (a start), out of it otherwise (a goal), on roadway (not a crosswalk)."""
+    arm = next(a for a in block_geometry(block).arms if a.socket == socket)
+    heading = arm.yaw + math.pi if inward else arm.yaw
+    fwd = np.array([math.cos(arm.yaw + math.pi), math.sin(arm.yaw + math.pi)])  # into the block
+    right = np.array([math.sin(heading), -math.cos(heading)])
+    lane = min(block.lane_width, arm.half_width) / 2
+    for depth in (length / 2 + 0.5, length / 2 + 3.0, length / 2 + 6.0, length / 2 + 10.0):
+        p = np.asarray(arm.position) + fwd * depth + right * lane
+        pt = (round(float(p[0]), 3) + 0.0, round(float(p[1]), 3) + 0.0)
+        if road is None or road.covers(Point(pt)):
+            return pt
+    return None

@@ -1,0 +1,414 @@
+"""Stage 4: static objects from the asset catalog, placed where real ones stand.
+
+Every object goes into zones its category suits (:attr:`Category.zones`), at the spot
+its :data:`~citygen.assets.category.Anchor` names: street furniture in the sidewalk's
+furnishing strip lined up with the curb and facing the road, hydrants and traffic
+lights near crosswalk ends, cafe tables along the building line, benches and planters
+anywhere on a plaza, one building massing fitted into every building lot. The clear
+strip of a sidewalk (the pedestrian through zone) stays clear, as street design guides
+ask; small region scenes have no strips, so there objects stand anywhere suitable.
+
+A candidate is kept when its base (:attr:`Asset.base`, the parts a robot can walk
+into):
+
+1. lies inside the zones its category suits (so never on the roadway or in a building);
+2. stands on ground flat enough (:data:`MAX_TILT` of rise under the base);
+3. keeps ``max(config.clearance, its clearance, the other's)`` metres from every object;
+4. leaves the robot's start and goal discs clear, and, when the task needs a path,
+   leaves start and goal in one connected piece of free space for the robot's radius
+   (:mod:`citygen.generate.space`): an object may stand in the way, never cut it.
+
+How many: ``config.count`` objects (exact) or ``density_per_100m2`` per 100 m2 of the
+ground the categories suit, times the scene's density level (Urban-Nav-2's 50 %, 100 %,
+150 %). Buildings fill their lots and are not counted. Each scene draws a small palette
+of variants per category, so a street repeats its bench model as real streets do (and
+instancing exporters stay small).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import shapely
+from shapely.geometry import LineString, Point, Polygon
+from shapely.geometry.base import BaseGeometry
+
+from citygen.assets import CATEGORIES, resolve
+from citygen.assets.catalog import Asset
+from citygen.errors import GenerationError
+from citygen.generate.space import GRID, Sampler, free_space, walkable_ground, zone_polygon
+from citygen.generate.task import Endpoints
+from citygen.geometry.terrain import height_at
+from citygen.seeding import child
+from citygen.spec.config import PlacementConfig
+from citygen.spec.placements import Placement
+from citygen.spec.scene import Bounds
+from citygen.spec.terrain import Terrain
+from citygen.spec.zones import Zone
+
+PALETTE = 6
+"""Variants of each category one scene draws from."""
+TRIES = 60
+"""Candidates drawn per object before the stage gives up on it."""
+MAX_TILT = 0.12
+"""Most rise (m) of the ground under an object's base."""
+CROSSING_REACH = 6.0
+"""How far (m) from a crosswalk ``crossing`` objects (hydrants, traffic lights) stand."""
+ROADS = ("roadway", "bike_lane", "parking")
+MIN_BUILDING_SCALE = 0.25
+"""Smallest scale a building massing is shrunk to to fit its lot; smaller lots stay empty."""
+HASH = 8.0
+"""Cell size (m) of the spatial hash of placed objects."""
+
+
+@dataclass
+class _Slot:
+    """Where one category's objects may stand: pieces of ground to draw from (with each
+    piece's principal direction) and the region their bases must stay inside."""
+
+    pieces: list[tuple[Polygon, float]]
+    region: BaseGeometry
+    faces_road: bool
+    area: float = 0.0
+    _samplers: dict[int, Sampler] = field(default_factory=dict)
+    _weights: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        areas = np.array([p.area for p, _ in self.pieces])
+        self.area = float(areas.sum())
+        self._weights = np.cumsum(areas) / self.area if self.area > 0 else areas
+        shapely.prepare(self.region)
+
+    def draw(self, rng: np.random.Generator) -> tuple[tuple[float, float], float]:
+        """A uniform point of the slot and the principal direction of its piece (rad)."""
+        k = min(int(np.searchsorted(self._weights, rng.random(), side="right")), len(self.pieces) - 1)
+        if k not in self._samplers:
+            self._samplers[k] = Sampler(self.pieces[k][0])
+        return self._samplers[k].point(rng), self.pieces[k][1]
+
+
+def _axis(polygon: Polygon) -> float:
+    """Direction (rad, in [0, pi)) of the long side of the polygon's minimum rotated rectangle."""
+    rect = np.asarray(polygon.minimum_rotated_rectangle.exterior.coords)
+    if len(rect) < 4:
+        return 0.0
+    e1, e2 = rect[1] - rect[0], rect[2] - rect[1]
+    e = e1 if np.hypot(*e1) >= np.hypot(*e2) else e2
+    return float(math.atan2(e[1], e[0]) % math.pi)
+
+
+class _Ground:
+    """The scene's zones, grouped the ways placement asks for them."""
+
+    def __init__(self, zones: Sequence[Zone]):
+        self.zones = zones
+        self.polys = [zone_polygon(z) for z in zones]
+        self.strips = any(z.strip is not None for z in zones)
+        roads = [p for p, z in zip(self.polys, zones, strict=True) if z.kind in ROADS]
+        self.road_tree = shapely.STRtree(roads) if roads else None
+        self.roads = roads
+        crossings = [p for p, z in zip(self.polys, zones, strict=True) if z.kind == "crosswalk"]
+        self.near_crossings = (
+            shapely.union_all(crossings, grid_size=GRID).buffer(CROSSING_REACH, quad_segs=4)
+            if crossings
+            else None
+        )
+        self._slots: dict[str, _Slot | None] = {}
+
+    def usable(self, zone: Zone, kinds: frozenset[str]) -> bool:
+        """A zone of one of ``kinds``, and not a sidewalk's clear strip."""
+        return zone.kind in kinds and zone.strip != "clear"
+
+    def slot(self, name: str) -> _Slot | None:
+        if name not in self._slots:
+            self._slots[name] = self._make_slot(name)
+        return self._slots[name]
+
+    def _make_slot(self, name: str) -> _Slot | None:
+        cat = CATEGORIES[name]
+        kinds = frozenset(cat.zones) - {"building"}
+        chosen = [
+            (p, z)
+            for p, z in zip(self.polys, self.zones, strict=True)
+            if self.usable(z, kinds) and p.area > 0
+        ]
+        if not chosen:
+            return None
+        region = shapely.union_all([p for p, _ in chosen], grid_size=GRID)
+        anchor = cat.anchor if self.strips else "free"
+        if anchor in ("curb", "crossing"):
+            draw = [(p, z) for p, z in chosen if z.strip == "furnishing" or z.kind == "curb"]
+        elif anchor == "frontage":
+            draw = [(p, z) for p, z in chosen if z.strip == "frontage" or z.kind == "plaza"]
+        else:
+            draw = chosen
+        pieces = [(p, _axis(p)) for p, _ in draw]
+        if anchor == "crossing" and self.near_crossings is not None:
+            pieces = [
+                (g, axis)
+                for p, axis in pieces
+                for g in shapely.get_parts(p.intersection(self.near_crossings))
+                if isinstance(g, Polygon) and g.area > 1e-3
+            ]
+        if not pieces:
+            return None
+        return _Slot(
+            pieces, region, faces_road=anchor in ("curb", "crossing", "frontage") and bool(self.roads)
+        )
+
+    def toward_road(self, x: float, y: float) -> float | None:
+        """Heading (rad) from the point to the nearest roadway, or None without roads."""
+        if self.road_tree is None:
+            return None
+        pt = Point(x, y)
+        k = int(self.road_tree.query_nearest(pt)[0])
+        end = shapely.shortest_line(pt, self.roads[k]).coords[1]
+        if math.dist(end, (x, y)) < 1e-9:
+            return None
+        return math.atan2(end[1] - y, end[0] - x)
+
+
+class _Hash:
+    """Placed bases in a uniform grid of cells, for distance queries near a candidate."""
+
+    def __init__(self) -> None:
+        self.cells: dict[tuple[int, int], list[int]] = defaultdict(list)
+        self.shapes: list[Polygon] = []
+        self.clearance: list[float] = []
+
+    def _keys(self, bounds: Sequence[float]) -> list[tuple[int, int]]:
+        x0, y0, x1, y1 = (math.floor(v / HASH) for v in bounds)
+        return [(i, j) for i in range(x0, x1 + 1) for j in range(y0, y1 + 1)]
+
+    def clear(self, shape: Polygon, clearance: float, floor: float, reach: float) -> bool:
+        """Whether ``shape`` keeps ``max(floor, clearance, other's)`` from every placed base;
+        ``reach`` bounds every clearance."""
+        x0, y0, x1, y1 = shape.bounds
+        near = sorted({k for key in self._keys((x0 - reach, y0 - reach, x1 + reach, y1 + reach))
+                       for k in self.cells.get(key, ())})  # fmt: skip
+        if not near:
+            return True
+        gaps = np.maximum(max(floor, clearance), np.asarray([self.clearance[k] for k in near]))
+        others = np.asarray([self.shapes[k] for k in near], dtype=object)
+        return not bool(shapely.dwithin(shape, others, gaps - 1e-9).any())
+
+    def add(self, shape: Polygon, clearance: float) -> None:
+        k = len(self.shapes)
+        self.shapes.append(shape)
+        self.clearance.append(clearance)
+        for key in self._keys(shape.bounds):
+            self.cells[key].append(k)
+
+
+def _pose(points: np.ndarray, x: float, y: float, yaw: float, scale: float = 1.0) -> np.ndarray:
+    c, s = math.cos(yaw), math.sin(yaw)
+    return points * scale @ np.array([[c, s], [-s, c]]) + (x, y)
+
+
+def _base_ring(asset: Asset) -> np.ndarray:
+    return np.asarray(asset.base.exterior.coords)
+
+
+class _Path:
+    """The connected piece of free space holding the robot's start and goal, kept whole."""
+
+    def __init__(self, ground: BaseGeometry, ends: Endpoints):
+        self.start, self.goal, self.radius = Point(ends.start), Point(ends.goal), ends.radius
+        self.piece = self._holding_start(free_space(ground, (), ends.radius))
+
+    def _holding_start(self, free: BaseGeometry) -> BaseGeometry | None:
+        for g in shapely.get_parts(free):
+            if g.covers(self.start):
+                shapely.prepare(g)
+                return g
+        return None
+
+    def allows(self, base: Polygon) -> bool:
+        """Whether start and goal stay connected with ``base`` standing; if so, keep it."""
+        if self.piece is None:
+            return True
+        grown = base.buffer(self.radius, quad_segs=4)
+        if not self.piece.intersects(grown):
+            return True
+        rest = self._holding_start(shapely.difference(self.piece, grown))
+        if rest is None or not rest.covers(self.goal):
+            return False
+        self.piece = rest
+        return True
+
+
+def target_count(cfg: PlacementConfig, level: float, area: float) -> int:
+    """Objects to place: ``count`` or the density over ``area`` (m2), times ``level``."""
+    base = cfg.count if cfg.count is not None else cfg.density_per_100m2 * area / 100.0
+    return math.floor(base * level + 0.5)
+
+
+def place_objects(
+    bounds: Bounds,
+    zones: Sequence[Zone],
+    terrain: Terrain | None,
+    cfg: PlacementConfig,
+    rng: np.random.Generator,
+    *,
+    level: float = 1.0,
+    ends: Endpoints | None = None,
+    seed: int = 0,
+) -> tuple[Placement, ...]:
+    """The scene's static objects: buildings in their lots, then the counted furniture.
+
+    ``rng`` is the placement stage's generator; ``level`` the density factor; ``ends``
+    the task's start and goal to keep clear and connected; ``seed`` only labels errors.
+    """
+    names = cfg.categories or tuple(CATEGORIES)
+    unknown = [n for n in names if n not in CATEGORIES]
+    if unknown:
+        raise GenerationError(
+            "placement", seed, f"unknown categories {unknown}: expected some of {', '.join(CATEGORIES)}"
+        )
+    ground = _Ground(zones)
+    palettes = {
+        name: [f"{name}/{int(v):04d}" for v in child(rng, k).choice(10_000, PALETTE, replace=False)]
+        for k, name in enumerate(sorted(CATEGORIES))
+    }
+    placed: list[Placement] = []
+    if "building" in names:
+        placed += _buildings(ground, palettes["building"], terrain)
+    furniture = [n for n in sorted(set(names)) if CATEGORIES[n].anchor != "lot"]
+    slots = {n: s for n in furniture if (s := ground.slot(n)) is not None}
+    area = float(shapely.union_all([s.region for s in slots.values()], grid_size=GRID).area if slots else 0.0)
+    wanted = target_count(cfg, level, area)
+    if not slots or wanted == 0:
+        return tuple(placed)
+    keep_out = _keep_out(ends)
+    path = (
+        _Path(walkable_ground(zones, (*bounds.min, *bounds.max)), ends) if ends and ends.needs_path else None
+    )
+    taken = _Hash()
+    reach = max(cfg.clearance, *(CATEGORIES[n].clearance for n in slots))
+    rng = child(rng, 200)
+    order = list(slots)
+    counts: dict[str, int] = defaultdict(int)
+    for _ in range(wanted):
+        for _ in range(TRIES):
+            name = order[int(rng.integers(len(order)))]
+            asset = resolve(palettes[name][int(rng.integers(PALETTE))])
+            slot = slots[name]
+            (x, y), axis = slot.draw(rng)
+            yaw = None
+            if slot.faces_road:
+                yaw = ground.toward_road(x, y)
+            if yaw is None:
+                yaw = axis + int(rng.integers(4)) * math.pi / 2
+            yaw = round(math.remainder(yaw, 2 * math.pi), 6) + 0.0
+            ring = _pose(_base_ring(asset), x, y, yaw)
+            base = Polygon(ring)
+            if not slot.region.covers(base):
+                continue
+            if keep_out is not None and keep_out.intersects(base):
+                continue
+            z = _ground_height(terrain, ring, x, y)
+            if z is None:
+                continue
+            if not taken.clear(base, asset.clearance, cfg.clearance, reach):
+                continue
+            if path is not None and not path.allows(base):
+                continue
+            taken.add(base, asset.clearance)
+            counts[name] += 1
+            placed.append(
+                Placement(
+                    id=f"{name.replace('_', '-')}-{counts[name]}", asset=asset.id, position=(x, y, z), yaw=yaw
+                )
+            )
+            break
+    return tuple(placed)
+
+
+def _keep_out(ends: Endpoints | None) -> BaseGeometry | None:
+    """The robot's discs at start and goal, and its corridor along a traverse route."""
+    if ends is None:
+        return None
+    if ends.route:
+        line = LineString([ends.start, *ends.route])
+        shape = line.buffer(ends.radius, quad_segs=4)
+    else:
+        shape = shapely.union_all([Point(p).buffer(ends.radius, quad_segs=8) for p in ends.points])
+    shapely.prepare(shape)
+    return shape
+
+
+def _ground_height(terrain: Terrain | None, ring: np.ndarray, x: float, y: float) -> float | None:
+    """The lowest ground under the base (m), or None where it rises more than :data:`MAX_TILT`."""
+    if terrain is None:
+        return 0.0
+    xs = np.append(ring[:, 0], x)
+    ys = np.append(ring[:, 1], y)
+    zs = height_at(terrain, xs, ys)
+    if float(zs.max() - zs.min()) > MAX_TILT:
+        return None
+    return round(float(zs.min()), 3) + 0.0
+
+
+def _buildings(ground: _Ground, palette: list[str], terrain: Terrain | None) -> list[Placement]:
+    """One building massing per building lot: of the palette's variants, the one that fits
+    the lot nearest its real size, turned to the lot's long side with its front toward the
+    nearest road, scaled to fill the lot's rectangle and shrunk until it fits inside."""
+    out = []
+    variants = [resolve(v) for v in palette]
+    for poly, zone in zip(ground.polys, ground.zones, strict=True):
+        if zone.kind != "building" or poly.area < 4.0:
+            continue
+        fits = [(f, a) for a in variants if (f := _fit(a, poly, ground)) is not None]
+        if not fits:
+            continue
+        (x, y, yaw, scale), asset = min(fits, key=lambda fa: abs(math.log(fa[0][3])))
+        ring = _pose(_base_ring(asset), x, y, yaw, scale)
+        z = _ground_height(terrain, ring, x, y)
+        out.append(
+            Placement(
+                id=f"building-{len(out) + 1}",
+                asset=asset.id,
+                position=(x, y, 0.0 if z is None else z),
+                yaw=yaw,
+                scale=scale,
+            )
+        )
+    return out
+
+
+def _fit(asset: Asset, lot: Polygon, ground: _Ground) -> tuple[float, float, float, float] | None:
+    """Position, yaw and scale of ``asset`` filling ``lot``, or None when it only fits below
+    :data:`MIN_BUILDING_SCALE`. Centred on the lot's minimum rotated rectangle, or, for
+    an irregular lot, on the centre of its largest inscribed circle."""
+    rect = lot.minimum_rotated_rectangle
+    axis = _axis(rect)
+    corners = np.asarray(rect.exterior.coords)[:4]
+    short_side, long_side = sorted(
+        [np.hypot(*(corners[1] - corners[0])), np.hypot(*(corners[2] - corners[1]))]
+    )
+    inner = shapely.get_point(shapely.maximum_inscribed_circle(lot, 0.1), 0)
+    centres = [rect.centroid, inner]
+    facing = ground.toward_road(centres[0].x, centres[0].y)
+    aim = axis if facing is None else facing
+    turns = sorted(range(4), key=lambda k: abs(math.remainder(axis + k * math.pi / 2 - aim, 2 * math.pi)))
+    ring = _base_ring(asset)
+    c, s = math.cos(axis), math.sin(axis)
+    for centre in centres:
+        for k in turns[:2]:
+            yaw = round(math.remainder(axis + k * math.pi / 2, 2 * math.pi), 6) + 0.0
+            local = _pose(ring, 0.0, 0.0, yaw - axis)  # the base in the rectangle's frame
+            ext = local.max(axis=0) - local.min(axis=0)
+            mid = (local.max(axis=0) + local.min(axis=0)) / 2
+            scale = min(0.92 * long_side / ext[0], 0.92 * short_side / ext[1], 2.0)
+            while scale >= MIN_BUILDING_SCALE:
+                off = mid * scale @ np.array([[c, s], [-s, c]])
+                x, y = round(float(centre.x - off[0]), 3) + 0.0, round(float(centre.y - off[1]), 3) + 0.0
+                q = round(float(scale), 3)
+                if lot.covers(Polygon(_pose(ring, x, y, yaw, q))):
+                    return x, y, yaw, q
+                scale *= 0.85
+    return None

@@ -1,0 +1,109 @@
+"""Free space on walkable ground: where a disc of a given radius can stand and move.
+
+The task, placement and agent stages all ask the same questions: which walkable
+ground a body of radius ``r`` can reach (the walkable zones shrunk by ``r``, minus
+the objects grown by ``r``), which connected piece a point is in, and a uniform
+random point in a piece. A connected piece of that shrunk free space is exactly
+the set of centre positions a disc can move between without touching an object or
+leaving walkable ground, so "start and goal in one piece" means "a path exists".
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+
+import numpy as np
+import shapely
+from shapely.geometry import LineString, Point, Polygon
+from shapely.geometry.base import BaseGeometry
+
+from citygen.spec.surfaces import WALKABLE_ZONES
+from citygen.spec.zones import Zone
+
+GRID = 1e-3
+"""Precision (m) of the unions, as in the ground stage that tiles the zones."""
+
+
+def zone_polygon(zone: Zone) -> Polygon:
+    return Polygon(zone.polygon, zone.holes)
+
+
+def walkable_ground(zones: Sequence[Zone], bounds: Sequence[float]) -> BaseGeometry:
+    """The union of the walkable zones; a scene without zones is walkable everywhere."""
+    if not zones:
+        return shapely.box(*bounds)
+    walk = [zone_polygon(z) for z in zones if z.kind in WALKABLE_ZONES]
+    return shapely.union_all(walk, grid_size=GRID) if walk else Polygon()
+
+
+def free_space(ground: BaseGeometry, obstacles: Iterable[BaseGeometry], radius: float) -> BaseGeometry:
+    """Where the centre of a disc of ``radius`` can be: ``ground`` shrunk by ``radius``
+    minus every obstacle grown by ``radius``."""
+    free = ground.buffer(-radius, quad_segs=4) if radius > 0 else ground
+    grown = [o.buffer(radius, quad_segs=4) if radius > 0 else o for o in obstacles]
+    if grown:
+        free = shapely.difference(free, shapely.union_all(grown))
+    return free
+
+
+def pieces(geometry: BaseGeometry) -> list[Polygon]:
+    """The connected polygons of a geometry, largest first (ties by position, for determinism)."""
+    polys = [g for g in shapely.get_parts(geometry) if isinstance(g, Polygon) and g.area > 1e-9]
+    return sorted(polys, key=lambda p: (-round(p.area, 9), p.bounds))
+
+
+class Sampler:
+    """Uniform random points in a polygon, from an area-weighted triangulation."""
+
+    def __init__(self, polygon: BaseGeometry):
+        tris = [t for t in shapely.get_parts(shapely.constrained_delaunay_triangles(polygon)) if t.area > 0]
+        self.area = float(sum(t.area for t in tris))
+        self._corners = np.array([np.asarray(t.exterior.coords)[:3] for t in tris]).reshape(-1, 3, 2)
+        areas = np.array([t.area for t in tris])
+        self._cumulative = np.cumsum(areas) / areas.sum() if len(areas) else areas
+
+    def __bool__(self) -> bool:
+        return self.area > 0
+
+    def point(self, rng: np.random.Generator) -> tuple[float, float]:
+        """One uniform point, rounded to the millimetre."""
+        k = min(int(np.searchsorted(self._cumulative, rng.random(), side="right")), len(self._cumulative) - 1)
+        a, b, c = self._corners[k]
+        u, v = rng.random(2)
+        if u + v > 1.0:
+            u, v = 1.0 - u, 1.0 - v
+        x, y = a + u * (b - a) + v * (c - a)
+        return (round(float(x), 3) + 0.0, round(float(y), 3) + 0.0)
+
+
+def far_pair(
+    piece: Polygon, sampler: Sampler, rng: np.random.Generator, min_distance: float, tries: int = 64
+) -> tuple[tuple[float, float], tuple[float, float]] | None:
+    """Two points of ``piece`` at least ``min_distance`` apart (straight line, so at least
+    as far along any path), or None after ``tries`` draws of each end."""
+    for _ in range(tries):
+        a = sampler.point(rng)
+        if not piece.covers(Point(a)):
+            continue
+        for _ in range(8):
+            b = sampler.point(rng)
+            if math.dist(a, b) >= min_distance and piece.covers(Point(b)):
+                return a, b
+    return None
+
+
+def straighten(points: Sequence[tuple[float, float]], free: BaseGeometry) -> list[tuple[float, float]]:
+    """The fewest of ``points`` (first and last kept) such that the straight legs between
+    them stay inside ``free``: a grid path turned into waypoints without cutting corners."""
+    if len(points) <= 2:
+        return list(points)
+    shapely.prepare(free)
+    out, i = [points[0]], 0
+    while i < len(points) - 1:
+        j = len(points) - 1
+        while j > i + 1 and not free.covers(LineString([points[i], points[j]])):
+            j = (i + 1 + j) // 2 if j - i > 8 else j - 1
+        out.append(points[j])
+        i = j
+    return out

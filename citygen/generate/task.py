@@ -1,0 +1,158 @@
+"""Stage 6: the robot's task (start pose, goal, route), solvable by construction.
+
+The stage runs in two steps around the others, drawing only from its own generator:
+
+1. :func:`choose_endpoints`, right after the ground: the start and the goal (or the
+   traverse route) on walkable ground wide enough for the robot, in one connected
+   piece of it, at least ``min_distance`` apart in a straight line, so at least as far
+   along any walkable path. The terrain stage then keeps their tiles flat, and the
+   placement stage keeps the robot's discs there clear and never cuts the walkable
+   connection between them.
+2. :func:`make_task`, at the end: the spec's task model from those endpoints.
+
+Locomotion tasks start at the centre of a tile of the terrain grid, facing along +x
+or across, and carry no goal.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.ndimage
+import shapely
+
+from citygen.errors import GenerationError
+from citygen.generate.space import Sampler, far_pair, free_space, pieces, straighten, walkable_ground
+from citygen.geometry import raster
+from citygen.spec.blocks import Pose2
+from citygen.spec.config import TaskConfig
+from citygen.spec.scene import Bounds
+from citygen.spec.task import ROBOT_RADIUS, LocoTask, NavTask, Task, TraverseTask
+from citygen.spec.terrain import Terrain
+from citygen.spec.zones import Zone
+
+MARGIN = 0.1
+"""Extra clearance (m) beyond the robot's radius kept at the start, the goal and on the route."""
+LEG = 25.0
+"""Longest straight leg (m) between two traverse waypoints."""
+
+
+@dataclass(frozen=True)
+class Endpoints:
+    """Where the task starts and ends, chosen before the terrain and the objects."""
+
+    start: tuple[float, float]
+    yaw: float
+    goal: tuple[float, float] | None = None
+    route: tuple[tuple[float, float], ...] = ()
+    radius: float = 0.0
+    """Clearance (m) kept around ``start``, ``goal`` and the route: robot radius + margin."""
+
+    @property
+    def points(self) -> list[tuple[float, float]]:
+        """Start, goal and route points: where the terrain must be flat."""
+        return [self.start, *([self.goal] if self.goal is not None else []), *self.route]
+
+    @property
+    def needs_path(self) -> bool:
+        """Whether later stages must keep a walkable path from start to goal."""
+        return self.goal is not None
+
+
+def robot_clearance(cfg: TaskConfig) -> float:
+    return ROBOT_RADIUS[cfg.robot] + MARGIN
+
+
+def choose_endpoints(
+    bounds: Bounds, zones: Sequence[Zone], cfg: TaskConfig, rng: np.random.Generator, *, seed: int
+) -> Endpoints | None:
+    """The start and goal (nav), the route (traverse); None for locomotion tasks, whose
+    start is chosen on the terrain grid by :func:`make_task`."""
+    if cfg.kind.startswith("loco-"):
+        return None
+    radius = robot_clearance(cfg)
+    box = (*bounds.min, *bounds.max)
+    free = free_space(walkable_ground(zones, box), (), radius)
+    candidates = pieces(free)
+    if not candidates:
+        raise GenerationError(
+            "task",
+            seed,
+            f"no walkable ground wide enough for the {cfg.robot} robot ({2 * radius:g} m across)",
+        )
+    need = cfg.min_distance
+    for attempt in range(24):
+        piece = candidates[min(attempt // 3, len(candidates) - 1, 7)]
+        pair = far_pair(piece, Sampler(piece), rng, need)
+        if pair is None:
+            continue
+        start, goal = pair
+        yaw = round(float(rng.uniform(-math.pi, math.pi)), 6)
+        if cfg.kind != "traverse":
+            return Endpoints(start, yaw, goal, radius=radius)
+        route = _route(piece, start, goal)
+        if route is None:
+            continue
+        # Face the first leg: a traverse starts on its route.
+        yaw = round(math.atan2(route[0][1] - start[1], route[0][0] - start[0]), 6)
+        return Endpoints(start, yaw, None, tuple(route), radius=radius)
+    raise GenerationError(
+        "task",
+        seed,
+        f"no two points of connected walkable ground at least {need:g} m apart for the {cfg.robot} robot "
+        f"(radius {ROBOT_RADIUS[cfg.robot]:g} m); lower task.min_distance or widen the walkable zones",
+    )
+
+
+def _route(
+    piece: shapely.Polygon, start: tuple[float, float], goal: tuple[float, float]
+) -> list[tuple[float, float]] | None:
+    """Waypoints from ``start`` to ``goal`` inside ``piece``: the shortest 8-connected path on a
+    grid of cells whose centres keep half a diagonal inside it (so every leg between
+    neighbours stays inside), straightened, with no leg longer than :data:`LEG`. The first
+    point after the start comes first; the goal is last. None when the grid finds no path
+    (a neck of the piece narrower than a cell)."""
+    x0, y0, x1, y1 = piece.bounds
+    res = min(1.0, max(0.1, math.sqrt((x1 - x0) * (y1 - y0) / 2e6)))
+    grid = raster.Grid.covering((x0 - res, y0 - res, x1 + res, y1 + res), res)
+    free = raster.mask(grid, piece.buffer(-0.75 * res, quad_segs=4))
+    if not free.any():
+        return None
+    # Start and goal snap to their nearest free cells.
+    _, (near_r, near_c) = scipy.ndimage.distance_transform_edt(~free, return_indices=True)
+    a, b = grid.cell(*start), grid.cell(*goal)
+    cells = raster.shortest_path(free, (int(near_r[a]), int(near_c[a])), (int(near_r[b]), int(near_c[b])))
+    if cells is None:
+        return None
+    points = straighten([start, *(grid.centre(c) for c in cells), goal], piece)
+    legs = []
+    for p, q in itertools.pairwise(points):
+        n = max(1, math.ceil(math.dist(p, q) / LEG))
+        legs += [(p[0] + (q[0] - p[0]) * k / n, p[1] + (q[1] - p[1]) * k / n) for k in range(1, n + 1)]
+    return [(round(x, 3) + 0.0, round(y, 3) + 0.0) for x, y in legs]
+
+
+def make_task(
+    cfg: TaskConfig, ends: Endpoints | None, terrain: Terrain | None, rng: np.random.Generator
+) -> Task:
+    """The task model: a nav task from ``ends``, a traverse along its route, or a locomotion
+    task starting at the centre of a random tile of ``terrain``."""
+    common = {"robot": cfg.robot, "time_limit": cfg.time_limit}
+    if ends is None:
+        if terrain is None:
+            raise ValueError("a locomotion task needs a terrain grid")
+        r, c = int(rng.integers(terrain.rows)), int(rng.integers(terrain.cols))
+        s = terrain.tile_size
+        x, y = terrain.origin[0] + (c + 0.5) * s, terrain.origin[1] + (r + 0.5) * s
+        yaw = float(rng.integers(4)) * math.pi / 2 - math.pi
+        return LocoTask(kind=cfg.kind, start=Pose2(position=(x, y), yaw=round(yaw, 6)), **common)
+    start = Pose2(position=ends.start, yaw=ends.yaw)
+    if cfg.kind == "traverse":
+        return TraverseTask(
+            kind="traverse", start=start, route=ends.route, goal_tolerance=cfg.goal_tolerance, **common
+        )
+    return NavTask(kind=cfg.kind, start=start, goal=ends.goal, goal_tolerance=cfg.goal_tolerance, **common)
