@@ -65,13 +65,34 @@ HASH = 8.0
 """Cell size (m) of the spatial hash of placed objects."""
 
 
+class _Region:
+    """Zones a base must stay inside, without their union: a base inside one zone is in;
+    one straddling neighbours is tested against the union of just those (the zones tile
+    the ground without overlap, so that is exact)."""
+
+    def __init__(self, polygons: list[Polygon]):
+        self.polygons = np.asarray(polygons, dtype=object)
+        self.tree = shapely.STRtree(self.polygons)
+        self.area = float(sum(p.area for p in polygons))
+        for p in polygons:
+            shapely.prepare(p)
+
+    def covers(self, shape: Polygon) -> bool:
+        hits = self.tree.query(shape, predicate="intersects")
+        if len(hits) == 0:
+            return False
+        if any(self.polygons[k].covers(shape) for k in hits):
+            return True
+        return len(hits) > 1 and shapely.union_all(self.polygons[np.sort(hits)], grid_size=GRID).covers(shape)
+
+
 @dataclass
 class _Slot:
     """Where one category's objects may stand: pieces of ground to draw from (with each
     piece's principal direction) and the region their bases must stay inside."""
 
     pieces: list[tuple[Polygon, float]]
-    region: BaseGeometry
+    region: _Region
     faces_road: bool
     area: float = 0.0
     _samplers: dict[int, Sampler] = field(default_factory=dict)
@@ -81,7 +102,6 @@ class _Slot:
         areas = np.array([p.area for p, _ in self.pieces])
         self.area = float(areas.sum())
         self._weights = np.cumsum(areas) / self.area if self.area > 0 else areas
-        shapely.prepare(self.region)
 
     def draw(self, rng: np.random.Generator) -> tuple[tuple[float, float], float]:
         """A uniform point of the slot and the principal direction of its piece (rad)."""
@@ -118,6 +138,7 @@ class _Ground:
             else None
         )
         self._slots: dict[str, _Slot | None] = {}
+        self._regions: dict[frozenset[int], _Region] = {}
 
     def usable(self, zone: Zone, kinds: frozenset[str]) -> bool:
         """A zone of one of ``kinds``, and not a sidewalk's clear strip."""
@@ -138,7 +159,10 @@ class _Ground:
         ]
         if not chosen:
             return None
-        region = shapely.union_all([p for p, _ in chosen], grid_size=GRID)
+        key = frozenset(id(p) for p, _ in chosen)
+        if key not in self._regions:
+            self._regions[key] = _Region([p for p, _ in chosen])
+        region = self._regions[key]
         anchor = cat.anchor if self.strips else "free"
         if anchor in ("curb", "crossing"):
             draw = [(p, z) for p, z in chosen if z.strip == "furnishing" or z.kind == "curb"]
@@ -279,7 +303,9 @@ def place_objects(
         placed += _buildings(ground, palettes["building"], terrain)
     furniture = [n for n in sorted(set(names)) if CATEGORIES[n].anchor != "lot"]
     slots = {n: s for n in furniture if (s := ground.slot(n)) is not None}
-    area = float(shapely.union_all([s.region for s in slots.values()], grid_size=GRID).area if slots else 0.0)
+    # The zones tile the ground, so the area they cover is the sum over distinct zones.
+    ground_zones = {id(p): p.area for s in slots.values() for p in s.region.polygons}
+    area = float(sum(ground_zones[k] for k in sorted(ground_zones)))
     wanted = target_count(cfg, level, area)
     if not slots or wanted == 0:
         return tuple(placed)

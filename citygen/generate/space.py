@@ -57,10 +57,11 @@ class Sampler:
     """Uniform random points in a polygon, from an area-weighted triangulation."""
 
     def __init__(self, polygon: BaseGeometry):
-        tris = [t for t in shapely.get_parts(shapely.constrained_delaunay_triangles(polygon)) if t.area > 0]
-        self.area = float(sum(t.area for t in tris))
-        self._corners = np.array([np.asarray(t.exterior.coords)[:3] for t in tris]).reshape(-1, 3, 2)
-        areas = np.array([t.area for t in tris])
+        tris = shapely.get_parts(shapely.constrained_delaunay_triangles(polygon))
+        areas = shapely.area(tris)
+        tris, areas = tris[areas > 0], areas[areas > 0]
+        self.area = float(areas.sum())
+        self._corners = shapely.get_coordinates(tris).reshape(-1, 4, 2)[:, :3]
         self._cumulative = np.cumsum(areas) / areas.sum() if len(areas) else areas
 
     def __bool__(self) -> bool:
