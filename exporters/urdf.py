@@ -1,0 +1,431 @@
+"""URDF: the scene as one fixed-base model for PyBullet, Gazebo and ROS tools.
+
+The file holds a root link, ``scene/world``, and one link per thing in the scene, each
+fixed to the root by a joint named ``joint/<link>`` whose origin places it:
+
+- ``<id>``: each placement, at its position and yaw. Its collision geometry is the asset's
+  convex parts as URDF primitives (``box``, ``cylinder``) and convex meshes (convex-mesh
+  parts; capsules too, unless ``capsules="pybullet"`` writes PyBullet's ``<capsule>``); its
+  visual is the asset's watertight visual mesh, one mesh per material colour. A mesh file
+  placement is its mesh, for collision flagged ``concave="yes"``. The placement's scale
+  multiplies every size and offset (meshes through their ``scale`` attribute).
+- ``zone/<id>``: each zone's draped ground surface as its visual (coloured by kind), and
+  where the zone lies outside the terrain grid a slab from ``-zone_thickness`` up to
+  ``z = 0`` as its collision, with the zone's friction.
+- ``ground/plane``: the rest of the scene's bounds outside the grid, a slab like the zones'.
+- ``ground/terrain/<k>``: the terrain's tiles, one link per friction coefficient (a tile's
+  own friction, else its material's, else that of the zone under its centre, else
+  concrete's). Flat tiles (merged into rectangles where neighbours agree) and stair treads
+  are boxes; slope and rough tiles are one triangle mesh flagged ``concave="yes"``, so
+  PyBullet keeps pits and bumps instead of taking their convex hull.
+
+Friction is PyBullet's ``<contact><lateral_friction>`` extension, which other readers ignore.
+Meshes are binary STL files (float32) under ``<out_dir>/assets/``, named by their content
+(:func:`~citygen.exporters.shared_file`), so scenes exported to one folder share them.
+Agents and the task cannot be expressed: each raises an :class:`ExportWarning`. Units are
+metres and radians, Z up. The same scene always gives the same bytes.
+
+>>> import warnings, tempfile
+>>> from citygen.exporters import urdf
+>>> with tempfile.TemporaryDirectory() as out, warnings.catch_warnings(record=True) as caught:
+...     warnings.simplefilter("always")
+...     files = urdf.export("examples/street_corner.json", out)
+...     print(files[0].name, [str(w.message).split(":")[0] for w in caught])
+street_corner.urdf ['$.agents', '$.task']
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+import xml.etree.ElementTree as ET
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import shapely
+import trimesh
+
+from citygen.assets import Box, Capsule, Cylinder, Part
+from citygen.errors import ExportError
+from citygen.exporters import ExportWarning, shared_file
+from citygen.exporters.glb import (
+    GROUND_RGBA,
+    MESH_RGBA,
+    RGBA,
+    TERRAIN_RGBA,
+    ZONE_LIFT,
+    catalog_asset,
+    check_options,
+    colour_groups,
+    drape,
+    grid_box,
+    load_mesh_file,
+    output_name,
+    polygon_parts,
+    scene_dir_of,
+    submesh,
+    triangulate,
+    zone_polygons,
+    zone_rgba,
+)
+from citygen.geometry.terrain import MIN_THICKNESS, tile_boxes, tile_mesh
+from citygen.io import write_atomic
+from citygen.spec.placements import Placement
+from citygen.spec.scene import Scene
+from citygen.spec.surfaces import FRICTION
+from citygen.spec.terrain import FlatTile, StairTile, Terrain
+
+ROOT = "scene/world"
+#: Thickness (m) of the slabs that carry the flat ground's collision outside the terrain grid.
+ZONE_THICKNESS = 0.1
+#: Bottom (m) of terrain tiles, lowered below a tile's lowest point when needed.
+FLOOR = -1.0
+CAPSULES = ("mesh", "pybullet")
+
+_OPTIONS = ("name", "scene_dir", "resolution", "floor", "zone_thickness", "capsules")
+
+
+def _f(x: float) -> str:
+    """A number as URDF text: at most 6 decimals (1 micrometre), no trailing zeros, no -0."""
+    text = f"{round(float(x), 6) + 0.0:.6f}".rstrip("0").rstrip(".")
+    return "0" if text in ("", "-0") else text
+
+
+def _v(xs: Sequence[float]) -> str:
+    return " ".join(_f(x) for x in xs)
+
+
+_STL_TRIANGLE = np.dtype([("normal", "<f4", (3,)), ("corners", "<f4", (3, 3)), ("attribute", "<u2")])
+
+
+def stl_bytes(vertices: np.ndarray, faces: np.ndarray) -> bytes:
+    """A binary STL of a triangle mesh (m, float32): fast to write and to read, and read by
+    PyBullet, Gazebo, ROS tools and trimesh alike."""
+    corners = np.asarray(vertices, dtype=np.float64)[np.asarray(faces, dtype=np.int64)]
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    length = np.linalg.norm(normal, axis=1, keepdims=True)
+    triangles = np.zeros(len(corners), dtype=_STL_TRIANGLE)
+    triangles["normal"] = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
+    triangles["corners"] = corners
+    header = b"citygen binary STL, metres".ljust(80, b" ")
+    return header + np.uint32(len(triangles)).tobytes() + triangles.tobytes()
+
+
+class _Writer:
+    """Builds the URDF tree and writes its meshes, each once, under ``out_dir/assets``."""
+
+    def __init__(self, out_dir: Path, name: str) -> None:
+        self.out_dir = out_dir
+        self.robot = ET.Element("robot", name=name)
+        self.materials: dict[str, RGBA] = {}
+        self.files: dict[Path, None] = {}
+        _static(ET.SubElement(self.robot, "link", name=ROOT))
+
+    def mesh(self, vertices: np.ndarray, faces: np.ndarray) -> str:
+        path = shared_file(self.out_dir, stl_bytes(vertices, faces), ".stl")
+        self.files[path] = None
+        return path.relative_to(self.out_dir).as_posix()
+
+    def material(self, name: str, colour: RGBA) -> str:
+        self.materials.setdefault(name, tuple(colour))  # type: ignore[arg-type]
+        return name
+
+    def link(
+        self, name: str, xyz=(0.0, 0.0, 0.0), yaw: float = 0.0, friction: float | None = None
+    ) -> ET.Element:
+        link = ET.SubElement(self.robot, "link", name=name)
+        _static(link)
+        joint = ET.SubElement(self.robot, "joint", name=f"joint/{name}", type="fixed")
+        ET.SubElement(joint, "parent", link=ROOT)
+        ET.SubElement(joint, "child", link=name)
+        ET.SubElement(joint, "origin", xyz=_v(xyz), rpy=_v((0.0, 0.0, yaw)))
+        if friction is not None:
+            contact = ET.SubElement(link, "contact")
+            ET.SubElement(contact, "lateral_friction", value=_f(friction))
+        return link
+
+    def text(self) -> str:
+        for i, (name, colour) in enumerate(sorted(self.materials.items())):
+            material = ET.Element("material", name=name)
+            ET.SubElement(material, "color", rgba=_v(colour))
+            self.robot.insert(i, material)
+        ET.indent(self.robot, "  ")
+        return '<?xml version="1.0"?>\n' + ET.tostring(self.robot, encoding="unicode") + "\n"
+
+
+def _static(link: ET.Element) -> None:
+    """Mass 0: a static body (PyBullet's convention; without it PyBullet assumes 1 kg and warns)."""
+    inertial = ET.SubElement(link, "inertial")
+    ET.SubElement(inertial, "mass", value="0")
+    ET.SubElement(inertial, "inertia", ixx="0", ixy="0", ixz="0", iyy="0", iyz="0", izz="0")
+
+
+def _element(
+    link: ET.Element,
+    kind: str,
+    geometry: tuple[str, dict[str, str]],
+    xyz=(0.0, 0.0, 0.0),
+    yaw: float = 0.0,
+    material: str | None = None,
+    concave: bool = False,
+) -> None:
+    """A ``<visual>`` or ``<collision>`` element of ``link``."""
+    el = ET.SubElement(link, kind, {"concave": "yes"} if concave else {})
+    ET.SubElement(el, "origin", xyz=_v(xyz), rpy=_v((0.0, 0.0, yaw)))
+    geo = ET.SubElement(el, "geometry")
+    ET.SubElement(geo, geometry[0], geometry[1])
+    if material is not None:
+        ET.SubElement(el, "material", name=material)
+
+
+def _mesh_geometry(filename: str, scale: float = 1.0) -> tuple[str, dict[str, str]]:
+    return ("mesh", {"filename": filename, "scale": _v((scale, scale, scale))})
+
+
+# --- placements ---------------------------------------------------------------------------
+
+
+def _colour_name(look_name: str, colour: Sequence[int]) -> str:
+    return f"{look_name}-{''.join(f'{c:02x}' for c in colour)}"
+
+
+def _add_placement(w: _Writer, pl: Placement, index: int, folder: Path | None, capsules: str) -> None:
+    link = w.link(pl.id, pl.position, pl.yaw)
+    k = pl.scale
+    if pl.is_mesh:
+        mesh = load_mesh_file(pl, index, folder)
+        filename = w.mesh(mesh.vertices, mesh.faces)
+        _element(link, "visual", _mesh_geometry(filename, k), material=w.material("mesh", MESH_RGBA))
+        _element(link, "collision", _mesh_geometry(filename, k), concave=True)
+        return
+    asset = catalog_asset(pl, index)
+    visual = asset.visual_mesh()
+    names = {tuple(round(c * 255) for c in p.material.rgba): p.material.name for p in asset.parts}
+    for colour, faces in colour_groups(visual):
+        look = names.get(colour, "part")
+        material = w.material(_colour_name(look, colour), tuple(c / 255 for c in colour))
+        filename = w.mesh(*submesh(visual, faces))
+        _element(link, "visual", _mesh_geometry(filename, k), material=material)
+    for part in asset.parts:
+        _add_part(w, link, part, k, capsules)
+
+
+def _add_part(w: _Writer, link: ET.Element, part: Part, k: float, capsules: str) -> None:
+    if isinstance(part, Box):
+        size = {"size": _v(np.asarray(part.size) * k)}
+        _element(link, "collision", ("box", size), np.asarray(part.pos) * k, part.yaw)
+    elif isinstance(part, Cylinder):
+        size = {"radius": _f(part.radius * k), "length": _f(part.height * k)}
+        _element(link, "collision", ("cylinder", size), np.asarray(part.pos) * k)
+    elif isinstance(part, Capsule) and capsules == "pybullet":
+        size = {"radius": _f(part.radius * k), "length": _f(part.length * k)}
+        _element(link, "collision", ("capsule", size), np.asarray(part.pos) * k)
+    else:  # a convex mesh, or a capsule as its convex mesh
+        hull = part.to_trimesh()
+        _element(link, "collision", _mesh_geometry(w.mesh(hull.vertices, hull.faces), k))
+
+
+# --- the ground ---------------------------------------------------------------------------
+
+
+def _slab(geom: shapely.Geometry, bottom: float, top: float) -> tuple[np.ndarray, np.ndarray]:
+    """A polygonal area extruded from ``bottom`` to ``top`` (m): a closed, outward mesh."""
+    verts, faces, count = [], [], 0
+    for poly in polygon_parts(geom):
+        xy, tri = triangulate(poly)
+        n = len(xy)
+        poly = shapely.geometry.polygon.orient(poly, 1.0)
+        rings = [poly.exterior, *poly.interiors]
+        sizes = [len(r.coords) - 1 for r in rings]
+        start = np.r_[0, np.cumsum(sizes)[:-1]]
+        ring_i = np.concatenate([np.arange(s) + o for s, o in zip(sizes, start, strict=True)])
+        nxt = np.concatenate([(np.arange(s) + 1) % s + o for s, o in zip(sizes, start, strict=True)])
+        sides = np.r_[np.c_[ring_i, nxt, nxt + n], np.c_[ring_i, nxt + n, ring_i + n]]
+        verts.append(np.r_[np.c_[xy, np.full(n, bottom)], np.c_[xy, np.full(n, top)]])
+        faces.append(np.r_[tri[:, ::-1], tri + n, sides] + count)
+        count += 2 * n
+    if not verts:
+        return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64)
+    return np.concatenate(verts), np.concatenate(faces)
+
+
+def _add_ground(w: _Writer, scene: Scene, resolution: float | None, thickness: float) -> None:
+    polys = zone_polygons(scene)
+    grid = grid_box(scene)
+    surfaces = drape(scene, polys, resolution=resolution)
+    for zone, poly, (verts, faces) in zip(scene.zones, polys, surfaces, strict=True):
+        link = w.link(f"zone/{zone.id}", friction=zone.mu)
+        if len(faces):
+            material = w.material(f"zone-{zone.kind}", zone_rgba(zone.kind))
+            filename = w.mesh(verts + np.array([0.0, 0.0, ZONE_LIFT]), faces)
+            _element(link, "visual", _mesh_geometry(filename), material=material)
+        flat = poly if grid is None else poly.difference(grid)
+        sv, sf = _slab(flat, -thickness, 0.0)
+        if len(sf):
+            _element(link, "collision", _mesh_geometry(w.mesh(sv, sf)), concave=True)
+    (x0, y0), (x1, y1) = scene.bounds.min, scene.bounds.max
+    rest = shapely.box(x0, y0, x1, y1)
+    if grid is not None:
+        rest = rest.difference(grid)
+    if polys:
+        rest = rest.difference(shapely.union_all(polys))
+    sv, sf = _slab(rest, -thickness, 0.0)
+    if len(sf):
+        link = w.link("ground/plane", friction=FRICTION["concrete"])
+        filename = w.mesh(sv, sf)
+        _element(link, "visual", _mesh_geometry(filename), material=w.material("ground", GROUND_RGBA))
+        _element(link, "collision", _mesh_geometry(filename), concave=True)
+
+
+def tile_friction(scene: Scene) -> np.ndarray:
+    """Each terrain tile's friction coefficient: its own, else its material's, else the
+    zone's under its centre, else concrete's (:data:`~citygen.spec.surfaces.FRICTION`)."""
+    t = scene.terrain
+    if t is None:
+        return np.zeros(0)
+    ids = np.arange(t.rows * t.cols)
+    cx = t.origin[0] + (ids % t.cols + 0.5) * t.tile_size
+    cy = t.origin[1] + (ids // t.cols + 0.5) * t.tile_size
+    under = np.full(len(ids), FRICTION["concrete"])
+    if scene.zones:
+        polys = np.asarray(zone_polygons(scene), dtype=object)
+        pi, zi = shapely.STRtree(polys).query(shapely.points(cx, cy), predicate="intersects")
+        first = np.unique(pi, return_index=True)[1]  # the first zone listed, where zones touch
+        under[pi[first]] = [scene.zones[z].mu for z in zi[first]]
+    out = under.copy()
+    for k, tile in enumerate(t.tiles):
+        if tile.friction is not None:
+            out[k] = tile.friction
+        elif tile.material is not None:
+            out[k] = FRICTION[tile.material]
+    return out
+
+
+def _flat_rectangles(t: Terrain, members: np.ndarray) -> list[tuple[int, int, int, int, float]]:
+    """Flat tiles among ``members`` merged into rectangles of equal height:
+    ``(row0, col0, row1, col1, height)`` with exclusive ends, in row-major order."""
+    height = {int(k): t.tiles[k].height for k in members if isinstance(t.tiles[k], FlatTile)}
+    runs: dict[tuple[int, int, float], list[int]] = {}  # (col0, col1, h) -> rows
+    for r in range(t.rows):
+        c = 0
+        while c < t.cols:
+            k = r * t.cols + c
+            if k not in height:
+                c += 1
+                continue
+            c1 = c + 1
+            while c1 < t.cols and height.get(r * t.cols + c1) == height[k]:
+                c1 += 1
+            runs.setdefault((c, c1, height[k]), []).append(r)
+            c = c1
+    rects = []
+    for (c0, c1, h), rows in runs.items():
+        r0 = rows[0]
+        for a, b in zip(rows, [*rows[1:], None], strict=True):
+            if b != a + 1:
+                rects.append((r0, c0, a + 1, c1, h))
+                r0 = b if b is not None else 0
+    return sorted(rects)
+
+
+def _add_terrain(w: _Writer, scene: Scene, resolution: float | None, floor: float) -> None:
+    t = scene.terrain
+    if t is None:
+        return
+    s, (ox, oy) = t.tile_size, t.origin
+    friction = tile_friction(scene)
+    values = list(dict.fromkeys(friction.tolist()))  # in order of first tile
+    terrain_material = w.material("terrain", TERRAIN_RGBA)
+    for g, mu in enumerate(values):
+        members = np.flatnonzero(friction == mu)
+        link = w.link(f"ground/terrain/{g}", friction=mu)
+        visual = _tiles(t, members, floor, resolution)
+        _element(link, "visual", _mesh_geometry(w.mesh(*visual)), material=terrain_material)
+        for r0, c0, r1, c1, h in _flat_rectangles(t, members):
+            lo = (ox + c0 * s, oy + r0 * s, min(floor, h - MIN_THICKNESS))
+            hi = (ox + c1 * s, oy + r1 * s, h)
+            _box(link, np.array([lo, hi]))
+        for k in members.tolist():
+            tile = t.tiles[k]
+            if isinstance(tile, StairTile):
+                corner = np.array([ox + (k % t.cols) * s, oy + (k // t.cols) * s, 0.0])
+                for box in tile_boxes(tile, s, floor=floor):
+                    _box(link, box + corner)
+        meshes = [k for k in members.tolist() if not isinstance(t.tiles[k], FlatTile | StairTile)]
+        if meshes:
+            mv, mf = _tiles(t, np.asarray(meshes), floor, resolution)
+            _element(link, "collision", _mesh_geometry(w.mesh(mv, mf)), concave=True)
+
+
+def _box(link: ET.Element, box: np.ndarray) -> None:
+    lo, hi = box
+    _element(link, "collision", ("box", {"size": _v(hi - lo)}), (lo + hi) / 2)
+
+
+def _tiles(t: Terrain, members: np.ndarray, floor: float, resolution: float | None):
+    """The solids of the tiles ``members`` in world coordinates, each distinct tile built once."""
+    cache: dict[str, trimesh.Trimesh] = {}
+    verts, faces, count = [], [], 0
+    for k in members.tolist():
+        tile = t.tiles[k]
+        key = tile.model_dump_json(exclude={"material", "friction"})
+        if key not in cache:
+            cache[key] = tile_mesh(tile, t.tile_size, floor=floor, resolution=resolution)
+        mesh = cache[key]
+        shift = (t.origin[0] + (k % t.cols) * t.tile_size, t.origin[1] + (k // t.cols) * t.tile_size, 0.0)
+        verts.append(mesh.vertices + np.array(shift))
+        faces.append(mesh.faces + count)
+        count += len(mesh.vertices)
+    return np.concatenate(verts), np.concatenate(faces)
+
+
+# --- export -------------------------------------------------------------------------------
+
+
+def export(scene: Scene | str | Path, out_dir: str | Path, **options: Any) -> list[Path]:
+    """Write ``<out_dir>/<name>.urdf`` and its meshes under ``<out_dir>/assets/``; returns
+    the URDF's path followed by every mesh file it references, sorted.
+
+    Options: ``name`` (default: the scene file's stem, ``<split>-<index>`` or ``scene``),
+    ``scene_dir`` (the folder mesh placements are relative to, for a scene given as a
+    model), ``resolution`` (m, cell size of rough tiles' meshes; default
+    :func:`~citygen.geometry.terrain.tile_mesh`'s), ``floor`` (m, bottom of the terrain,
+    default -1), ``zone_thickness`` (m, default 0.1), ``capsules`` (``"mesh"``, the
+    default, writes capsules as convex meshes every reader loads; ``"pybullet"`` writes
+    PyBullet's ``<capsule>``).
+    """
+    check_options(options, _OPTIONS, "urdf")
+    name = output_name(scene, options, "urdf")
+    model, folder = scene_dir_of(scene, options)
+    capsules = options.get("capsules", "mesh")
+    if capsules not in CAPSULES:
+        raise ExportError(f"urdf export: expected capsules one of {', '.join(CAPSULES)}, got {capsules!r}")
+    thickness = float(options.get("zone_thickness", ZONE_THICKNESS))
+    floor = float(options.get("floor", FLOOR))
+    if not (math.isfinite(thickness) and thickness > 0) or not math.isfinite(floor):
+        raise ExportError(
+            f"urdf export: expected zone_thickness > 0 and a finite floor (m), got {thickness!r}, {floor!r}"
+        )
+    resolution = options.get("resolution")
+    out = Path(out_dir)
+    w = _Writer(out, name)
+    _add_ground(w, model, resolution, thickness)
+    _add_terrain(w, model, resolution, floor)
+    for i, pl in enumerate(model.placements):
+        _add_placement(w, pl, i, folder, capsules)
+    if model.agents:
+        warnings.warn(
+            ExportWarning(
+                f"$.agents: URDF has no moving agents; {len(model.agents)} left out (GLB and MJCF keep them)"
+            ),
+            stacklevel=2,
+        )
+    if model.task is not None:
+        warnings.warn(
+            ExportWarning(f"$.task: URDF has no task; the {model.task.kind} task is left out"), stacklevel=2
+        )
+    path = out / f"{name}.urdf"
+    write_atomic(path, w.text().encode("utf-8"))
+    return [path, *sorted(w.files)]
