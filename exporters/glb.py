@@ -477,13 +477,14 @@ def build(
     """
     model, folder = scene_dir_of(scene, {"scene_dir": scene_dir})
     g = _Graph(y_up)
+    polys = zone_polygons(model)
     if model.terrain is not None:
-        solid = terrain_mesh(model, resolution=resolution)
-        g.add("ground/terrain", "terrain", lambda: _coloured_mesh(solid, TERRAIN_RGBA), np.eye(4))
+        solid = terrain_solid(model, polys, resolution=resolution)
+        g.add("ground/terrain", "terrain", lambda: solid, np.eye(4))
     verts, faces = ground_plane(model)
     if len(faces):
         g.add("ground/plane", "plane", lambda: flat_coloured(verts, faces, GROUND_RGBA), np.eye(4))
-    _add_zones(g, model, resolution)
+    _add_zones(g, model, polys, resolution)
     _add_placements(g, model, folder)
     _add_agents(g, model)
     _add_task(g, model)
@@ -500,12 +501,35 @@ def build(
     return g.scene
 
 
+def terrain_solid(
+    scene: Scene, zones: Sequence[shapely.Geometry] | None = None, *, resolution: float | None = None
+) -> trimesh.Trimesh:
+    """The terrain as one closed solid (:func:`terrain_mesh`), each face coloured as the zone
+    under its centroid (so steps and walls take their zone's colour and cracks between the
+    zones' surfaces never show a different one), else :data:`TERRAIN_RGBA` (vertex colours).
+    ``zones`` are the zones' shapes if already made (:func:`zone_polygons`)."""
+    solid = terrain_mesh(scene, resolution=resolution)
+    colours = np.tile(np.round(np.asarray(TERRAIN_RGBA) * 255).astype(np.uint8), (len(solid.faces), 1))
+    if scene.zones:
+        centre = solid.vertices[solid.faces].mean(axis=1)
+        shapes = zone_polygons(scene) if zones is None else zones
+        fi, zi = shapely.STRtree(shapes).query(shapely.points(centre[:, :2]), predicate="intersects")
+        first = np.unique(fi, return_index=True)[1]  # the first zone listed, where zones touch
+        palette = np.array(
+            [np.round(np.asarray(zone_rgba(z.kind)) * 255) for z in scene.zones], dtype=np.uint8
+        )
+        colours[fi[first]] = palette[zi[first]]
+    mesh = trimesh.Trimesh(solid.vertices, solid.faces, process=False)
+    mesh.visual.face_colors = colours
+    return vertex_coloured(mesh)
+
+
 def _coloured_mesh(mesh: trimesh.Trimesh, colour: RGBA) -> trimesh.Trimesh:
     return flat_coloured(mesh.vertices, mesh.faces, colour)
 
 
-def _add_zones(g: _Graph, scene: Scene, resolution: float | None) -> None:
-    surfaces = drape(scene, zone_polygons(scene), resolution=resolution)
+def _add_zones(g: _Graph, scene: Scene, polys: list, resolution: float | None) -> None:
+    surfaces = drape(scene, polys, resolution=resolution)
     for zone, (verts, faces) in zip(scene.zones, surfaces, strict=True):
         if len(faces):
             lifted = verts + np.array([0.0, 0.0, ZONE_LIFT])
