@@ -119,6 +119,21 @@ def check_options(options: dict[str, Any], allowed: Sequence[str], fmt: str) -> 
         )
 
 
+def resolution_option(value: Any, fmt: str) -> float | None:
+    """The ``resolution`` option: None or a positive number of metres."""
+    if value is None:
+        return None
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | float)
+        or not (math.isfinite(value) and value > 0)
+    ):
+        raise ExportError(
+            f"{fmt} export: expected a positive number of metres for 'resolution', got {value!r}"
+        )
+    return float(value)
+
+
 def scene_dir_of(scene: Scene | str | Path, options: dict[str, Any]) -> tuple[Scene, Path | None]:
     """The scene model and the folder its mesh paths are relative to (option ``scene_dir``
     for a model, the file's folder for a path)."""
@@ -476,6 +491,9 @@ def build(
     stand on the ground (:func:`height_at`).
     """
     model, folder = scene_dir_of(scene, {"scene_dir": scene_dir})
+    resolution = resolution_option(resolution, "glb")
+    if not isinstance(y_up, bool):
+        raise ExportError(f"glb export: expected true or false for 'y_up', got {y_up!r}")
     g = _Graph(y_up)
     polys = zone_polygons(model)
     if model.terrain is not None:
@@ -542,7 +560,7 @@ def _add_placements(g: _Graph, scene: Scene, folder: Path | None) -> None:
     for i, pl in enumerate(scene.placements):
         if pl.is_mesh:
             geometry = f"mesh/{pl.asset}"
-            make = lambda pl=pl, i=i: _file_visual(pl, i, folder)  # noqa: E731
+            make = lambda pl=pl, i=i: vertex_coloured(file_mesh(pl, i, folder))  # noqa: E731
         else:
             geometry = f"asset/{pl.asset}"
             make = lambda pl=pl, i=i: vertex_coloured(catalog_asset(pl, i).visual_mesh())  # noqa: E731
@@ -557,14 +575,14 @@ def catalog_asset(pl: Placement, index: int) -> Asset:
         raise ExportError(f"$.placements[{index}].asset: expected {exc.expected}, got {pl.asset!r}") from None
 
 
-def _file_visual(pl: Placement, index: int, folder: Path | None) -> trimesh.Trimesh:
+def file_mesh(pl: Placement, index: int, folder: Path | None) -> trimesh.Trimesh:
+    """A mesh placement's geometry with face colours: its own where the file has colours,
+    else :data:`MESH_RGBA`. A texture cannot be kept: an :class:`ExportWarning` says so."""
     mesh = load_mesh_file(pl, index, folder)
     visual = mesh.visual
-    if isinstance(visual, trimesh.visual.ColorVisuals) and visual.kind == "face":
-        return vertex_coloured(mesh)
-    if isinstance(visual, trimesh.visual.ColorVisuals) and visual.kind == "vertex":
-        out = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
-        out.visual = trimesh.visual.ColorVisuals(out, vertex_colors=visual.vertex_colors)
+    out = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+    if isinstance(visual, trimesh.visual.ColorVisuals) and visual.kind in ("face", "vertex"):
+        out.visual.face_colors = visual.face_colors
         return out
     if (
         isinstance(visual, trimesh.visual.TextureVisuals)
@@ -574,9 +592,10 @@ def _file_visual(pl: Placement, index: int, folder: Path | None) -> trimesh.Trim
             ExportWarning(
                 f"$.placements[{index}].asset: the texture of {pl.asset!r} is not kept; one colour"
             ),
-            stacklevel=4,
+            stacklevel=3,
         )
-    return flat_coloured(mesh.vertices, mesh.faces, MESH_RGBA)
+    out.visual.face_colors = np.round(np.asarray(MESH_RGBA) * 255).astype(np.uint8)
+    return out
 
 
 def _add_agents(g: _Graph, scene: Scene) -> None:
@@ -596,8 +615,8 @@ def _add_agents(g: _Graph, scene: Scene) -> None:
             g.add(f"agent/{agent.id}", f"agent/{agent.kind}",
                   lambda c=colour: _coloured_mesh(_unit_cylinder(), c), m)  # fmt: skip
         disc = _matrix(gx, gy, z1, 0.0, (r, r, MARKER_THICKNESS))
-        g.add(f"agent/{agent.id}/goal", f"agent/{agent.kind}",
-              lambda c=colour: _coloured_mesh(_unit_cylinder(), c), disc)  # fmt: skip
+        marker = "agent/vehicle/goal" if isinstance(agent, Vehicle) else f"agent/{agent.kind}"
+        g.add(f"agent/{agent.id}/goal", marker, lambda c=colour: _coloured_mesh(_unit_cylinder(), c), disc)
 
 
 def _add_task(g: _Graph, scene: Scene) -> None:

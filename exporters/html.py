@@ -14,6 +14,11 @@ clicking a thing shows its node name (a placement's id, ``zone/<id>``, ``agent/<
 Lighting is set so that ground seen from above shows its zone's colour exactly.
 
 The same scene always gives the same bytes.
+
+>>> from citygen.exporters import html
+>>> page = html.to_html("examples/street_corner.json")
+>>> page.startswith("<!DOCTYPE html>"), "OrbitControls" in page, "https://" in page
+(True, True, False)
 """
 
 from __future__ import annotations
@@ -29,7 +34,6 @@ import numpy as np
 import trimesh
 
 from citygen.errors import ExportError
-from citygen.exporters import as_scene
 from citygen.exporters.glb import (
     AGENT_COLORS,
     GOAL_COLOR,
@@ -37,6 +41,7 @@ from citygen.exporters.glb import (
     build,
     check_options,
     output_name,
+    scene_dir_of,
 )
 from citygen.io import write_atomic
 from citygen.spec.scene import Scene
@@ -80,8 +85,8 @@ def scene_payload(
     scene: Scene | str | Path, *, scene_dir: str | Path | None = None, resolution: float | None = RESOLUTION
 ) -> dict[str, Any]:
     """The data the page draws: meshes, instances and legend, as JSON-ready values."""
-    model, _ = as_scene(scene)
-    graph = build(scene, scene_dir=scene_dir, resolution=resolution, y_up=False)
+    model, folder = scene_dir_of(scene, {"scene_dir": scene_dir})
+    graph = build(model, scene_dir=folder, resolution=resolution, y_up=False)
     names = list(graph.geometry)
     instances: dict[str, list] = {name: [] for name in names}
     for node in graph.graph.nodes_geometry:  # insertion order: deterministic
@@ -255,7 +260,7 @@ def to_html(
     """The page's text (see the module docstring). ``title`` defaults to the scene's split
     and index, else "citygen scene"; ``legend=False`` hides
     the legend. ``resolution`` (m) is the cell size of rough tiles' meshes."""
-    model, _ = as_scene(scene)
+    model, folder = scene_dir_of(scene, {"scene_dir": scene_dir})
     if title is None:
         if model.meta.split is not None and model.meta.index is not None:
             title = f"{model.meta.split} #{model.meta.index}"
@@ -263,7 +268,9 @@ def to_html(
             title = "citygen scene"
     if not isinstance(title, str):
         raise ExportError(f"html export: expected a string for 'title', got {title!r}")
-    payload = scene_payload(scene, scene_dir=scene_dir, resolution=resolution)
+    if not isinstance(legend, bool):
+        raise ExportError(f"html export: expected true or false for 'legend', got {legend!r}")
+    payload = scene_payload(model, scene_dir=folder, resolution=resolution)
     rows = "".join(
         f'<div><span style="background:{colour}"></span>{html.escape(label)}</div>'
         for label, colour in payload["legend"]

@@ -52,7 +52,6 @@ from citygen.errors import ExportError
 from citygen.exporters import ExportWarning, shared_file
 from citygen.exporters.glb import (
     GROUND_RGBA,
-    MESH_RGBA,
     RGBA,
     TERRAIN_RGBA,
     ZONE_LIFT,
@@ -60,10 +59,11 @@ from citygen.exporters.glb import (
     check_options,
     colour_groups,
     drape,
+    file_mesh,
     grid_box,
-    load_mesh_file,
     output_name,
     polygon_parts,
+    resolution_option,
     scene_dir_of,
     submesh,
     triangulate,
@@ -195,10 +195,11 @@ def _add_placement(w: _Writer, pl: Placement, index: int, folder: Path | None, c
     link = w.link(pl.id, pl.position, pl.yaw)
     k = pl.scale
     if pl.is_mesh:
-        mesh = load_mesh_file(pl, index, folder)
-        filename = w.mesh(mesh.vertices, mesh.faces)
-        _element(link, "visual", _mesh_geometry(filename, k), material=w.material("mesh", MESH_RGBA))
-        _element(link, "collision", _mesh_geometry(filename, k), concave=True)
+        mesh = file_mesh(pl, index, folder)
+        for colour, faces in colour_groups(mesh):
+            material = w.material(_colour_name("mesh", colour), tuple(c / 255 for c in colour))
+            _element(link, "visual", _mesh_geometry(w.mesh(*submesh(mesh, faces)), k), material=material)
+        _element(link, "collision", _mesh_geometry(w.mesh(mesh.vertices, mesh.faces), k), concave=True)
         return
     asset = catalog_asset(pl, index)
     visual = asset.visual_mesh()
@@ -251,8 +252,7 @@ def _slab(geom: shapely.Geometry, bottom: float, top: float) -> tuple[np.ndarray
     return np.concatenate(verts), np.concatenate(faces)
 
 
-def _add_ground(w: _Writer, scene: Scene, resolution: float | None, thickness: float) -> None:
-    polys = zone_polygons(scene)
+def _add_ground(w: _Writer, scene: Scene, polys: list, resolution: float | None, thickness: float) -> None:
     grid = grid_box(scene)
     surfaces = drape(scene, polys, resolution=resolution)
     for zone, poly, (verts, faces) in zip(scene.zones, polys, surfaces, strict=True):
@@ -279,9 +279,10 @@ def _add_ground(w: _Writer, scene: Scene, resolution: float | None, thickness: f
         _element(link, "collision", _mesh_geometry(filename), concave=True)
 
 
-def tile_friction(scene: Scene) -> np.ndarray:
+def tile_friction(scene: Scene, zones: Sequence[shapely.Geometry] | None = None) -> np.ndarray:
     """Each terrain tile's friction coefficient: its own, else its material's, else the
-    zone's under its centre, else concrete's (:data:`~citygen.spec.surfaces.FRICTION`)."""
+    zone's under its centre, else concrete's (:data:`~citygen.spec.surfaces.FRICTION`).
+    ``zones`` are the zones' shapes if already made (:func:`~citygen.exporters.glb.zone_polygons`)."""
     t = scene.terrain
     if t is None:
         return np.zeros(0)
@@ -290,7 +291,7 @@ def tile_friction(scene: Scene) -> np.ndarray:
     cy = t.origin[1] + (ids // t.cols + 0.5) * t.tile_size
     under = np.full(len(ids), FRICTION["concrete"])
     if scene.zones:
-        polys = np.asarray(zone_polygons(scene), dtype=object)
+        polys = np.asarray(zone_polygons(scene) if zones is None else zones, dtype=object)
         pi, zi = shapely.STRtree(polys).query(shapely.points(cx, cy), predicate="intersects")
         first = np.unique(pi, return_index=True)[1]  # the first zone listed, where zones touch
         under[pi[first]] = [scene.zones[z].mu for z in zi[first]]
@@ -330,12 +331,12 @@ def _flat_rectangles(t: Terrain, members: np.ndarray) -> list[tuple[int, int, in
     return sorted(rects)
 
 
-def _add_terrain(w: _Writer, scene: Scene, resolution: float | None, floor: float) -> None:
+def _add_terrain(w: _Writer, scene: Scene, polys: list, resolution: float | None, floor: float) -> None:
     t = scene.terrain
     if t is None:
         return
     s, (ox, oy) = t.tile_size, t.origin
-    friction = tile_friction(scene)
+    friction = tile_friction(scene, polys)
     values = list(dict.fromkeys(friction.tolist()))  # in order of first tile
     terrain_material = w.material("terrain", TERRAIN_RGBA)
     for g, mu in enumerate(values):
@@ -408,11 +409,12 @@ def export(scene: Scene | str | Path, out_dir: str | Path, **options: Any) -> li
         raise ExportError(
             f"urdf export: expected zone_thickness > 0 and a finite floor (m), got {thickness!r}, {floor!r}"
         )
-    resolution = options.get("resolution")
+    resolution = resolution_option(options.get("resolution"), "urdf")
     out = Path(out_dir)
     w = _Writer(out, name)
-    _add_ground(w, model, resolution, thickness)
-    _add_terrain(w, model, resolution, floor)
+    polys = zone_polygons(model)
+    _add_ground(w, model, polys, resolution, thickness)
+    _add_terrain(w, model, polys, resolution, floor)
     for i, pl in enumerate(model.placements):
         _add_placement(w, pl, i, folder, capsules)
     if model.agents:

@@ -180,10 +180,36 @@ def test_a_generated_street(tmp_path):
     assert bounds[:, 1, :2].max(axis=0) == pytest.approx(scene.bounds.max, abs=1e-6)
 
 
+def test_mesh_files_keep_their_colours(street, tmp_path):
+    path, scene = street
+    box = trimesh.creation.box((1.0, 1.0, 1.0))
+    box.visual.face_colors = [[200, 30, 30, 255]] * 6 + [[30, 30, 200, 255]] * 6
+    (path.parent / "meshes" / "box.ply").write_bytes(box.export(file_type="ply"))
+    pl = scene.placements[-1].model_copy(update={"asset": "meshes/box.ply", "id": "box"})
+    coloured = scene.model_copy(update={"placements": (pl,)})
+    loaded = trimesh.load(glb.export(coloured, tmp_path, scene_dir=path.parent)[0])
+    colours = {tuple(c) for c in node_mesh(loaded, "box").visual.vertex_colors[:, :3].tolist()}
+    assert colours == {(200, 30, 30), (30, 30, 200)}
+
+
+def test_vehicles_goals_are_discs(street, tmp_path):
+    path, scene = street
+    loaded = trimesh.load(glb.export(path, tmp_path)[0])
+    car = next(a for a in scene.agents if a.kind == "vehicle")
+    disc = node_mesh(loaded, f"agent/{car.id}/goal")
+    assert disc.extents == pytest.approx([car.width, car.width, glb.MARKER_THICKNESS], rel=0.02)
+    body = node_mesh(loaded, f"agent/{car.id}")
+    assert sorted(body.extents[:2]) == pytest.approx(sorted([car.length, car.width]))
+
+
 def test_bad_options_are_clear_errors(street, tmp_path):
     path, scene = street
     with pytest.raises(ExportError, match="unknown option 'size'"):
         glb.export(path, tmp_path, size=3)
+    with pytest.raises(ExportError, match="'resolution'"):
+        glb.export(path, tmp_path, resolution=0)
+    with pytest.raises(ExportError, match="'y_up'"):
+        glb.export(path, tmp_path, y_up="yes")
     with pytest.raises(ExportError, match="'name'"):
         glb.export(path, tmp_path, name="a/b")
     with pytest.raises(ExportError, match=r"\$\.placements\[6\]\.asset"):

@@ -449,6 +449,8 @@ def test_bad_options_and_assets_are_clear_errors(street, tmp_path):
         urdf.export(path, tmp_path, colour="red")
     with pytest.raises(ExportError, match="capsules"):
         urdf.export(path, tmp_path, capsules="sdf")
+    with pytest.raises(ExportError, match="'resolution'"):
+        urdf.export(path, tmp_path, resolution=-1.0)
     with pytest.raises(ExportError, match=r"\$\.placements\[6\]\.asset: .*scene_dir"):
         export_quiet(scene, tmp_path)
     outside = scene.model_copy(
