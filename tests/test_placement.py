@@ -1,0 +1,260 @@
+"""Stages 4-6: objects, agents and the task, checked on generated scenes.
+
+The properties are checked by means independent of the generator's own: overlaps with
+shapely on the placed bases, connectivity on a raster of the scene (cells of 5 cm,
+discs eroded with a distance transform, 8-connected paths), so a bug in the
+generator's free-space geometry cannot hide itself.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+import pytest
+import shapely
+from shapely.geometry import Polygon
+
+from citygen import validate
+from citygen.assets import CATEGORIES, resolve
+from citygen.errors import GenerationError
+from citygen.generate import generate
+from citygen.generate.placement import target_count
+from citygen.geometry import raster
+from citygen.spec.agents import Person, Vehicle
+from citygen.spec.config import (
+    AgentsConfig,
+    BlocksConfig,
+    GeneratorConfig,
+    PeopleMix,
+    PlacementConfig,
+    TaskConfig,
+    TerrainConfig,
+)
+from citygen.spec.surfaces import WALKABLE_ZONES
+from citygen.spec.task import ROBOT_RADIUS, NavTask
+
+RES = 0.05  # m, raster cell of the connectivity checks
+
+# Urban-Nav-like configs: the paper's train (10 m, 4 objects, 2 people) and test (15 m, 8
+# objects, 3 people) scenes, the three density levels, people of all kinds.
+TRAIN = GeneratorConfig(
+    size=(10.0, 10.0),
+    placement=PlacementConfig(count=4, density_levels=(0.5, 1.0, 1.5)),
+    agents=AgentsConfig(people=2, mix=PeopleMix(pedestrian=2, cyclist=1, scooter=1)),
+    task=TaskConfig(kind="nav-static"),
+)
+TEST = GeneratorConfig(
+    size=(15.0, 15.0),
+    placement=PlacementConfig(count=8, density_levels=(0.5, 1.0, 1.5)),
+    agents=AgentsConfig(people=3, mix=PeopleMix(pedestrian=2, cyclist=1, scooter=1)),
+    task=TaskConfig(kind="nav-dynamic", robot="wheelchair"),
+)
+STREETS = GeneratorConfig(
+    size=(150.0, 150.0),
+    layout="blocks",
+    blocks=BlocksConfig(count=3, straight_length=(25.0, 45.0)),
+    placement=PlacementConfig(count=None, density_per_100m2=1.5),
+    agents=AgentsConfig(people=12, vehicles=4, mix=PeopleMix(pedestrian=4, cyclist=1, scooter=1)),
+    task=TaskConfig(kind="nav-static", min_distance=20.0, robot="quadruped"),
+)
+
+
+def bases(scene) -> list[Polygon]:
+    out = []
+    for p in scene.placements:
+        ring = np.asarray(resolve(p.asset).base.exterior.coords) * p.scale
+        c, s = math.cos(p.yaw), math.sin(p.yaw)
+        out.append(Polygon(ring @ np.array([[c, s], [-s, c]]) + np.asarray(p.position[:2])))
+    return out
+
+
+class Walkable:
+    """The scene's walkable ground clear of object bases, as a raster of ``res`` cells, and
+    its connected pieces for a disc of a given radius (eroded by a cell and a half less
+    than the radius: grid precision)."""
+
+    def __init__(self, scene, res: float = RES):
+        self.grid = raster.Grid.covering((*scene.bounds.min, *scene.bounds.max), res)
+        walk = [Polygon(z.polygon, z.holes) for z in scene.zones if z.kind in WALKABLE_ZONES]
+        self.free = raster.rasterize(self.grid, walk, [True] * len(walk), fill=False, dtype=bool)
+        for base in bases(scene):
+            raster.paint(self.grid, self.free, base, False)
+        self.res = res
+        self._labels: dict[float, np.ndarray] = {}
+
+    def connected(self, radius: float, a, b) -> bool:
+        if radius not in self._labels:
+            free = raster.erode(self.free, max(0.0, radius / self.res - 1.5))
+            self._labels[radius] = raster.components(free)[0]
+        labels = self._labels[radius]
+        la, lb = labels[self.grid.cell(*a)], labels[self.grid.cell(*b)]
+        return bool(la and la == lb)
+
+
+def check_scene(config: GeneratorConfig, seed: int, index: int) -> dict:
+    """Everything the issue asks of one scene; returns the counts it measured."""
+    scene = generate(config, seed, index=index)
+    problems = validate(scene)
+    assert problems == [], (seed, problems[:3])
+    shapes = bases(scene)
+    # No two bases overlap; none on the roadway.
+    tree = shapely.STRtree(shapes)
+    left, right = tree.query(shapes, predicate="intersects")
+    for a, b in zip(left, right, strict=True):
+        if a < b:
+            assert shapes[a].intersection(shapes[b]).area < 1e-9, (seed, a, b)
+    road = shapely.union_all([Polygon(z.polygon, z.holes) for z in scene.zones if z.kind == "roadway"])
+    for p, base in zip(scene.placements, shapes, strict=True):
+        assert base.intersection(road).area < 1e-6, (seed, p.id)
+    # People: start and goal connected for the largest radius of their kind (the generator
+    # promises that much); the robot: start and goal connected for its radius.
+    ground = Walkable(scene, RES if max(scene.bounds.size) <= 20 else 0.1)
+    for agent in scene.agents:
+        if isinstance(agent, Person):
+            radius = getattr(config.agents, f"{agent.kind}_radius")[1]
+            assert ground.connected(radius, agent.start, agent.goal), (seed, agent.id)
+    task = scene.task
+    if isinstance(task, NavTask):
+        assert ground.connected(ROBOT_RADIUS[task.robot], task.start.position, task.goal), (seed, "task")
+        assert math.dist(task.start.position, task.goal) >= config.task.min_distance
+    furniture = [p for p in scene.placements if not p.asset.startswith("building/")]
+    return {"objects": len(furniture), "people": sum(isinstance(a, Person) for a in scene.agents)}
+
+
+def _batch(args: tuple[str, int, int]) -> list[dict]:
+    name, first, count = args
+    config = {"train": TRAIN, "test": TEST}[name]
+    return [check_scene(config, seed, seed) for seed in range(first, first + count)]
+
+
+@pytest.mark.slow
+def test_a_thousand_urban_nav_scenes_are_sound() -> None:
+    """1,000 scenes (500 train-like, 500 test-like): no overlaps, nothing on the roadway,
+    every agent's trip and every task connected on walkable ground, counts as asked."""
+    jobs = [(name, first, 50) for name in ("train", "test") for first in range(0, 500, 50)]
+    with ProcessPoolExecutor(2) as pool:
+        results = [r for batch in pool.map(_batch, jobs) for r in batch]
+    assert len(results) == 1000
+    for k, (config, r) in enumerate(zip([TRAIN] * 500 + [TEST] * 500, results, strict=True)):
+        level = config.placement.density_levels[(k % 500) % 3]
+        assert r["objects"] == target_count(config.placement, level, 0.0), k
+        assert r["people"] == round(config.agents.people * level + 1e-9) or r["people"] == math.floor(
+            config.agents.people * level + 0.5
+        )
+
+
+def test_street_scenes_are_sound() -> None:
+    for seed in range(2):
+        check_scene(STREETS, seed, seed)
+
+
+def test_density_levels_give_counts_in_ratio_1_2_3_on_the_same_layouts() -> None:
+    """The same seed at levels 0.5, 1.0, 1.5 (scene indices 0, 1, 2) keeps the layout and
+    scales the objects 1 : 2 : 3 (within 15 %)."""
+    levels = PlacementConfig(count=None, density_per_100m2=1.0, density_levels=(0.5, 1.0, 1.5))
+    config = STREETS.model_copy(update={"placement": levels})
+    totals = np.zeros(3)
+    for seed in range(2):
+        scenes = [generate(config, seed, index=i) for i in range(3)]
+        assert scenes[0].zones == scenes[1].zones == scenes[2].zones
+        totals += [sum(not p.asset.startswith("building/") for p in s.placements) for s in scenes]
+    ratio = totals / totals[0]
+    assert totals[0] > 50
+    assert ratio == pytest.approx([1, 2, 3], rel=0.15), totals
+
+
+def test_objects_stand_where_their_category_belongs() -> None:
+    scene = generate(STREETS, 3)
+    zones = [(Polygon(z.polygon, z.holes), z) for z in scene.zones]
+    kinds = Counter()
+    for p, base in zip(scene.placements, bases(scene), strict=True):
+        cat = CATEGORIES[p.asset.split("/")[0]]
+        touched = {z.kind for poly, z in zones if poly.intersection(base).area > 1e-6}
+        assert touched <= set(cat.zones), (p.id, touched)
+        if cat.anchor in ("curb", "crossing"):  # in the furnishing strip or on the curb
+            strips = {z.strip for poly, z in zones if z.kind == "sidewalk" and poly.intersects(base)}
+            assert strips <= {"furnishing"}, (p.id, strips)
+        kinds[cat.anchor] += 1
+    assert kinds["curb"] and kinds["free"] and kinds["lot"]
+
+
+def test_buildings_fill_their_lots() -> None:
+    scene = generate(STREETS, 1)
+    lots = [Polygon(z.polygon) for z in scene.zones if z.kind == "building"]
+    buildings = [
+        b for p, b in zip(scene.placements, bases(scene), strict=True) if p.asset.startswith("building/")
+    ]
+    assert lots and len(buildings) >= 0.8 * len(lots)
+    for b in buildings:
+        assert any(lot.buffer(1e-4).covers(b) for lot in lots)
+
+
+def test_vehicles_drive_connected_blocks_on_the_roadway() -> None:
+    scene = generate(STREETS, 2)
+    cars = [a for a in scene.agents if isinstance(a, Vehicle)]
+    assert len(cars) == 4
+    ids = {b.id: b for b in scene.blocks}
+    for car in cars:
+        assert car.route and all(r in ids for r in car.route)
+        for a, b in zip(car.route[:-1], car.route[1:], strict=True):
+            assert b in {c.block for c in ids[a].connections}
+        assert 4.0 <= car.length <= 12.0 and 1.7 <= car.width <= 2.6
+
+
+def test_people_have_realistic_sizes_and_speeds() -> None:
+    config = TEST.model_copy(update={"agents": AgentsConfig(people=40, mix=PeopleMix(pedestrian=1))})
+    people = list(generate(config.model_copy(update={"size": (40.0, 40.0)}), 5).agents)
+    speeds = np.array([p.speed for p in people])
+    assert speeds.min() >= 1.0 and speeds.max() <= 1.6
+    assert abs(speeds.mean() - 1.3) < 0.1  # centred in the range
+    starts = np.array([p.start for p in people])
+    radii = np.array([p.radius for p in people])
+    for i in range(len(people)):
+        for j in range(i):
+            assert np.linalg.norm(starts[i] - starts[j]) >= radii[i] + radii[j]
+
+
+@pytest.mark.parametrize("kind", ["loco-flat", "loco-stair", "traverse", "nav-clear"])
+def test_every_task_kind_has_a_start_and_what_it_needs(kind: str) -> None:
+    if kind.startswith("loco-"):
+        config = GeneratorConfig(
+            size=(20.0, 20.0),
+            layout="curriculum",
+            terrain=TerrainConfig(layout="curriculum"),
+            placement=PlacementConfig(count=0),
+            agents=AgentsConfig(people=0),
+            task=TaskConfig(kind=kind),
+        )
+    elif kind == "traverse":
+        config = STREETS.model_copy(update={"task": TaskConfig(kind="traverse", min_distance=60.0)})
+    else:
+        config = TRAIN.model_copy(update={"task": TaskConfig(kind=kind)})
+    scene = generate(config, 11)
+    assert scene.task is not None and scene.task.kind == kind
+    assert validate(scene) == []
+    if kind == "traverse":
+        route = scene.task.route
+        legs = np.diff(np.array([scene.task.start.position, *route]), axis=0)
+        assert np.linalg.norm(legs, axis=1).max() <= 25.0 + 1e-6
+        assert math.dist(scene.task.start.position, route[-1]) >= 60.0
+
+
+def test_generation_is_deterministic() -> None:
+    from citygen.io import dumps
+
+    assert dumps(generate(STREETS, 9, index=1)) == dumps(generate(STREETS, 9, index=1))
+
+
+def test_impossible_requests_fail_with_the_stage_named() -> None:
+    config = TRAIN.model_copy(update={"task": TaskConfig(kind="nav-static", min_distance=50.0)})
+    with pytest.raises(GenerationError, match=r"stage 'task'.*50 m apart"):
+        generate(config, 1)
+    config = TRAIN.model_copy(update={"agents": AgentsConfig(vehicles=2)})
+    with pytest.raises(GenerationError, match=r"stage 'agents'.*road blocks"):
+        generate(config, 1)
+    config = TRAIN.model_copy(update={"placement": PlacementConfig(categories=("benchh",))})
+    with pytest.raises(GenerationError, match=r"stage 'placement'.*benchh"):
+        generate(config, 1)
