@@ -179,9 +179,10 @@ def bus_stop_shelter(rng: np.random.Generator) -> list[Part]:
     0.1-0.3 m); its underside 2.3-2.6 m above the ground at the back. Square posts 60-100 mm
     on the back line, 1-4 bays of glass 8-12 mm thick between them, standing 0-0.15 m off
     the ground; front corner posts (50 %) or a cantilevered roof. Each end has a glass
-    side panel, a lit advertising panel 1.2 m wide or nothing; an optional bench (75 %)
-    against the back glass, seat 0.42-0.48 m high, and a timetable case (60 %) on a back
-    post. Overall: 2.38-3.15 m high, 1.3-2.1 m (x), 2.6-6.2 m (y).
+    side panel (55 %), a lit advertising panel 1.1-1.25 m wide and 1.75-1.9 m high (25 %)
+    or nothing; a bench (75 %) against the back glass, seat 0.42-0.48 m high, and a
+    timetable case 0.4-0.6 m wide (60 %) on the back glass at eye height. Overall:
+    2.38-3.15 m high, 1.3-2.1 m (x), 2.6-6.2 m (y).
     """
     depth, length = _u(rng, 1.3, 2.1), _u(rng, 2.6, 6.2)
     clear, thick, post = _u(rng, 2.3, 2.6), _u(rng, 0.08, 0.20), _u(rng, 0.06, 0.10)
@@ -265,19 +266,19 @@ def bus_stop_shelter(rng: np.random.Generator) -> list[Part]:
 def tree(rng: np.random.Generator) -> list[Part]:
     """A street or park tree: a tapered trunk and a crown of 1-4 convex lumps.
 
-    Four habits: broad (an oval crown of 1-4 lumps, 5-14 m tall), columnar (a capsule
-    1.5-3 m across, 5-14 m), conifer (1-4 stacked cones, 3-14 m, branching from 0.3 m)
-    and young street tree (3-5.5 m, thin trunk, 2-3 stakes tied to it). Crown 1.5-7 m
-    across and exactly round in plan at the extremes, so the footprint is the crown's
-    diameter; clear stem 1.5-3 m for street habits. Trunk radius 1.5-2.5 % of the height
-    at the base (40-70 mm for young trees) tapering to 50-80 %, optional root flare.
-    Street habits get a tree grate or mulched pit (50 %) 1.0-1.8 m square, 20-40 mm
-    high. Overall: 3-14 m high, 1.5-7 m (x and y).
+    Four habits: broad (an oval crown of 1-4 lumps, 5-14 m tall, clear stem 1.5-3 m),
+    columnar (a capsule 1.5-3 m across, 5-14 m, from 0.5-2.5 m), conifer (1-4 stacked
+    cones, 3-14 m, branching from 0.3-1.5 m) and young street tree (3-5.5 m, clear stem
+    1.5-2.2 m, 2-3 stakes tied to a thin trunk). The crown is 1.5-7 m across and reaches
+    exactly its radius along x and y, so the footprint is the crown's diameter both ways.
+    Trunk radius 1.5-2.5 % of the height at the base (40-70 mm for young trees) tapering
+    to 50-80 %, optional root flare (40 %). All but conifers may stand in a tree grate or
+    mulched pit (50 %) 1.0-1.8 m square, 20-40 mm high. Overall: 3-14 m high, 1.5-7 m
+    (x and y).
 
     Anchored ``free``, not ``curb``: a tree belongs in a park's vegetation or on a plaza as
     much as in a furnishing strip, and placement draws curb-anchored objects from
-    furnishing strips and curbs only. Its crown is above 2 m for street habits, so only
-    the trunk, stakes and grate are in the way at ground level.
+    furnishing strips and curbs only.
     """
     habit = int(rng.choice(4, p=[0.4, 0.15, 0.25, 0.2]))  # broad, columnar, conifer, young
     bark = _pick(rng, BARK)
@@ -688,9 +689,9 @@ def cafe_table(rng: np.random.Generator) -> list[Part]:
     high, on a column 25-50 mm in radius and a round or square base plate, domed or flat.
     Chairs: seat 0.40-0.46 m deep and wide at 0.44-0.47 m, back 0.32-0.45 m above it
     leaning 4-12 degrees, solid or railed; pushed in until their front legs meet the base
-    plate, never into each other or under the top's edge. Parasol (35 %): canopy 2.0-3.0 m
-    across (round, octagonal or square), rim at 2.0-2.3 m, rising 0.3-0.5 m. Overall:
-    0.75-2.8 m high, 0.6-3.0 m (x and y).
+    plate, their seats under the top but their backs clear of it and of each other.
+    Parasol (35 %): canopy 2.0-3.0 m across (round, octagonal or square), rim at
+    2.0-2.3 m, rising 0.3-0.5 m. Overall: 0.75-2.8 m high, 0.6-3.0 m (x and y).
     """
     square = rng.random() < 0.4
     top_h, top_t = _u(rng, 0.72, 0.76), _u(rng, 0.02, 0.04)
