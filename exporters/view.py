@@ -1,0 +1,136 @@
+"""A perspective picture of a scene as MuJoCo renders it (``<name>-perspective.png``).
+
+The scene is compiled with :func:`citygen.exporters.mjcf.build` and drawn offscreen by
+``mujoco.Renderer`` from one of the model's cameras (``perspective`` or ``top``, see
+:mod:`citygen.exporters.mjcf`), so the picture shows exactly what a simulation sees.
+
+Rendering needs OpenGL without a display: MuJoCo picks its backend from ``MUJOCO_GL``
+when it is first imported. When that is unset, citygen sets it (on Linux) to ``egl`` if
+libEGL is installed, else ``osmesa`` if libOSMesa is (Debian: ``apt-get install libegl1
+libegl-mesa0 libgl1-mesa-dri`` or ``libosmesa6``). Where no backend works,
+:func:`render_perspective` raises ``RuntimeError("no OpenGL ...")``, which callers turn
+into a clean skip message. Set ``MUJOCO_GL`` yourself if mujoco is imported before
+citygen chooses.
+
+Units: sizes in pixels (width, height).
+"""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from citygen.errors import ExportError
+from citygen.exporters import mjcf
+from citygen.io import write_atomic
+from citygen.spec.scene import Scene
+
+#: Smallest and largest side (px) of a picture.
+MIN_SIDE, MAX_SIDE = 16, 4096
+_OPTIONS = ("name", "size", "camera", "resolution", "apron", "mesh_dir")
+
+
+def _check_size(size: object) -> tuple[int, int]:
+    ok = isinstance(size, tuple | list) and len(size) == 2
+    ok = ok and all(isinstance(v, int | np.integer) and not isinstance(v, bool) for v in size)
+    if not ok or not all(MIN_SIDE <= v <= MAX_SIDE for v in size):
+        raise ExportError(
+            f"size: expected (width, height) in pixels, each {MIN_SIDE} to {MAX_SIDE}, got {size!r}"
+        )
+    return int(size[0]), int(size[1])
+
+
+def _png(pixels: np.ndarray) -> bytes:
+    """An RGB image (h, w, 3 uint8) as PNG bytes, without time or software metadata."""
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(pixels, mode="RGB").save(buf, format="PNG", optimize=False)
+    return buf.getvalue()
+
+
+def render_array(
+    scene_or_model: Any, *, size: tuple[int, int] = (640, 480), camera: str = "perspective", **options: object
+) -> np.ndarray:
+    """The picture as an ``(height, width, 3)`` uint8 array (see :func:`render_perspective`)."""
+    width, height = _check_size(size)
+    mujoco = mjcf.import_mujoco()
+    if isinstance(scene_or_model, mujoco.MjModel):
+        model = scene_or_model
+        if options:
+            raise ExportError(f"options {sorted(options)} apply to scenes, not to a compiled model")
+    else:
+        model = mjcf.build(scene_or_model, **options)
+    try:
+        cam = model.camera(camera).id
+    except KeyError:
+        names = [model.camera(i).name for i in range(model.ncam)]
+        raise ExportError(f"camera: expected one of {names}, got {camera!r}") from None
+    # The offscreen buffer must hold the picture; a larger one costs nothing when unused.
+    vis = model.vis.global_
+    vis.offwidth, vis.offheight = max(vis.offwidth, width), max(vis.offheight, height)
+    try:
+        renderer = mujoco.Renderer(model, height=height, width=width)
+    except Exception as exc:  # the GL backends raise many types (ImportError, EGL errors ...)
+        import os
+
+        backend = os.environ.get("MUJOCO_GL", "unset")
+        reason = (str(exc).strip().splitlines() or [""])[0]
+        raise RuntimeError(
+            f"no OpenGL for offscreen rendering (MUJOCO_GL={backend}): {type(exc).__name__}: {reason}; "
+            "install EGL (apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri) or OSMesa (libosmesa6) "
+            "and set MUJOCO_GL=egl or osmesa before importing mujoco"
+        ) from exc
+    try:
+        data = mujoco.MjData(model)
+        mujoco.mj_forward(model, data)
+        renderer.update_scene(data, camera=cam)
+        return renderer.render().copy()
+    finally:
+        renderer.close()
+
+
+def render_perspective(
+    scene_or_model: Any,
+    path: str | Path,
+    *,
+    size: tuple[int, int] = (640, 480),
+    camera: str = "perspective",
+    **options: object,
+) -> Path:
+    """Render a scene (a :class:`~citygen.spec.Scene`, a scene file's path, or a compiled
+    ``mujoco.MjModel`` from :mod:`~citygen.exporters.mjcf`) from one of its cameras and
+    write a PNG to ``path`` (atomically); returns ``path``.
+
+    ``size`` is ``(width, height)`` in pixels; ``camera`` names a camera of the model
+    (``perspective`` or ``top``); other options go to :func:`citygen.exporters.mjcf.to_mjcf`.
+    A model given here gets its offscreen buffer enlarged to ``size`` if it is smaller.
+    Raises ``RuntimeError("no OpenGL ...")`` where nothing can render offscreen.
+    """
+    path = Path(path)
+    if path.suffix.lower() != ".png":
+        raise ExportError(f"{path}: expected a path ending in .png, got {path.suffix or 'no suffix'!r}")
+    pixels = render_array(scene_or_model, size=size, camera=camera, **options)
+    try:
+        write_atomic(path, _png(pixels))
+    except OSError as exc:
+        raise ExportError(f"{path}: cannot write the picture: {exc.strerror or type(exc).__name__}") from None
+    return path
+
+
+def export(scene: Scene | str | Path, out_dir: str | Path, **options: object) -> list[Path]:
+    """Write ``<out_dir>/<name>-perspective.png``; returns ``[that path]``.
+
+    Options: ``name`` (as :func:`citygen.exporters.mjcf.scene_name`), ``size``,
+    ``camera``, and the MJCF options ``resolution``, ``apron``, ``mesh_dir``.
+    """
+    unknown = sorted(set(options) - set(_OPTIONS))
+    if unknown:
+        raise ExportError(
+            f"view export: unknown option {unknown[0]!r}; expected one of {', '.join(_OPTIONS)}"
+        )
+    name = mjcf.scene_name(scene, options.pop("name", None))
+    return [render_perspective(scene, Path(out_dir) / f"{name}-perspective.png", **options)]
