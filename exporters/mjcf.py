@@ -43,6 +43,8 @@ world never collides with itself or with agents. A robot's geoms should use
 ``contype=ROBOT_BIT`` and ``conaffinity=ROBOT_CONAFFINITY`` (static world and agents;
 add ``ROBOT_BIT`` for self-collision). Static geoms have ``priority="1"``, so a contact
 between a robot (priority 0) and the ground uses the ground's friction, not a mix.
+Geom groups: 0 ground and terrain, 1 objects, 2 agents (so a ray or a rendering can
+select them: ``mj_ray(..., geomgroup=[1, 0, 0, 0, 0, 0], ...)`` sees only the ground).
 
 Names (the runner may rely on them): every geom is ``<layer>/<class>/<id>/<k>``, split
 on ``/`` (ids never contain one): ``zone/<zone kind>/<zone id>/<k>`` (``zone/none/ground``

@@ -23,9 +23,11 @@ from shapely.geometry import Point, Polygon
 from citygen.assets import Box, Capsule, ConvexMesh, Cylinder, resolve
 from citygen.errors import ExportError, SpecError
 from citygen.exporters import ExportWarning, mjcf
+from citygen.generate import generate, layout
 from citygen.geometry.terrain import height_at
 from citygen.io import save_scene
 from citygen.spec import Scene
+from citygen.spec.config import BlocksConfig, GeneratorConfig
 from citygen.spec.scene import Meta
 from citygen.spec.surfaces import FRICTION
 from tests.conftest import ROOT
@@ -120,43 +122,79 @@ def test_boxes_dropped_on_every_tile_kind_rest_on_the_ground():
         assert np.linalg.norm(data.body(f"drop{i}").cvel) < 0.05, (k, (x, y))  # at rest
 
 
-def test_a_ray_cast_down_hits_the_zone_friction_at_the_terrain_height():
-    scene = terrain_scene()
-    model = mjcf.build(scene)
+def check_ground_by_rays(scene: Scene, model, n: int, seed: int, own: dict[int, float] | None = None) -> int:
+    """Cast ``n`` rays down at random points in and around the scene: each hits the ground
+    at ``height_at``, on the geom of the tile (a stair, slope or rough one) or of the zone
+    under it, with that zone's friction (or the tile's own, ``own``: tile index -> mu).
+    Returns how many rays hit a zone slab inside the scene."""
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     zones = [(z, Polygon(z.polygon, z.holes)) for z in scene.zones]
-    rng = np.random.default_rng(5)
+    (x0, y0), (x1, y1) = scene.bounds.min, scene.bounds.max
+    rng = np.random.default_rng(seed)
     ground_only = np.array([1, 0, 0, 0, 0, 0], dtype=np.uint8)
     geomid = np.zeros(1, dtype=np.int32)
     lab = labels(model)
-    own = {2: 1.1}  # tile index -> its own friction
+    own = own or {}
     t = scene.terrain
-    for x, y in rng.uniform(-3, 17, size=(400, 2)):
-        dist = mujoco.mj_ray(
-            model, data, np.array([x, y, 5.0]), np.array([0, 0, -1.0]), ground_only, 1, -1, geomid
-        )
+    on_zones = 0
+    xs = rng.uniform(x0 - 3, x1 + 3, n)
+    ys = rng.uniform(y0 - 3, y1 + 3, n)
+    for x, y in zip(xs, ys, strict=True):
+        start = np.array([x, y, 50.0])
+        dist = mujoco.mj_ray(model, data, start, np.array([0, 0, -1.0]), ground_only, 1, -1, geomid)
         assert dist > 0, (x, y)
         g = int(geomid[0])
-        assert abs((5.0 - dist) - float(height_at(scene, x, y))) < 0.02, (x, y, lab[g])
+        assert abs((50.0 - dist) - float(height_at(scene, x, y))) < 0.02, (x, y, lab[g])
         layer, cls, ident = lab[g]
-        inside = 0 <= x <= 14 and 0 <= y <= 14
-        col, row = math.floor((x - ORIGIN[0]) / S), math.floor((y - ORIGIN[1]) / S)
-        tile = row * t.cols + col if 0 <= col < t.cols and 0 <= row < t.rows else None
-        hit = [z for z, poly in zones if poly.contains(Point(x, y))]
-        if layer == "terrain":
-            assert tile is not None and ident == f"{row}_{col}" and cls == t.tiles[tile].kind
+        tile = None
+        if t is not None:
+            col, row = (
+                math.floor((x - t.origin[0]) / t.tile_size),
+                math.floor((y - t.origin[1]) / t.tile_size),
+            )
+            if 0 <= col < t.cols and 0 <= row < t.rows:
+                tile = row * t.cols + col
+        if tile is not None and not mjcf._level(t.tiles[tile]):
+            assert layer == "terrain" and ident == f"{row}_{col}" and cls == t.tiles[tile].kind
             continue
-        assert layer == "zone"
-        if not inside:
+        assert layer == "zone", (x, y, lab[g])
+        if not (x0 <= x <= x1 and y0 <= y <= y1) and tile is None:
             assert (cls, ident) == ("none", "outside")
-        elif hit:
+            continue
+        p = Point(x, y)
+        if any(poly.boundary.distance(p) < 1e-6 for _, poly in zones):
+            continue  # on a border: either side is right
+        hit = [z for z, poly in zones if poly.contains(p)]
+        if hit:
+            on_zones += 1
             assert (cls, ident) == (hit[0].kind, hit[0].id), (x, y)
-            expected = own.get(tile, hit[0].mu)
-            assert model.geom_friction[g, 0] == pytest.approx(expected), (x, y, ident)
-        elif all(poly.exterior.distance(Point(x, y)) > 1e-6 for _, poly in zones):
+            assert model.geom_friction[g, 0] == pytest.approx(own.get(tile, hit[0].mu)), (x, y, ident)
+        else:
             assert (cls, ident) == ("none", "ground")
             assert model.geom_friction[g, 0] == pytest.approx(own.get(tile, mjcf.DEFAULT_FRICTION))
+    return on_zones
+
+
+def test_a_ray_cast_down_hits_the_zone_friction_at_the_terrain_height():
+    scene = terrain_scene()
+    assert check_ground_by_rays(scene, mjcf.build(scene), 400, seed=5, own={2: 1.1}) > 60
+
+
+@pytest.mark.parametrize("seed", [3, 4])
+def test_generated_scenes_compile_with_zone_friction_everywhere(seed):
+    """A whole generated scene (region layout: terrain, objects, agents, task) and a road
+    block's curved zones (blocks layout, stages 1 and 2)."""
+    scene = generate(GeneratorConfig(size=(15.0, 15.0)), seed)
+    model = mjcf.build(scene)
+    assert check_ground_by_rays(scene, model, 300, seed=seed) > 50
+    assert model.nmocap == len(scene.agents)
+    assert model.nbody == 1 + len(scene.placements) + len(scene.agents)
+    blocks = GeneratorConfig(size=(60.0, 60.0), layout="blocks", blocks=BlocksConfig(count=1))
+    roads = layout(blocks, seed)
+    model = mjcf.build(roads)
+    assert model.nmesh > 20  # curved zones are convex meshes
+    assert check_ground_by_rays(roads, model, 300, seed=seed) > 150
 
 
 def test_zone_slabs_tile_the_flat_ground_exactly():
