@@ -31,8 +31,13 @@ What the model holds (metres, radians, Z up; ``<compiler angle="radian"/>``):
   vehicles boxes of their length and width, :data:`VEHICLE_HEIGHT` tall. The body's
   origin is the ground point under the agent's centre, so a runner drives it by writing
   ``data.mocap_pos[model.body(name).mocapid]`` = ``(x, y, height_at(x, y))``.
+  Each agent's goal is a site ``agent/<id>/goal`` (group 4, hidden), its preferred speed
+  (m/s) ``<custom><numeric name="agent/<id>/speed">`` and a vehicle's route of block ids
+  ``<custom><text name="agent/<id>/route">``.
 - **Task.** Sites ``task/start`` (its frame turned by the start yaw), ``task/goal`` (a
-  disc of the goal tolerance) and for a traverse ``task/waypoint/<k>``.
+  disc of the goal tolerance) and for a traverse ``task/waypoint/<k>``; custom entries
+  ``task/kind``, ``task/robot`` (text), ``task/time_limit`` (s) and for locomotion
+  ``task/command`` (vx, vy in m/s, yaw rate in rad/s).
 - **Cameras.** ``top`` (orthographic, straight down, covering the scene) and
   ``perspective`` (from the south-west, above, looking at the scene's centre).
 
@@ -94,7 +99,7 @@ from citygen.io import write_atomic
 from citygen.spec.agents import Person
 from citygen.spec.scene import Scene
 from citygen.spec.surfaces import FRICTION
-from citygen.spec.task import NavTask, TraverseTask
+from citygen.spec.task import LocoTask, NavTask, TraverseTask
 from citygen.spec.terrain import FlatTile, RoughTile, SlopeTile, StairTile, peak, rise
 
 if TYPE_CHECKING:
@@ -394,6 +399,7 @@ class _Builder:
     floor: float = FLOOR
     samples: int = 0
     warnings: list[str] = field(default_factory=list)
+    customs: ET.Element | None = None
     top: float = 0.0
     bottom: float = 0.0
 
@@ -402,6 +408,12 @@ class _Builder:
             self.materials[name] = rgba
             ET.SubElement(self.asset, "material", name=name, rgba=_v(rgba))
         return name
+
+    def custom(self, kind: str, name: str, data: str) -> None:
+        """A ``<custom>`` entry (``numeric`` or ``text``): scene data no geom carries."""
+        if self.customs is None:
+            self.customs = ET.Element("custom")
+        ET.SubElement(self.customs, kind, name=name, data=data)
 
     def mesh_file(self, data: bytes, scale: float, **extra: str) -> str:
         """A mesh asset for a file's bytes at a scale; its name."""
@@ -748,6 +760,11 @@ def _agents(b: _Builder) -> None:
             attrs["pos"] = _v((0, 0, height / 2))
         ET.SubElement(body, "geom", **attrs)
         b.top = max(b.top, z + height)
+        gz = float(height_at(b.scene, gx, gy))
+        ET.SubElement(b.world, "site", name=f"agent/{a.id}/goal", pos=_v((gx, gy, gz)), size="0.1", group="4")
+        b.custom("numeric", f"agent/{a.id}/speed", _n(a.speed))
+        if getattr(a, "route", ()):
+            b.custom("text", f"agent/{a.id}/route", " ".join(a.route))
 
 
 def _task(b: _Builder) -> None:
@@ -756,6 +773,11 @@ def _task(b: _Builder) -> None:
         return
     (x, y), yaw = task.start.position, task.start.yaw
     z = float(height_at(b.scene, x, y))
+    b.custom("text", "task/kind", task.kind)
+    b.custom("text", "task/robot", task.robot)
+    b.custom("numeric", "task/time_limit", _n(task.time_limit))
+    if isinstance(task, LocoTask):
+        b.custom("numeric", "task/command", _v(task.command))
     ET.SubElement(
         b.world, "site", name="task/start", type="sphere", size="0.15", pos=_v((x, y, z + 0.15)),
         euler=_v((0, 0, yaw)), rgba=_v(_START_RGBA),
@@ -851,6 +873,8 @@ def _build(b: _Builder, name: str) -> MJCF:
         pos=_v(centre + np.array([0.0, 0.0, span + side])), diffuse="0.45 0.45 0.45", specular="0 0 0",
     )  # fmt: skip
     _cameras(b, visual)
+    if b.customs is not None:
+        root.append(b.customs)
     # The statistic element belongs before the worldbody for people reading the file.
     stat = root.find("statistic")
     root.remove(stat)

@@ -44,6 +44,12 @@ def labels(model) -> list:
     return mjcf.geom_labels(model)
 
 
+def text(model, name: str) -> str:
+    i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXT, name)
+    start = model.text_adr[i]
+    return bytes(model.text_data[start : start + model.text_size[i] - 1]).decode()
+
+
 # --- a scene with every kind of tile ----------------------------------------------------
 
 S = 2.5  # tile size, m
@@ -316,6 +322,8 @@ def test_agents_are_mocap_bodies_of_their_size_that_touch_only_robots():
         body = model.body(f"agent/{a.id}")
         assert body.mocapid[0] >= 0
         np.testing.assert_allclose(data.mocap_pos[body.mocapid[0]], [*a.start, 0.0], atol=1e-9)
+        np.testing.assert_allclose(data.site(f"agent/{a.id}/goal").xpos, [*a.goal, 0.0])
+        assert model.numeric(f"agent/{a.id}/speed").data[0] == pytest.approx(a.speed)
         g = model.geom(f"agent/{a.kind}/{a.id}/0")
         assert (g.contype[0], g.conaffinity[0]) == (mjcf.AGENT_BIT, 0)
         if a.kind == "vehicle":
@@ -354,6 +362,8 @@ def test_task_sites_and_cameras():
     np.testing.assert_allclose(data.site("task/goal").xpos[:2], [19, 18])
     np.testing.assert_allclose(data.site("task/waypoint/0").xpos[:2], [5, 18])
     assert model.site("task/goal").size[0] == pytest.approx(0.8)
+    assert text(model, "task/kind") == "traverse" and text(model, "task/robot") == "wheeled"
+    assert model.numeric("task/time_limit").data[0] == 60
     top = model.camera("top")
     assert model.cam_projection[top.id] == mujoco.mjtProjection.mjPROJ_ORTHOGRAPHIC and top.fovy[0] >= 20
     np.testing.assert_allclose(data.cam("top").xpos[:2], [10, 10])
@@ -427,6 +437,9 @@ def test_examples_export_and_load_from_path(path, tmp_path):
     bodies = {model.body(b).name for b in range(model.nbody)}
     assert {f"object/{p.id}" for p in scene.placements} | {f"agent/{a.id}" for a in scene.agents} <= bodies
     assert model.nmocap == len(scene.agents)
+    for a in scene.agents:
+        if a.kind == "vehicle" and a.route:
+            assert text(model, f"agent/{a.id}/route") == " ".join(a.route)
 
 
 def test_same_scene_same_bytes_in_another_process(tmp_path):
