@@ -16,8 +16,8 @@ What the model holds (metres, radians, Z up; ``<compiler angle="radian"/>``):
 - **Terrain.** Stair tiles are boxes (:func:`~citygen.geometry.terrain.tile_boxes`);
   slope and rough tiles are one heightfield each, sampled from
   :func:`~citygen.geometry.terrain.tile_height` every ``resolution`` metres or finer
-  (rough tiles at most ``scale / 8``), so every tile edge is exact and meets its
-  neighbour. A non-level tile has one friction: its own (``friction`` or ``material``),
+  (rough tiles every ``scale / 8``, at most four times finer than ``resolution``), so
+  every tile edge is exact and meets its neighbour. A non-level tile has one friction: its own (``friction`` or ``material``),
   else that of the zone covering most of it, else :data:`DEFAULT_FRICTION`; where zones
   of different friction share such a tile an :class:`ExportWarning` says so.
 - **Objects.** One static body per placement (``object/<id>``) whose geoms are the
@@ -574,8 +574,8 @@ def _tile_ground(b: _Builder, k: int, square: Polygon, zones: list[Polygon], tre
 
 
 def _hfield_cells(tile: SlopeTile | RoughTile, s: float, resolution: float) -> int:
-    if isinstance(tile, RoughTile):
-        resolution = min(resolution, tile.scale / 8.0)
+    if isinstance(tile, RoughTile):  # finer, to resolve the bumps, but at most 4 times
+        resolution = min(resolution, max(tile.scale / 8.0, resolution / 4.0))
     cells = math.ceil(s / resolution - 1e-9)
     if isinstance(tile, SlopeTile) and tile.shape is not None:
         cells = 3 * math.ceil(cells / 3)  # samples on the platform's edges at s/3 and 2s/3
