@@ -104,24 +104,24 @@ def _people(bounds, zones, placements, cfg, rng, level, ends, robot_radius, seed
         taken.append((*ends.start, robot_radius))
     trip = min(TRIP, 0.5 * min(bounds.size))
     out = []
+    live = [k for k, w in zip(kinds, weights, strict=True) if w > 0]
     for i in range(count):
-        kind = kinds[int(rng.choice(3, p=weights / weights.sum()))]
-        r = round(truncated_normal(rng, radius[kind]), 3)
+        drawn = kinds[int(rng.choice(3, p=weights / weights.sum()))]
+        # Where the drawn kind finds no room (a cyclist's disc in a narrow lane), the
+        # others in the mix are tried, the slimmest first.
+        for kind in [drawn, *sorted((k for k in live if k != drawn), key=lambda k: radius[k][1])]:
+            if kind not in spaces:
+                free = free_space(ground, bases, radius[kind][1])
+                spaces[kind] = [(p, Sampler(p)) for p in pieces(free)[:64]]
+            r = round(truncated_normal(rng, radius[kind]), 3)
+            pair = _trip(spaces[kind], rng, trip, r, taken) if spaces[kind] else None
+            if pair is not None:
+                break
+        else:
+            raise GenerationError(
+                "agents", seed, f"no room on walkable ground for person {i + 1} of {count} (of any kind)"
+            )
         v = round(truncated_normal(rng, speed[kind]), 3)
-        if kind not in spaces:
-            free = free_space(ground, bases, radius[kind][1])
-            spaces[kind] = [(p, Sampler(p)) for p in pieces(free)[:64]]
-        if not spaces[kind]:
-            raise GenerationError(
-                "agents",
-                seed,
-                f"no walkable ground wide enough for a {kind} ({2 * radius[kind][1]:g} m across)",
-            )
-        pair = _trip(spaces[kind], rng, trip, r, taken)
-        if pair is None:
-            raise GenerationError(
-                "agents", seed, f"no free start on walkable ground for {kind} {i + 1} of {count}"
-            )
         start, goal = pair
         taken.append((*start, r))
         out.append(Person(id=f"{kind}-{i + 1}", kind=kind, start=start, goal=goal, radius=r, speed=v))

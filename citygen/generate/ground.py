@@ -372,18 +372,18 @@ def _region_shape(shape: str, w: float, h: float, rng: np.random.Generator, cfg:
         return band(along_x, cy if along_x else cx)
     if shape == "crossing":
         return band(True, cy).union(band(False, cx))
-    # An L-turn: from one edge to the corner point, then on to an adjacent edge.
+    # An L-turn: from one edge to the corner point, then on to an adjacent edge; each arm
+    # runs to the farther edge, so the path spans at least half the scene both ways (room
+    # for a task's start and goal).
     half = width / 2
-    horizontal = (
-        box(0, cy - half, cx + half, cy + half)
-        if rng.random() < 0.5
-        else box(cx - half, cy - half, w, cy + half)
-    )
-    vertical = (
-        box(cx - half, 0, cx + half, cy + half)
-        if rng.random() < 0.5
-        else box(cx - half, cy - half, cx + half, h)
-    )
+    if cx < w / 2:
+        horizontal = box(cx - half, cy - half, w, cy + half)
+    else:
+        horizontal = box(0, cy - half, cx + half, cy + half)
+    if cy < h / 2:
+        vertical = box(cx - half, cy - half, cx + half, h)
+    else:
+        vertical = box(cx - half, 0, cx + half, cy + half)
     return horizontal.union(vertical)
 
 
