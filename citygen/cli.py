@@ -131,6 +131,68 @@ def render(
     typer.echo(f"wrote {path}")
 
 
+#: Export formats and the exporter modules that write them (``png``: the top-down map and,
+#: where OpenGL exists, MuJoCo's perspective view).
+EXPORT_FORMATS = {
+    "mjcf": ("mjcf",),
+    "usd": ("usd",),
+    "urdf": ("urdf",),
+    "occupancy": ("occupancy",),
+    "glb": ("glb",),
+    "html": ("html",),
+    "png": ("picture", "view"),
+}
+
+
+@app.command()
+def export(
+    scenes: Annotated[list[Path], typer.Argument(help="Scene files (.json).", show_default=False)],
+    fmt: Annotated[
+        str,
+        typer.Option(
+            "--format", "-f", help=f"One of {', '.join(EXPORT_FORMATS)}, or all.", show_default=True
+        ),
+    ] = "all",
+    out: Annotated[Path, typer.Option("--out", "-o", help="Folder to write into.")] = Path("export"),
+) -> None:
+    """Compile scenes to the files other simulators load: MJCF, USD, URDF, an occupancy map
+    (npz, ROS yaml/pgm, png), GLB, a self-contained HTML viewer, PNG pictures.
+
+    Assets repeated across scenes are written once, content-addressed, under `OUT/assets/`.
+    Whatever a format cannot express is reported on stderr as `FILE: warning: ...`; the
+    perspective PNG is skipped with a message where no OpenGL exists.
+    """
+    import importlib
+    import warnings
+
+    from citygen.errors import ExportError
+    from citygen.exporters import ExportWarning
+
+    if fmt != "all" and fmt not in EXPORT_FORMATS:
+        raise ExportError(f"--format: expected one of {', '.join(EXPORT_FORMATS)} or all, got {fmt!r}")
+    chosen = list(EXPORT_FORMATS) if fmt == "all" else [fmt]
+    for scene in scenes:
+        citygen.load_scene(scene)  # a bad file fails here, before anything is written
+    for scene in scenes:
+        for name in chosen:
+            for module_name in EXPORT_FORMATS[name]:
+                module = importlib.import_module(f"citygen.exporters.{module_name}")
+                with warnings.catch_warnings(record=True) as caught:
+                    warnings.simplefilter("always", ExportWarning)
+                    try:
+                        written = module.export(scene, out)
+                    except RuntimeError as exc:
+                        if module_name != "view":
+                            raise
+                        typer.echo(f"{scene}: skipped the perspective picture: {exc}", err=True)
+                        written = []
+                for w in caught:
+                    if issubclass(w.category, ExportWarning):
+                        typer.echo(f"{scene}: warning: {w.message}", err=True)
+                for path in written:
+                    typer.echo(f"wrote {path}")
+
+
 assets_app = typer.Typer(
     help="The asset catalog: list its categories, draw contact sheets of their variants.",
     no_args_is_help=True,
