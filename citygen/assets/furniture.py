@@ -60,12 +60,12 @@ EMBED = 0.003
 """Overlap (m) between parts that touch, so their union is one solid."""
 
 
-def _u(rng: np.random.Generator, low: float, high: float) -> float:
+def dim(rng: np.random.Generator, low: float, high: float) -> float:
     """A length (m) uniform in [low, high], to the millimetre."""
     return round(float(rng.uniform(low, high)), 3)
 
 
-def _pick(rng: np.random.Generator, options: tuple[Look, ...]) -> Look:
+def pick(rng: np.random.Generator, options: tuple[Look, ...]) -> Look:
     return options[int(rng.integers(len(options)))]
 
 
@@ -78,10 +78,10 @@ def bench(rng: np.random.Generator) -> list[Part]:
     (35 %) 0.18-0.25 m above the seat. Overall: 0.40-1.00 m high, 0.38-0.72 m deep
     (x), 1.2-2.4 m long (y).
     """
-    length, depth, seat = _u(rng, 1.2, 2.4), _u(rng, 0.38, 0.55), _u(rng, 0.40, 0.48)
-    slats, thick, gap = int(rng.integers(3, 8)), _u(rng, 0.025, 0.045), _u(rng, 0.005, 0.02)
-    top = _pick(rng, WOOD) if rng.random() < 0.75 else _pick(rng, PAINT)
-    frame_look = _pick(rng, PAINT)
+    length, depth, seat = dim(rng, 1.2, 2.4), dim(rng, 0.38, 0.55), dim(rng, 0.40, 0.48)
+    slats, thick, gap = int(rng.integers(3, 8)), dim(rng, 0.025, 0.045), dim(rng, 0.005, 0.02)
+    top = pick(rng, WOOD) if rng.random() < 0.75 else pick(rng, PAINT)
+    frame_look = pick(rng, PAINT)
     width = (depth - (slats - 1) * gap) / slats
     parts: list[Part] = [
         Box(
@@ -93,11 +93,11 @@ def bench(rng: np.random.Generator) -> list[Part]:
         for i in range(slats)
     ]
     supports = 2 if length < 1.6 else int(rng.integers(2, 4))
-    inset = _u(rng, 0.08, 0.25)
+    inset = dim(rng, 0.08, 0.25)
     ys = np.linspace(-length / 2 + inset, length / 2 - inset, supports).tolist()
     under = seat - thick + EMBED  # top of the supports
     if rng.random() < 0.5:  # leg frames: two legs and a rail under the seat
-        leg = _u(rng, 0.04, 0.07)
+        leg = dim(rng, 0.04, 0.07)
         for y in ys:
             parts += [
                 Box(
@@ -110,12 +110,14 @@ def bench(rng: np.random.Generator) -> list[Part]:
             ]
             parts.append(Box((depth - 0.04, leg, 0.04), (0.0, y, under - 0.02), 0.0, frame_look))
     else:  # solid side panels
-        panel, look = _u(rng, 0.06, 0.15), _pick(rng, CONCRETE + PAINT[:3])
-        parts += [Box((depth - _u(rng, 0.0, 0.03), panel, under), (0.0, y, under / 2), 0.0, look) for y in ys]
+        panel, look = dim(rng, 0.06, 0.15), pick(rng, CONCRETE + PAINT[:3])
+        parts += [
+            Box((depth - dim(rng, 0.0, 0.03), panel, under), (0.0, y, under / 2), 0.0, look) for y in ys
+        ]
     if rng.random() < 0.7:
         parts += _backrest(rng, length, depth, seat, thick, ys, top, frame_look)
     if rng.random() < 0.35:
-        arm_z = seat + _u(rng, 0.18, 0.25)
+        arm_z = seat + dim(rng, 0.18, 0.25)
         for y in (ys[0], ys[-1]):
             parts.append(
                 Box(
@@ -142,8 +144,8 @@ def _backrest(
     """Posts leaning back from the seat's rear edge (one per support at ``ys``) and slats
     across them; ``length``, ``depth``, ``seat`` (top height) and ``thick`` are the seat's (m).
     """
-    rise, lean = _u(rng, 0.35, 0.50), math.radians(_u(rng, 5.0, 15.0))
-    post = _u(rng, 0.035, 0.05)  # post depth (x) and width (y)
+    rise, lean = dim(rng, 0.35, 0.50), math.radians(dim(rng, 5.0, 15.0))
+    post = dim(rng, 0.035, 0.05)  # post depth (x) and width (y)
     z0, z1 = seat - thick, seat + rise
     x0 = -depth / 2 + post / 2
     span = (z1 - z0) / math.cos(lean)
@@ -151,7 +153,7 @@ def _backrest(
     parts: list[Part] = [
         tilted((post, post, span), (centre_x, y, (z0 + z1) / 2), -lean, frame_look) for y in ys
     ]
-    n, high = int(rng.integers(2, 5)), _u(rng, 0.06, 0.12)
+    n, high = int(rng.integers(2, 5)), dim(rng, 0.06, 0.12)
     for z in np.linspace(seat + 0.08 + high / 2, z1 - high / 2, n).tolist():
         x = x0 - (z - z0) * math.tan(lean) + post / 2 + thick / 2 - EMBED
         parts.append(tilted((thick, length, high), (x, 0.0, z), -lean, look))
@@ -166,21 +168,21 @@ def trash_bin(rng: np.random.Generator) -> list[Part]:
     radius 0.18-0.25 m, 0.40-0.55 m tall, bottom 0.35-0.45 m above ground. Overall:
     0.74-1.20 m high, 0.43-0.74 m (x), 0.37-0.74 m (y).
     """
-    style, body, trim = int(rng.integers(3)), _pick(rng, PAINT + PLASTIC), _pick(rng, PAINT)
-    lid_t, lip = _u(rng, 0.03, 0.08), _u(rng, 0.005, 0.025)
+    style, body, trim = int(rng.integers(3)), pick(rng, PAINT + PLASTIC), pick(rng, PAINT)
+    lid_t, lip = dim(rng, 0.03, 0.08), dim(rng, 0.005, 0.025)
     if style == 1:  # square
-        sx, sy, h = _u(rng, 0.42, 0.62), _u(rng, 0.42, 0.62), _u(rng, 0.75, 1.05)
+        sx, sy, h = dim(rng, 0.42, 0.62), dim(rng, 0.42, 0.62), dim(rng, 0.75, 1.05)
         return [
             Box((sx, sy, h - lid_t + EMBED), (0.0, 0.0, (h - lid_t + EMBED) / 2), 0.0, body),
             Box((sx + 2 * lip, sy + 2 * lip, lid_t), (0.0, 0.0, h - lid_t / 2), 0.0, trim),
         ]
     if style == 0:  # round, on the ground
-        r, bottom, top = _u(rng, 0.21, 0.34), 0.0, _u(rng, 0.72, 1.0)
+        r, bottom, top = dim(rng, 0.21, 0.34), 0.0, dim(rng, 0.72, 1.0)
         parts: list[Part] = []
     else:  # round, on a post
-        r, bottom = _u(rng, 0.18, 0.25), _u(rng, 0.35, 0.45)
-        top = bottom + _u(rng, 0.40, 0.55)
-        pole = _u(rng, 0.03, 0.05)
+        r, bottom = dim(rng, 0.18, 0.25), dim(rng, 0.35, 0.45)
+        top = bottom + dim(rng, 0.40, 0.55)
+        pole = dim(rng, 0.03, 0.05)
         parts = [Cylinder(pole, top, (-(r + pole) + 2 * EMBED, 0.0, top / 2), trim)]
         parts.append(Cylinder(pole + 0.05, 0.01, (-(r + pole) + 2 * EMBED, 0.0, 0.005), trim))
     parts += [
@@ -188,11 +190,11 @@ def trash_bin(rng: np.random.Generator) -> list[Part]:
         Cylinder(r + lip, lid_t, (0.0, 0.0, top + lid_t / 2 - EMBED), trim),
     ]
     for _ in range(int(rng.integers(0, 3))):  # decorative bands
-        band = _u(rng, 0.02, 0.05)
-        parts.append(Cylinder(r + 0.004, band, (0.0, 0.0, _u(rng, bottom + 0.1, top - 0.1)), trim))
+        band = dim(rng, 0.02, 0.05)
+        parts.append(Cylinder(r + 0.004, band, (0.0, 0.0, dim(rng, bottom + 0.1, top - 0.1)), trim))
     if rng.random() < 0.4:
         parts.append(
-            frustum(r + lip, r * 0.6, top + lid_t - 2 * EMBED, top + lid_t + _u(rng, 0.05, 0.12), trim)
+            frustum(r + lip, r * 0.6, top + lid_t - 2 * EMBED, top + lid_t + dim(rng, 0.05, 0.12), trim)
         )
     return parts
 
@@ -204,11 +206,11 @@ def bollard(rng: np.random.Generator) -> list[Part]:
     bands 30-80 mm. Square: 0.10-0.22 m a side with a flat cap. Optional base collar
     20-40 mm wider. Overall: 0.80-1.10 m high, 0.10-0.35 m across.
     """
-    h, look = _u(rng, 0.80, 1.10), _pick(rng, (*PAINT, STEEL, *CONCRETE[:2]))
-    collar = _u(rng, 0.02, 0.04) if rng.random() < 0.5 else 0.0
-    collar_h = _u(rng, 0.03, 0.08)
+    h, look = dim(rng, 0.80, 1.10), pick(rng, (*PAINT, STEEL, *CONCRETE[:2]))
+    collar = dim(rng, 0.02, 0.04) if rng.random() < 0.5 else 0.0
+    collar_h = dim(rng, 0.03, 0.08)
     if rng.random() < 0.3:  # square
-        s, cap = _u(rng, 0.10, 0.22), _u(rng, 0.02, 0.04)
+        s, cap = dim(rng, 0.10, 0.22), dim(rng, 0.02, 0.04)
         parts: list[Part] = [
             Box((s, s, h - cap + EMBED), (0.0, 0.0, (h - cap + EMBED) / 2), 0.0, look),
             Box((s + 0.01, s + 0.01, cap), (0.0, 0.0, h - cap / 2), 0.0, look),
@@ -216,8 +218,8 @@ def bollard(rng: np.random.Generator) -> list[Part]:
         if collar:
             parts.append(Box((s + 2 * collar, s + 2 * collar, collar_h), (0.0, 0.0, collar_h / 2), 0.0, look))
         return parts
-    r, top = _u(rng, 0.05, 0.13), int(rng.integers(3))
-    cap = (r, _u(rng, 0.02, 0.05), _u(rng, 0.03, 0.08))[top]  # dome, flat, chamfer
+    r, top = dim(rng, 0.05, 0.13), int(rng.integers(3))
+    cap = (r, dim(rng, 0.02, 0.05), dim(rng, 0.03, 0.08))[top]  # dome, flat, chamfer
     parts = [Cylinder(r, h - cap + EMBED, (0.0, 0.0, (h - cap + EMBED) / 2), look)]
     if top == 0:
         parts.append(Capsule(r, 0.0, (0.0, 0.0, h - r), look))
@@ -226,7 +228,7 @@ def bollard(rng: np.random.Generator) -> list[Part]:
     else:
         parts.append(frustum(r, r * 0.6, h - cap, h, look))
     for i in range(int(rng.integers(0, 3))):
-        band = _u(rng, 0.03, 0.08)
+        band = dim(rng, 0.03, 0.08)
         parts.append(Cylinder(r + 0.003, band, (0.0, 0.0, h - cap - 0.06 - i * 0.12 - band / 2), REFLECTOR))
     if collar:
         parts.append(Cylinder(r + collar, collar_h, (0.0, 0.0, collar_h / 2), look))
@@ -242,18 +244,18 @@ def planter(rng: np.random.Generator) -> list[Part]:
     ball 0.2-0.35 m in radius on a trunk. Overall: 0.35-1.90 m high, 0.5-1.2 m (x),
     0.5-1.8 m (y).
     """
-    shape, h = int(rng.integers(3)), _u(rng, 0.35, 0.90)
-    look = _pick(rng, CONCRETE + WOOD + PAINT[:3])
-    soil_top = h - _u(rng, 0.03, 0.10)
+    shape, h = int(rng.integers(3)), dim(rng, 0.35, 0.90)
+    look = pick(rng, CONCRETE + WOOD + PAINT[:3])
+    soil_top = h - dim(rng, 0.03, 0.10)
     if shape == 2:  # round, tapered
-        r = _u(rng, 0.25, 0.60)
-        parts: list[Part] = [frustum(r * _u(rng, 0.75, 1.0), r, 0.0, h, look)]
+        r = dim(rng, 0.25, 0.60)
+        parts: list[Part] = [frustum(r * dim(rng, 0.75, 1.0), r, 0.0, h, look)]
         room = r - 0.05
     else:
-        sx = _u(rng, 0.5, 1.2) if shape == 0 else _u(rng, 0.5, 1.0)
-        sy = sx if shape == 0 else _u(rng, 1.0, 1.8)
-        wall = _u(rng, 0.04, 0.12)
-        feet = _u(rng, 0.03, 0.08) if rng.random() < 0.4 else 0.0
+        sx = dim(rng, 0.5, 1.2) if shape == 0 else dim(rng, 0.5, 1.0)
+        sy = sx if shape == 0 else dim(rng, 1.0, 1.8)
+        wall = dim(rng, 0.04, 0.12)
+        feet = dim(rng, 0.03, 0.08) if rng.random() < 0.4 else 0.0
         wall_h, z = h - feet, feet + (h - feet) / 2
         parts = [Box((wall, sy, wall_h), (sgn * (sx - wall) / 2, 0.0, z), 0.0, look) for sgn in (-1, 1)] + [
             Box(
@@ -288,17 +290,17 @@ def _plant(rng: np.random.Generator, soil: float, room: float) -> list[Part]:
 
     The plant stays within ``room`` (m) of the vertical axis.
     """
-    leaves, kind = _pick(rng, FOLIAGE), int(rng.integers(3))
+    leaves, kind = pick(rng, FOLIAGE), int(rng.integers(3))
     if kind == 0:  # shrub: hull of random points on an ellipsoid
-        rx, ry, hz = _u(rng, 0.5, 1.0) * room, _u(rng, 0.5, 1.0) * room, _u(rng, 0.3, 1.0)
+        rx, ry, hz = dim(rng, 0.5, 1.0) * room, dim(rng, 0.5, 1.0) * room, dim(rng, 0.3, 1.0)
         d = rng.normal(size=(26, 3))
         d = np.vstack([np.eye(3), -np.eye(3), d / np.linalg.norm(d, axis=1, keepdims=True)])
         pts = d * [rx, ry, hz / 2] + [0.0, 0.0, soil + hz / 2 - 0.02]
         return [ConvexMesh(tuple(map(tuple, pts.tolist())), leaves)]
     if kind == 1:  # cone
-        return [frustum(_u(rng, 0.5, 1.0) * room, 0.0, soil - 0.02, soil + _u(rng, 0.3, 1.0), leaves)]
-    ball = min(_u(rng, 0.2, 0.35), room)
-    trunk = _u(rng, 0.15, 0.35)
+        return [frustum(dim(rng, 0.5, 1.0) * room, 0.0, soil - 0.02, soil + dim(rng, 0.3, 1.0), leaves)]
+    ball = min(dim(rng, 0.2, 0.35), room)
+    trunk = dim(rng, 0.15, 0.35)
     return [
         Cylinder(0.03, trunk + 0.05, (0.0, 0.0, soil + (trunk - 0.05) / 2), WOOD[3]),
         Capsule(ball, 0.0, (0.0, 0.0, soil + trunk + ball - 0.05), leaves),
@@ -314,27 +316,27 @@ def lamp_post(rng: np.random.Generator) -> list[Part]:
     pole 3.5-5.0 m with a globe 0.18-0.30 m in radius or a lantern. Overall: 3.8-8.4 m
     high, 0.35-3.0 m (x), 0.20-0.61 m (y).
     """
-    style, paint = int(rng.integers(3)), _pick(rng, (*PAINT, STEEL))
-    pole_h = _u(rng, 3.5, 5.0) if style == 2 else _u(rng, 4.5, 8.0)
-    r0 = _u(rng, 0.06, 0.12)
-    r1 = round(r0 * _u(rng, 0.5, 0.9), 3)
+    style, paint = int(rng.integers(3)), pick(rng, (*PAINT, STEEL))
+    pole_h = dim(rng, 3.5, 5.0) if style == 2 else dim(rng, 4.5, 8.0)
+    r0 = dim(rng, 0.06, 0.12)
+    r1 = round(r0 * dim(rng, 0.5, 0.9), 3)
     parts: list[Part] = [frustum(r0, r1, 0.0, pole_h, paint)]
     if rng.random() < 0.6:
-        plinth = _u(rng, 0.3, 0.8)
-        parts.append(Cylinder(r0 + _u(rng, 0.04, 0.13), plinth, (0.0, 0.0, plinth / 2), paint))
+        plinth = dim(rng, 0.3, 0.8)
+        parts.append(Cylinder(r0 + dim(rng, 0.04, 0.13), plinth, (0.0, 0.0, plinth / 2), paint))
     if style == 2:
         if rng.random() < 0.5:
-            globe = _u(rng, 0.18, 0.30)
+            globe = dim(rng, 0.18, 0.30)
             parts.append(Capsule(globe, 0.0, (0.0, 0.0, pole_h + globe - 0.03), GLASS))
         else:
-            body = _u(rng, 0.25, 0.45)
+            body = dim(rng, 0.25, 0.45)
             parts.append(frustum(0.12, 0.2, pole_h - EMBED, pole_h + body, GLASS, sides=6))
             parts.append(frustum(0.24, 0.04, pole_h + body - EMBED, pole_h + body + 0.12, paint, sides=6))
         return parts
-    rise, arm_r = _u(rng, 0.0, 0.4), _u(rng, 0.03, 0.05)
-    lum = (_u(rng, 0.4, 0.7), _u(rng, 0.2, 0.35), _u(rng, 0.08, 0.15))
+    rise, arm_r = dim(rng, 0.0, 0.4), dim(rng, 0.03, 0.05)
+    lum = (dim(rng, 0.4, 0.7), dim(rng, 0.2, 0.35), dim(rng, 0.08, 0.15))
     for side in (1, -1) if style == 1 else (1,):
-        reach = _u(rng, 0.3, 0.9) if style == 1 else _u(rng, 0.5, 1.8)
+        reach = dim(rng, 0.3, 0.9) if style == 1 else dim(rng, 0.5, 1.8)
         z_end = pole_h - 0.1 + rise
         parts.append(rod(arm_r, (0.0, 0.0, pole_h - 0.1), (side * reach, 0.0, z_end), paint))
         centre = (side * (reach + lum[0] / 2 - 0.1), 0.0, z_end - lum[2] / 2 + arm_r)
@@ -350,25 +352,25 @@ def fire_hydrant(rng: np.random.Generator) -> list[Part]:
     out, and a pumper outlet (60 %) towards +x. Overall: 0.54-0.90 m high, 0.20-0.45 m
     (x), 0.28-0.50 m (y).
     """
-    look, caps = _pick(rng, HYDRANT), _pick(rng, (*HYDRANT, STEEL))
-    r, barrel = _u(rng, 0.08, 0.13), _u(rng, 0.45, 0.70)
-    flange, flange_h = r + _u(rng, 0.02, 0.05), _u(rng, 0.04, 0.08)
+    look, caps = pick(rng, HYDRANT), pick(rng, (*HYDRANT, STEEL))
+    r, barrel = dim(rng, 0.08, 0.13), dim(rng, 0.45, 0.70)
+    flange, flange_h = r + dim(rng, 0.02, 0.05), dim(rng, 0.04, 0.08)
     parts: list[Part] = [
         Cylinder(r, barrel, (0.0, 0.0, barrel / 2), look),
         Cylinder(flange, flange_h, (0.0, 0.0, flange_h / 2), look),
     ]
     if rng.random() < 0.6:
-        ring = _u(rng, 0.025, 0.04)
-        parts.append(Cylinder(r + _u(rng, 0.015, 0.03), ring, (0.0, 0.0, barrel - ring / 2), look))
+        ring = dim(rng, 0.025, 0.04)
+        parts.append(Cylinder(r + dim(rng, 0.015, 0.03), ring, (0.0, 0.0, barrel - ring / 2), look))
     if rng.random() < 0.5:
-        bonnet = r * _u(rng, 0.85, 1.0)
+        bonnet = r * dim(rng, 0.85, 1.0)
         parts.append(Capsule(bonnet, 0.0, (0.0, 0.0, barrel - EMBED), caps))
         top = barrel - EMBED + bonnet
     else:
-        top = barrel + _u(rng, 0.06, 0.12)
+        top = barrel + dim(rng, 0.06, 0.12)
         parts.append(frustum(r, r * 0.5, barrel - EMBED, top, caps))
-    parts.append(frustum(0.025, 0.02, top - 0.01, top + _u(rng, 0.03, 0.05), caps, sides=5))
-    z_out, out_r, reach = barrel * _u(rng, 0.6, 0.75), _u(rng, 0.03, 0.045), r + _u(rng, 0.04, 0.09)
+    parts.append(frustum(0.025, 0.02, top - 0.01, top + dim(rng, 0.03, 0.05), caps, sides=5))
+    z_out, out_r, reach = barrel * dim(rng, 0.6, 0.75), dim(rng, 0.03, 0.045), r + dim(rng, 0.04, 0.09)
     for side in (1, -1):
         parts.append(rod(out_r, (0.0, 0.0, z_out), (0.0, side * reach, z_out), look))
         parts.append(
@@ -380,7 +382,7 @@ def fire_hydrant(rng: np.random.Generator) -> list[Part]:
             )
         )
     if rng.random() < 0.6:
-        pump_r, pump = _u(rng, 0.05, 0.065), r + _u(rng, 0.05, 0.1)
+        pump_r, pump = dim(rng, 0.05, 0.065), r + dim(rng, 0.05, 0.1)
         parts.append(rod(pump_r, (0.0, 0.0, z_out), (pump, 0.0, z_out), look))
         parts.append(rod(pump_r + 0.008, (pump - 0.01, 0.0, z_out), (pump + 0.03, 0.0, z_out), caps))
     return parts

@@ -25,8 +25,8 @@ from citygen.assets.furniture import (
     PAINT,
     STEEL,
     WOOD,
-    _pick,
-    _u,
+    dim,
+    pick,
 )
 from citygen.assets.parts import Box, Capsule, ConvexMesh, Cylinder, Look, Part, frustum, rod
 from citygen.assets.parts import tilted_box as tilted
@@ -184,19 +184,19 @@ def bus_stop_shelter(rng: np.random.Generator) -> list[Part]:
     timetable case 0.4-0.6 m wide (60 %) on the back glass at eye height. Overall:
     2.38-3.15 m high, 1.3-2.1 m (x), 2.6-6.2 m (y).
     """
-    depth, length = _u(rng, 1.3, 2.1), _u(rng, 2.6, 6.2)
-    clear, thick, post = _u(rng, 2.3, 2.6), _u(rng, 0.08, 0.20), _u(rng, 0.06, 0.10)
-    frame, glass, roof_look = _pick(rng, (*PAINT, STEEL)), _pick(rng, GLAZING), _pick(rng, (*PAINT, STEEL))
+    depth, length = dim(rng, 1.3, 2.1), dim(rng, 2.6, 6.2)
+    clear, thick, post = dim(rng, 2.3, 2.6), dim(rng, 0.08, 0.20), dim(rng, 0.06, 0.10)
+    frame, glass, roof_look = pick(rng, (*PAINT, STEEL)), pick(rng, GLAZING), pick(rng, (*PAINT, STEEL))
     roof_style = int(rng.integers(3))  # flat, mono-pitch, barrel
-    rise = _u(rng, -0.25, 0.35) if roof_style == 1 else 0.0
-    back_in, front_in, side_in = _u(rng, 0.0, 0.1), _u(rng, 0.1, 0.4), _u(rng, 0.08, 0.25)
+    rise = dim(rng, -0.25, 0.35) if roof_style == 1 else 0.0
+    back_in, front_in, side_in = dim(rng, 0.0, 0.1), dim(rng, 0.1, 0.4), dim(rng, 0.08, 0.25)
     x0, x1 = -depth / 2, depth / 2
     xb, xf = x0 + back_in + post / 2, x1 - front_in - post / 2  # back and front post lines
 
     def under(x: float) -> float:  # the roof's underside (m) above x
         return clear + rise * (x - x0) / depth
 
-    arch = _u(rng, 0.1, 0.3) if roof_style == 2 else 0.0
+    arch = dim(rng, 0.1, 0.3) if roof_style == 2 else 0.0
     xs = np.linspace(x0, x1, 9)
     top = [under(x) + thick + arch * (1 - (2 * x / depth) ** 2) for x in xs.tolist()]
     roof_pts = [(x, y, z) for x, z in ((x0, under(x0)), (x1, under(x1))) for y in (-length / 2, length / 2)]
@@ -204,7 +204,7 @@ def bus_stop_shelter(rng: np.random.Generator) -> list[Part]:
     parts: list[Part] = [_mesh(np.array(roof_pts), roof_look)]
 
     inner = length - 2 * side_in - post
-    bays = int(np.clip(round(inner / _u(rng, 1.2, 1.9)), 1, 4))
+    bays = int(np.clip(round(inner / dim(rng, 1.2, 1.9)), 1, 4))
     ys = np.linspace(-inner / 2, inner / 2, bays + 1).tolist()
     grip = min(thick / 2, 0.03)  # how far posts reach into the roof
 
@@ -216,18 +216,18 @@ def bus_stop_shelter(rng: np.random.Generator) -> list[Part]:
     four_posts = rng.random() < 0.5
     if four_posts:
         parts += [upright(xf, y) for y in (ys[0], ys[-1])]
-    g0, gt = _u(rng, 0.0, 0.15), _u(rng, 0.008, 0.012)
-    g1 = min(under(xb), under(xb + post)) - _u(rng, 0.0, 0.3)
+    g0, gt = dim(rng, 0.0, 0.15), dim(rng, 0.008, 0.012)
+    g1 = min(under(xb), under(xb + post)) - dim(rng, 0.0, 0.3)
     for ya, yb in itertools.pairwise(ys):
         parts.append(Box((gt, yb - ya, g1 - g0), (xb, (ya + yb) / 2, (g0 + g1) / 2), 0.0, glass))
-    reach = xf - xb if four_posts else _u(rng, 0.6, xf - xb)
+    reach = xf - xb if four_posts else dim(rng, 0.6, xf - xb)
     for y in (ys[0], ys[-1]):
         side = rng.random()
         if side < 0.55:  # glass side panel, from the back post forward
-            g1s = min(under(xb), under(xb + reach)) - _u(rng, 0.0, 0.3)
+            g1s = min(under(xb), under(xb + reach)) - dim(rng, 0.0, 0.3)
             parts.append(Box((reach, gt, g1s - g0), (xb + reach / 2, y, (g0 + g1s) / 2), 0.0, glass))
         elif side < 0.8:  # lit advertising panel (a 1.2 m x 1.8 m poster case)
-            wide, ad_h, ad_t = min(reach, _u(rng, 1.1, 1.25)), _u(rng, 1.75, 1.9), _u(rng, 0.10, 0.14)
+            wide, ad_h, ad_t = min(reach, dim(rng, 1.1, 1.25)), dim(rng, 1.75, 1.9), dim(rng, 0.10, 0.14)
             ad_h = min(ad_h, min(under(xb), under(xb + wide)) - g0 - 0.05)
             parts.append(Box((wide, ad_t, ad_h), (xb + wide / 2, y, g0 + ad_h / 2), 0.0, frame))
             parts.append(
@@ -239,11 +239,11 @@ def bus_stop_shelter(rng: np.random.Generator) -> list[Part]:
                 )
             )
     if rng.random() < 0.75:  # bench against the back glass
-        seat, seat_d, seat_t = _u(rng, 0.42, 0.48), _u(rng, 0.30, 0.40), _u(rng, 0.03, 0.05)
+        seat, seat_d, seat_t = dim(rng, 0.42, 0.48), dim(rng, 0.30, 0.40), dim(rng, 0.03, 0.05)
         span = ys[-1] - ys[0] - post
-        seat_l = min(_u(rng, 1.2, 2.4), span - 0.1)
-        yc = _u(rng, -(span - seat_l) / 2, (span - seat_l) / 2)
-        look = _pick(rng, (*WOOD, *PAINT))
+        seat_l = min(dim(rng, 1.2, 2.4), span - 0.1)
+        yc = dim(rng, -(span - seat_l) / 2, (span - seat_l) / 2)
+        look = pick(rng, (*WOOD, *PAINT))
         x_back = xb - gt / 2
         parts.append(Box((seat_d, seat_l, seat_t), (x_back + seat_d / 2, yc, seat - seat_t / 2), 0.0, look))
         for sy in (-1, 1):
@@ -253,9 +253,9 @@ def bus_stop_shelter(rng: np.random.Generator) -> list[Part]:
                 Box((seat_d * 0.8, 0.04, leg_h), (x_back + seat_d * 0.45, leg_y, leg_h / 2), 0.0, frame)
             )
     if rng.random() < 0.6:  # timetable case on a back post, facing the stop
-        wide, high, case = _u(rng, 0.4, 0.6), _u(rng, 0.55, 0.8), _u(rng, 0.025, 0.05)
+        wide, high, case = dim(rng, 0.4, 0.6), dim(rng, 0.55, 0.8), dim(rng, 0.025, 0.05)
         y = float(np.clip(ys[int(rng.integers(len(ys)))], ys[0] + wide / 2, ys[-1] - wide / 2))
-        z = _u(rng, 1.35, 1.6)
+        z = dim(rng, 1.35, 1.6)
         parts.append(Box((case, wide, high), (xb + gt / 2 + case / 2 - EMBED, y, z), 0.0, frame))
     return parts
 
@@ -281,31 +281,31 @@ def tree(rng: np.random.Generator) -> list[Part]:
     furnishing strips and curbs only.
     """
     habit = int(rng.choice(4, p=[0.4, 0.15, 0.25, 0.2]))  # broad, columnar, conifer, young
-    bark = _pick(rng, BARK)
+    bark = pick(rng, BARK)
     if habit == 0:
-        h = _u(rng, 5.0, 14.0)
-        d = _u(rng, max(1.5, 0.35 * h), min(7.0, 0.7 * h))
-        base = _u(rng, 1.5, min(3.0, 0.45 * h))
+        h = dim(rng, 5.0, 14.0)
+        d = dim(rng, max(1.5, 0.35 * h), min(7.0, 0.7 * h))
+        base = dim(rng, 1.5, min(3.0, 0.45 * h))
     elif habit == 1:
-        h = _u(rng, 5.0, 14.0)
-        d = _u(rng, 1.5, min(3.0, 0.3 * h))
-        base = _u(rng, 0.5, min(2.5, 0.3 * h))
+        h = dim(rng, 5.0, 14.0)
+        d = dim(rng, 1.5, min(3.0, 0.3 * h))
+        base = dim(rng, 0.5, min(2.5, 0.3 * h))
     elif habit == 2:
-        h = _u(rng, 3.0, 14.0)
-        d = _u(rng, max(1.5, 0.3 * h), min(7.0, 0.55 * h))
-        base = _u(rng, 0.3, min(1.5, 0.2 * h))
+        h = dim(rng, 3.0, 14.0)
+        d = dim(rng, max(1.5, 0.3 * h), min(7.0, 0.55 * h))
+        base = dim(rng, 0.3, min(1.5, 0.2 * h))
     else:
-        h = _u(rng, 3.0, 5.5)
-        d = _u(rng, 1.5, min(3.0, 0.6 * h))
-        base = _u(rng, 1.5, min(2.2, h - 1.2))
+        h = dim(rng, 3.0, 5.5)
+        d = dim(rng, 1.5, min(3.0, 0.6 * h))
+        base = dim(rng, 1.5, min(2.2, h - 1.2))
     r, crown = d / 2, h - base
-    r0 = _u(rng, 0.04, 0.07) if habit == 3 else round(h * _u(rng, 0.015, 0.025), 3)
-    r1 = round(r0 * _u(rng, 0.5, 0.8), 3)
-    leaves = _pick(rng, NEEDLES if habit == 2 else (LEAVES if rng.random() < 0.85 else BLOSSOM))
+    r0 = dim(rng, 0.04, 0.07) if habit == 3 else round(h * dim(rng, 0.015, 0.025), 3)
+    r1 = round(r0 * dim(rng, 0.5, 0.8), 3)
+    leaves = pick(rng, NEEDLES if habit == 2 else (LEAVES if rng.random() < 0.85 else BLOSSOM))
     parts: list[Part] = []
     if habit == 2:  # stacked cones; the bottom one is exactly d across
         tiers = int(rng.integers(1, 5))
-        tier_h = crown if tiers == 1 else crown * min(0.9, _u(rng, 1.2, 1.6) / tiers)
+        tier_h = crown if tiers == 1 else crown * min(0.9, dim(rng, 1.2, 1.6) / tiers)
         step = 0.0 if tiers == 1 else (crown - tier_h) / (tiers - 1)
         for i in range(tiers):
             z0 = base + i * step
@@ -320,18 +320,18 @@ def tree(rng: np.random.Generator) -> list[Part]:
         parts.append(_blob(rng, (0.0, 0.0, zc), (r, r, crown / 2), leaves))
         for _ in range(int(rng.integers(0, 4)) if habit == 0 else 0):
             angle = rng.uniform(0, 2 * math.pi)
-            cz = zc + crown * _u(rng, -0.05, 0.15)
+            cz = zc + crown * dim(rng, -0.05, 0.15)
             centre = (0.45 * r * math.cos(angle), 0.45 * r * math.sin(angle), cz)
-            vertical = min(crown * _u(rng, 0.3, 0.45), h - cz, cz - base)
-            lump = 0.55 * r * _u(rng, 0.7, 1.0)
+            vertical = min(crown * dim(rng, 0.3, 0.45), h - cz, cz - base)
+            lump = 0.55 * r * dim(rng, 0.7, 1.0)
             parts.append(_blob(rng, centre, (lump, lump, vertical), leaves))
         trunk_top = zc
     parts.append(frustum(r0, r1, 0.0, trunk_top, bark))
     if rng.random() < 0.4:
-        flare = _u(rng, 0.15, 0.4)
-        parts.append(frustum(r0 * _u(rng, 1.3, 1.6), r0, 0.0, flare, bark))
+        flare = dim(rng, 0.15, 0.4)
+        parts.append(frustum(r0 * dim(rng, 1.3, 1.6), r0, 0.0, flare, bark))
     if habit == 3:  # stakes tied to the trunk
-        stakes, reach, stake_h = int(rng.integers(2, 4)), _u(rng, 0.3, 0.4), _u(rng, 1.2, min(1.8, base))
+        stakes, reach, stake_h = int(rng.integers(2, 4)), dim(rng, 0.3, 0.4), dim(rng, 1.2, min(1.8, base))
         turn = rng.uniform(0, 2 * math.pi)
         for k in range(stakes):
             a = turn + 2 * math.pi * k / stakes
@@ -339,8 +339,8 @@ def tree(rng: np.random.Generator) -> list[Part]:
             parts.append(Cylinder(0.035, stake_h, (x, y, stake_h / 2), WOOD[2]))
             parts.append(rod(0.012, (x, y, stake_h - 0.1), (0.0, 0.0, stake_h - 0.1), RUBBER))
     if habit != 2 and rng.random() < 0.5:  # tree grate or mulched pit
-        side = _u(rng, 1.0, min(1.8, d))
-        pit = _u(rng, 0.02, 0.04)
+        side = dim(rng, 1.0, min(1.8, d))
+        pit = dim(rng, 0.02, 0.04)
         parts.append(Box((side, side, pit), (0.0, 0.0, pit / 2), 0.0, GRATE if rng.random() < 0.5 else MULCH))
     return parts
 
@@ -357,18 +357,18 @@ def bush(rng: np.random.Generator) -> list[Part]:
     chamfered 50-200 mm. Green, yellow-green, red-leaved or flowering. Overall:
     0.4-2.0 m high, 0.4-2.0 m (x and y).
     """
-    leaves = _pick(rng, LEAVES + BLOSSOM if rng.random() < 0.2 else LEAVES)
+    leaves = pick(rng, LEAVES + BLOSSOM if rng.random() < 0.2 else LEAVES)
     if rng.random() < 0.3:  # clipped hedge block
-        sx, sy, h = _u(rng, 0.4, 1.2), _u(rng, 0.8, 2.0), _u(rng, 0.4, 1.8)
-        c = min(_u(rng, 0.05, 0.2), sx / 3, h / 3)
-        taper = _u(rng, 0.0, 0.06)  # the top is narrower than the bottom
+        sx, sy, h = dim(rng, 0.4, 1.2), dim(rng, 0.8, 2.0), dim(rng, 0.4, 1.8)
+        c = min(dim(rng, 0.05, 0.2), sx / 3, h / 3)
+        taper = dim(rng, 0.0, 0.06)  # the top is narrower than the bottom
         pts = [(x * sx / 2, y * sy / 2, 0.0) for x in (-1, 1) for y in (-1, 1)]
         pts += [(x * (sx / 2 - taper), y * (sy / 2 - taper), h - c) for x in (-1, 1) for y in (-1, 1)]
         pts += [(x * (sx / 2 - taper - c), y * (sy / 2 - taper - c), h) for x in (-1, 1) for y in (-1, 1)]
-        return [_mesh(np.array(pts), _pick(rng, FOLIAGE))]
-    sx, sy = _u(rng, 0.4, 2.0), _u(rng, 0.4, 2.0)
-    h = _u(rng, 0.4, min(2.0, 1.3 * max(sx, sy)))
-    zc = h * _u(rng, 0.3, 0.42)  # the main lump's centre; below it, it is cut flat at the ground
+        return [_mesh(np.array(pts), pick(rng, FOLIAGE))]
+    sx, sy = dim(rng, 0.4, 2.0), dim(rng, 0.4, 2.0)
+    h = dim(rng, 0.4, min(2.0, 1.3 * max(sx, sy)))
+    zc = h * dim(rng, 0.3, 0.42)  # the main lump's centre; below it, it is cut flat at the ground
     rz = h - zc
     parts: list[Part] = [_blob(rng, (0.0, 0.0, zc), (sx / 2, sy / 2, rz), leaves, floor=0.0)]
     for _ in range(int(rng.integers(0, 5))):
@@ -376,9 +376,9 @@ def bush(rng: np.random.Generator) -> list[Part]:
         d = 0.5 * d / np.linalg.norm(d)
         cx, cy, cz = d[0] * sx / 2, d[1] * sy / 2, zc + d[2] * rz
         radii = (
-            (sx / 2 - abs(cx)) * _u(rng, 0.6, 1.0),
-            (sy / 2 - abs(cy)) * _u(rng, 0.6, 1.0),
-            (h - cz) * _u(rng, 0.6, 1.0),
+            (sx / 2 - abs(cx)) * dim(rng, 0.6, 1.0),
+            (sy / 2 - abs(cy)) * dim(rng, 0.6, 1.0),
+            (h - cz) * dim(rng, 0.6, 1.0),
         )
         parts.append(_blob(rng, (cx, cy, cz), radii, leaves, floor=0.0))
     return parts
@@ -420,14 +420,14 @@ def bike_rack(rng: np.random.Generator) -> list[Part]:
     0.3-0.5 m long. Rails 8-15 mm thick, 60-110 mm wide, reaching 0.1-0.25 m past the end
     hoops. Bikes park along x. Overall: 0.3-0.95 m high, 0.3-1.01 m (x), 0.95-4.5 m (y).
     """
-    look = _pick(rng, (STEEL, STEEL, *PAINT))
+    look = pick(rng, (STEEL, STEEL, *PAINT))
     style = int(rng.integers(3))
-    r, rail_t, end = _u(rng, 0.024, 0.032), _u(rng, 0.008, 0.015), _u(rng, 0.1, 0.25)
-    rail_w = round(2 * r + _u(rng, 0.01, 0.045), 3)
+    r, rail_t, end = dim(rng, 0.024, 0.032), dim(rng, 0.008, 0.015), dim(rng, 0.1, 0.25)
+    rail_w = round(2 * r + dim(rng, 0.01, 0.045), 3)
     parts: list[Part] = []
     if style == 2:  # wave
-        humps, high, half_x = int(rng.integers(2, 5)), _u(rng, 0.75, 0.95), _u(rng, 0.15, 0.25)
-        wide, gap, c = _u(rng, 0.4, 0.6), _u(rng, 0.2, 0.35), _u(rng, 0.08, 0.15)
+        humps, high, half_x = int(rng.integers(2, 5)), dim(rng, 0.75, 0.95), dim(rng, 0.15, 0.25)
+        wide, gap, c = dim(rng, 0.4, 0.6), dim(rng, 0.2, 0.35), dim(rng, 0.08, 0.15)
         total = humps * wide + (humps - 1) * gap
         zb, z = rail_t + r - EMBED, high - r
         pts = [(0.0, -total / 2, 0.0)]
@@ -446,19 +446,19 @@ def bike_rack(rng: np.random.Generator) -> list[Part]:
         ]
         return parts
     if style == 0:  # Sheffield stands
-        n, spacing = int(rng.integers(2, 6)), _u(rng, 0.75, 1.0)
-        half, high = _u(rng, 0.3, 0.45), _u(rng, 0.75, 0.95)
+        n, spacing = int(rng.integers(2, 6)), dim(rng, 0.75, 1.0)
+        half, high = dim(rng, 0.3, 0.45), dim(rng, 0.75, 0.95)
         highs = [high] * n
     else:  # wheel bays
-        n, spacing = int(rng.integers(4, 10)), _u(rng, 0.35, 0.5)
-        half, high = _u(rng, 0.2, 0.325), _u(rng, 0.3, 0.45)
-        low = round(high * _u(rng, 0.7, 0.85), 3) if rng.random() < 0.4 else high
+        n, spacing = int(rng.integers(4, 10)), dim(rng, 0.35, 0.5)
+        half, high = dim(rng, 0.2, 0.325), dim(rng, 0.3, 0.45)
+        low = round(high * dim(rng, 0.7, 0.85), 3) if rng.random() < 0.4 else high
         highs = [high if i % 2 == 0 else low for i in range(n)]
     # round tops need legs under the arc; more than six hoops get square tops (fewer parts)
     top = int(rng.integers(3)) if n <= 6 else 2
     if top == 0 and min(highs) - 1.1 * r - half < 0.1:
         top = int(rng.integers(1, 3))
-    chamfer = _u(rng, 0.04, min(0.15, half / 2, (min(highs) - r) / 2))
+    chamfer = dim(rng, 0.04, min(0.15, half / 2, (min(highs) - r) / 2))
     ys = ((np.arange(n) - (n - 1) / 2) * spacing).tolist()
     for y, hi in zip(ys, highs, strict=True):
         parts += _hoop(y, half, hi, r, top, look, chamfer)
@@ -481,16 +481,16 @@ def traffic_cone(rng: np.random.Generator) -> list[Part]:
     0-3 white or silver collars 40-150 mm deep, standing 2 mm proud of the cone. Orange,
     red, yellow or lime. Overall: 0.3-1.0 m high, 0.18-0.48 m (x and y).
     """
-    h = _u(rng, 0.3, 1.0)
-    s = round((0.10 + 0.35 * h) * _u(rng, 0.9, 1.05), 3)
-    body, collar = _pick(rng, CONE), _pick(rng, RETRO)
+    h = dim(rng, 0.3, 1.0)
+    s = round((0.10 + 0.35 * h) * dim(rng, 0.9, 1.05), 3)
+    body, collar = pick(rng, CONE), pick(rng, RETRO)
     base_look = body if rng.random() < 0.4 else RUBBER
-    tb = _u(rng, 0.02, 0.04)
+    tb = dim(rng, 0.02, 0.04)
     if rng.random() < 0.6:
         parts: list[Part] = [Box((s, s, tb), (0.0, 0.0, tb / 2), 0.0, base_look)]
     else:  # octagon with corners on the axes, exactly s across
         parts = [frustum(s / 2, s / 2 * 0.96, 0.0, tb, base_look, sides=8)]
-    r0, r1 = s * _u(rng, 0.38, 0.45), _u(rng, 0.015, 0.04)
+    r0, r1 = s * dim(rng, 0.38, 0.45), dim(rng, 0.015, 0.04)
     z0 = tb - EMBED
     parts.append(frustum(r0, r1, z0, h, body))
 
@@ -500,7 +500,7 @@ def traffic_cone(rng: np.random.Generator) -> list[Part]:
     bands = int(rng.integers(0, 4)) if h >= 0.45 else int(rng.integers(0, 2))
     slot = (h - z0) * 0.8 / max(bands, 1)
     for i in range(bands):
-        deep = min(_u(rng, 0.04, 0.15), slot * 0.7)
+        deep = min(dim(rng, 0.04, 0.15), slot * 0.7)
         top = h - 0.08 * (h - z0) - i * slot
         parts.append(frustum(radius(top - deep) + 0.002, radius(top) + 0.002, top - deep, top, collar))
     return parts
@@ -511,11 +511,11 @@ def traffic_cone(rng: np.random.Generator) -> list[Part]:
 
 def _kick_scooter(rng: np.random.Generator) -> list[Part]:
     """A kick e-scooter built upright along y (front +y), then leaned onto its kickstand."""
-    r, ww, wb = _u(rng, 0.10, 0.14), _u(rng, 0.04, 0.065), _u(rng, 0.78, 0.95)
-    db, dt, dw = _u(rng, 0.06, 0.10), _u(rng, 0.04, 0.07), _u(rng, 0.14, 0.20)
-    paint, dark = _pick(rng, BRAND), _pick(rng, (RUBBER, PAINT[1], PAINT[2]))
+    r, ww, wb = dim(rng, 0.10, 0.14), dim(rng, 0.04, 0.065), dim(rng, 0.78, 0.95)
+    db, dt, dw = dim(rng, 0.06, 0.10), dim(rng, 0.04, 0.07), dim(rng, 0.14, 0.20)
+    paint, dark = pick(rng, BRAND), pick(rng, (RUBBER, PAINT[1], PAINT[2]))
     yr, yf = -wb / 2, wb / 2
-    y_dr, y_df = yr + r + _u(rng, 0.01, 0.03), yf - r - _u(rng, 0.02, 0.06)
+    y_dr, y_df = yr + r + dim(rng, 0.01, 0.03), yf - r - dim(rng, 0.02, 0.06)
     deck_z = db + dt / 2
     parts: list[Part] = [rod(r, (-ww / 2, y, r), (ww / 2, y, r), RUBBER) for y in (yr, yf)]
     parts.append(Box((dw, y_df - y_dr, dt), (0.0, (y_dr + y_df) / 2, deck_z), 0.0, paint))
@@ -526,34 +526,34 @@ def _kick_scooter(rng: np.random.Generator) -> list[Part]:
     parts.append(_block(-half_w, half_w, yr - 0.6 * r, y_dr + 0.02, fender_z - 0.004, fender_z + 0.004, dark))
     riser = fender_z + 0.004 - (db + dt) + EMBED
     parts.append(Box((dw * 0.6, 0.02, riser), (0.0, y_dr + 0.01, db + dt - EMBED + riser / 2), 0.0, dark))
-    rake, bar_z, stem_r = math.radians(_u(rng, 8.0, 16.0)), _u(rng, 0.95, 1.2), _u(rng, 0.02, 0.03)
+    rake, bar_z, stem_r = math.radians(dim(rng, 8.0, 16.0)), dim(rng, 0.95, 1.2), dim(rng, 0.02, 0.03)
 
     def stem_y(z: float) -> float:
         return yf - (z - r) * math.tan(rake)
 
     parts.append(rod(stem_r, (0.0, yf, r), (0.0, stem_y(bar_z), bar_z), paint))
-    neck_z = _u(rng, 0.25, 0.4)
-    parts.append(rod(_u(rng, 0.02, 0.03), (0.0, y_df - 0.02, deck_z), (0.0, stem_y(neck_z), neck_z), paint))
-    bar, bar_r, grip = _u(rng, 0.40, 0.60), _u(rng, 0.011, 0.015), _u(rng, 0.09, 0.13)
+    neck_z = dim(rng, 0.25, 0.4)
+    parts.append(rod(dim(rng, 0.02, 0.03), (0.0, y_df - 0.02, deck_z), (0.0, stem_y(neck_z), neck_z), paint))
+    bar, bar_r, grip = dim(rng, 0.40, 0.60), dim(rng, 0.011, 0.015), dim(rng, 0.09, 0.13)
     yb = stem_y(bar_z)
     parts.append(rod(bar_r, (-bar / 2, yb, bar_z), (bar / 2, yb, bar_z), dark))
     parts += [
         rod(bar_r + 0.008, (s * (bar / 2 - grip), yb, bar_z), (s * bar / 2, yb, bar_z), RUBBER)
         for s in (-1, 1)
     ]
-    light_z = _u(rng, 0.45, 0.9)
+    light_z = dim(rng, 0.45, 0.9)
     parts.append(Box((0.06, 0.05, 0.04), (0.0, stem_y(light_z) + stem_r + 0.02, light_z), 0.0, RETRO[0]))
     if rng.random() < 0.5:  # display / phone holder above the bar
         parts.append(Box((0.08, 0.05, 0.03), (0.0, yb, bar_z + bar_r + 0.012), 0.0, dark))
     # Lean everything onto the -x side by turning it about the y axis ...
-    lean = math.radians(_u(rng, 4.0, 9.0))
+    lean = math.radians(dim(rng, 4.0, 9.0))
     c, s = math.cos(lean), math.sin(lean)
     turn = np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]])
     points = [p.hull_points() @ turn.T for p in parts]
     floor = min(float(p[:, 2].min()) for p in points[:2])  # the wheels' lowest point
     # ... and put the kickstand down: from under the deck's -x edge to the ground.
-    ks_r, out, back = _u(rng, 0.008, 0.012), _u(rng, 0.10, 0.16), _u(rng, 0.03, 0.08)
-    y_k = _u(rng, y_dr + 0.05, (y_dr + y_df) / 2)
+    ks_r, out, back = dim(rng, 0.008, 0.012), dim(rng, 0.10, 0.16), dim(rng, 0.03, 0.08)
+    y_k = dim(rng, y_dr + 0.05, (y_dr + y_df) / 2)
     start = turn @ np.array([-dw / 2 + 0.02, y_k, db + 0.01])
     end = np.array([start[0] - out, y_k - back, floor])
     for _ in range(3):  # the tilted rod's rim must just reach the wheels' lowest point
@@ -567,35 +567,35 @@ def _kick_scooter(rng: np.random.Generator) -> list[Part]:
 
 def _moped(rng: np.random.Generator) -> list[Part]:
     """A moped / Vespa-like scooter on its centre stand, built along y (front +y)."""
-    r, ww, wb = _u(rng, 0.20, 0.27), _u(rng, 0.09, 0.13), _u(rng, 1.15, 1.35)
-    paint, trim, seat_look = _pick(rng, PASTEL), _pick(rng, (STEEL, PAINT[1])), _pick(rng, LEATHER)
+    r, ww, wb = dim(rng, 0.20, 0.27), dim(rng, 0.09, 0.13), dim(rng, 1.15, 1.35)
+    paint, trim, seat_look = pick(rng, PASTEL), pick(rng, (STEEL, PAINT[1])), pick(rng, LEATHER)
     yr, yf = -wb / 2, wb / 2
     parts: list[Part] = [rod(r, (-ww / 2, y, r), (ww / 2, y, r), RUBBER) for y in (yr, yf)]
-    fb_z, fw = _u(rng, 0.22, 0.30), _u(rng, 0.28, 0.36)
-    body_front, body_rear = yr + r + _u(rng, 0.1, 0.25), yr - r * _u(rng, 0.7, 1.0)
-    seat_z, bw = _u(rng, 0.62, 0.72), _u(rng, 0.15, 0.20)
+    fb_z, fw = dim(rng, 0.22, 0.30), dim(rng, 0.28, 0.36)
+    body_front, body_rear = yr + r + dim(rng, 0.1, 0.25), yr - r * dim(rng, 0.7, 1.0)
+    seat_z, bw = dim(rng, 0.62, 0.72), dim(rng, 0.15, 0.20)
     body = [(x * bw, body_front, z) for x in (-1, 1) for z in (fb_z - 0.05, seat_z)]
     body += [(x * bw * 0.7, body_rear, z) for x in (-1, 1) for z in (1.2 * r, seat_z)]
     body += [(x * bw, (body_front + body_rear) / 2, r * 1.1) for x in (-1, 1)]
     parts.append(_mesh(np.array(body), paint))
-    y_ff = yf - r - _u(rng, 0.05, 0.12)
+    y_ff = yf - r - dim(rng, 0.05, 0.12)
     parts.append(_block(-fw / 2, fw / 2, body_front - 0.05, y_ff, fb_z - 0.06, fb_z, paint))  # floorboard
-    stand_y = body_front + _u(rng, 0.0, 0.1)
+    stand_y = body_front + dim(rng, 0.0, 0.1)
     parts.append(
         Box((fw * 0.8, 0.04, fb_z - 0.06 + EMBED), (0.0, stand_y, (fb_z - 0.06 + EMBED) / 2), 0.0, trim)
     )
-    rake, bar_z = math.radians(_u(rng, 18.0, 25.0)), _u(rng, 0.95, 1.1)
-    shield_z = bar_z - _u(rng, 0.08, 0.15)
+    rake, bar_z = math.radians(dim(rng, 18.0, 25.0)), dim(rng, 0.95, 1.1)
+    shield_z = bar_z - dim(rng, 0.08, 0.15)
     shield_top = (0.0, y_ff - (shield_z - fb_z) * math.tan(rake), shield_z)
     parts.append(
-        _plank((0.0, y_ff - 0.02, fb_z - 0.06), shield_top, _u(rng, 0.34, 0.42), _u(rng, 0.04, 0.06), paint)
+        _plank((0.0, y_ff - 0.02, fb_z - 0.06), shield_top, dim(rng, 0.34, 0.42), dim(rng, 0.04, 0.06), paint)
     )
     top = (0.0, yf - (bar_z - r) * math.tan(rake), bar_z)
-    parts.append(rod(_u(rng, 0.025, 0.035), (0.0, yf, r), top, trim))
+    parts.append(rod(dim(rng, 0.025, 0.035), (0.0, yf, r), top, trim))
     parts.append(_plank(shield_top, top, 0.2, 0.12, paint))
     fender_y = yf - r * math.tan(rake)
     parts.append(Box((ww + 0.05, 1.2 * r, 0.05), (0.0, fender_y, 2 * r + 0.04), 0.0, paint))
-    bar = _u(rng, 0.62, 0.74)
+    bar = dim(rng, 0.62, 0.74)
     parts.append(rod(0.013, (-bar / 2, top[1], bar_z), (bar / 2, top[1], bar_z), trim))
     parts += [
         rod(0.02, (s * (bar / 2 - 0.12), top[1], bar_z), (s * bar / 2, top[1], bar_z), RUBBER)
@@ -603,26 +603,26 @@ def _moped(rng: np.random.Generator) -> list[Part]:
     ]
     parts.append(Box((0.30, 0.16, 0.12), (0.0, top[1], bar_z), 0.0, paint))
     parts.append(
-        rod(_u(rng, 0.06, 0.08), (0.0, top[1], bar_z), (0.0, top[1] + _u(rng, 0.1, 0.14), bar_z), RETRO[0])
+        rod(dim(rng, 0.06, 0.08), (0.0, top[1], bar_z), (0.0, top[1] + dim(rng, 0.1, 0.14), bar_z), RETRO[0])
     )
     if rng.random() < 0.8:  # mirrors on stalks
-        stalk = _u(rng, 0.2, 0.3)
+        stalk = dim(rng, 0.2, 0.3)
         for s in (-1, 1):
             foot = (s * (bar / 2 - 0.15), top[1], bar_z)
             head = (s * (bar / 2 - 0.06), top[1] - 0.03, bar_z + stalk)
             parts.append(rod(0.008, foot, head, trim))
             parts.append(Box((0.12, 0.03, 0.08), (head[0], head[1], head[2] + 0.03), 0.0, trim))
-    seat_l, seat_w, seat_t = _u(rng, 0.55, 0.72), _u(rng, 0.26, 0.32), _u(rng, 0.08, 0.12)
-    seat_y = (body_front + body_rear) / 2 + _u(rng, 0.0, 0.08)
+    seat_l, seat_w, seat_t = dim(rng, 0.55, 0.72), dim(rng, 0.26, 0.32), dim(rng, 0.08, 0.12)
+    seat_y = (body_front + body_rear) / 2 + dim(rng, 0.0, 0.08)
     parts.append(Box((seat_w, seat_l, seat_t), (0.0, seat_y, seat_z + seat_t / 2 - EMBED), 0.0, seat_look))
     if rng.random() < 0.3:  # top case on a rear rack
-        case = (_u(rng, 0.32, 0.4), _u(rng, 0.26, 0.34), _u(rng, 0.26, 0.32))
+        case = (dim(rng, 0.32, 0.4), dim(rng, 0.26, 0.34), dim(rng, 0.26, 0.32))
         parts.append(
             Box(
                 case,
                 (0.0, body_rear + case[1] / 2 - 0.05, seat_z + case[2] / 2 - EMBED),
                 0.0,
-                _pick(rng, (paint, PAINT[1], RETRO[0])),
+                pick(rng, (paint, PAINT[1], RETRO[0])),
             )
         )
     return parts
@@ -654,7 +654,7 @@ def _chair(
     """A chair facing -x, its front legs' inner faces at x = ``front`` (m); ``size`` is the
     seat's depth, width and height (m)."""
     depth, width, seat = size
-    leg, seat_t = _u(rng, 0.02, 0.035), _u(rng, 0.02, 0.05)
+    leg, seat_t = dim(rng, 0.02, 0.035), dim(rng, 0.02, 0.05)
     legs = seat - seat_t + EMBED
     parts: list[Part] = [
         Box((leg, leg, legs), (front + leg / 2 + dx, sy * (width / 2 - leg / 2), legs / 2), 0.0, look)
@@ -662,7 +662,7 @@ def _chair(
         for sy in (-1, 1)
     ]
     parts.append(Box((depth, width, seat_t), (front + depth / 2, 0.0, seat - seat_t / 2), 0.0, look))
-    rise, lean, back_t = _u(rng, 0.32, 0.45), math.radians(_u(rng, 4.0, 12.0)), _u(rng, 0.015, 0.03)
+    rise, lean, back_t = dim(rng, 0.32, 0.45), math.radians(dim(rng, 4.0, 12.0)), dim(rng, 0.015, 0.03)
     x_back = front + depth - back_t / 2
     z0 = seat - EMBED
 
@@ -675,7 +675,7 @@ def _chair(
         parts.append(board(rise, width, z0))
     else:  # two posts and one or two rails
         parts += [board(rise, leg, z0, sy * (width / 2 - leg / 2)) for sy in (-1, 1)]
-        rail = _u(rng, 0.05, 0.12)
+        rail = dim(rng, 0.05, 0.12)
         for k in range(int(rng.integers(1, 3))):
             parts.append(board(rail, width, z0 + rise - rail - k * (rail + 0.06)))
     return parts
@@ -694,22 +694,22 @@ def cafe_table(rng: np.random.Generator) -> list[Part]:
     2.0-2.3 m, rising 0.3-0.5 m. Overall: 0.75-2.8 m high, 0.6-3.0 m (x and y).
     """
     square = rng.random() < 0.4
-    top_h, top_t = _u(rng, 0.72, 0.76), _u(rng, 0.02, 0.04)
-    half = _u(rng, 0.3, 0.4) if square else _u(rng, 0.3, 0.45)  # half the top's width (m)
+    top_h, top_t = dim(rng, 0.72, 0.76), dim(rng, 0.02, 0.04)
+    half = dim(rng, 0.3, 0.4) if square else dim(rng, 0.3, 0.45)  # half the top's width (m)
     n = int(rng.choice([2, 4])) if square else int(rng.integers(2, 5))
-    col = _u(rng, 0.025, 0.05)
-    size = (_u(rng, 0.40, 0.46), _u(rng, 0.40, 0.46), _u(rng, 0.44, 0.47))
+    col = dim(rng, 0.025, 0.05)
+    size = (dim(rng, 0.40, 0.46), dim(rng, 0.40, 0.46), dim(rng, 0.44, 0.47))
     depth, width = size[0], size[1]
     spread = 2 * math.pi / n
     clear = 0.0 if n == 2 else (width / 2) / math.tan(spread / 2) + 0.02  # chairs miss each other
     square_plate = square and rng.random() < 0.6  # else round; both reach the chairs' front legs
     # a square plate's edge meets the front legs only where it is as wide as the chair
     front_min = max(col + 0.04, half - depth + 0.05, clear, width / 2 if square_plate else 0.0)
-    front = _u(rng, front_min, max(front_min, half - 0.05))
-    chair_look, wood = _pick(rng, SEATING), _pick(rng, TABLETOP)
-    frame = _pick(rng, (*PAINT[:3], STEEL))
+    front = dim(rng, front_min, max(front_min, half - 0.05))
+    chair_look, wood = pick(rng, SEATING), pick(rng, TABLETOP)
+    frame = pick(rng, (*PAINT[:3], STEEL))
     parts: list[Part] = []
-    plate_t = _u(rng, 0.01, 0.03)
+    plate_t = dim(rng, 0.01, 0.03)
     if square_plate:
         plate = front + EMBED
         parts.append(Box((2 * plate, 2 * plate, plate_t), (0.0, 0.0, plate_t / 2), 0.0, frame))
@@ -719,9 +719,9 @@ def cafe_table(rng: np.random.Generator) -> list[Part]:
         if rng.random() < 0.5:
             parts.append(Cylinder(plate, plate_t, (0.0, 0.0, plate_t / 2), frame))
         else:
-            parts.append(frustum(plate, plate * 0.5, 0.0, plate_t + _u(rng, 0.02, 0.04), frame))
+            parts.append(frustum(plate, plate * 0.5, 0.0, plate_t + dim(rng, 0.02, 0.04), frame))
     parasol = rng.random() < 0.35
-    rim, rise = _u(rng, 2.0, 2.3), _u(rng, 0.3, 0.5)
+    rim, rise = dim(rng, 2.0, 2.3), dim(rng, 0.3, 0.5)
     column_top = rim + rise - 0.05 if parasol else top_h - top_t + EMBED
     parts.append(Cylinder(col, column_top, (0.0, 0.0, column_top / 2), frame))
     if square:
@@ -735,7 +735,7 @@ def cafe_table(rng: np.random.Generator) -> list[Part]:
     for k in range(n):
         parts += [_moved(p, start + k * spread) for p in chair]
     if parasol:
-        canopy, cloth = _u(rng, 1.0, 1.5), _pick(rng, CANVAS)
+        canopy, cloth = dim(rng, 1.0, 1.5), pick(rng, CANVAS)
         shape = int(rng.integers(3))
         if shape == 2:  # square, its edges along x and y
             pts = [(x * canopy, y * canopy, rim) for x in (-1, 1) for y in (-1, 1)]
@@ -778,15 +778,15 @@ def building(rng: np.random.Generator) -> list[Part]:
     overhanging the walls by 0-0.6 m. Overall: 4-60 m high, 8-40 m (x and y).
     """
     style = int(rng.choice(3, p=[0.45, 0.25, 0.3]))  # box, L, stepped tower
-    facade, top_look = _pick(rng, FACADE), _pick(rng, FACADE)
-    ground, storey = _u(rng, 4.0, 5.0), _u(rng, 2.9, 3.6)
+    facade, top_look = pick(rng, FACADE), pick(rng, FACADE)
+    ground, storey = dim(rng, 4.0, 5.0), dim(rng, 2.9, 3.6)
     low = 14.0 if style == 1 else 8.0
-    sx, sy = _u(rng, low, 40.0), _u(rng, low, 40.0)
+    sx, sy = dim(rng, low, 40.0), dim(rng, low, 40.0)
     x0, x1, y0, y1 = -sx / 2, sx / 2, -sy / 2, sy / 2
     pitched = style == 0 and min(sx, sy) <= 16.0 and rng.random() < 0.45
-    parapet = _u(rng, 0.4, 1.2) if not pitched and rng.random() < 0.6 else 0.0
-    plant = _u(rng, 1.5, 4.5) if not pitched and rng.random() < 0.4 else 0.0
-    roof_rise = round(_u(rng, 0.25, 0.6) * min(sx, sy) / 2, 3) if pitched else 0.0
+    parapet = dim(rng, 0.4, 1.2) if not pitched and rng.random() < 0.6 else 0.0
+    plant = dim(rng, 1.5, 4.5) if not pitched and rng.random() < 0.4 else 0.0
+    roof_rise = round(dim(rng, 0.25, 0.6) * min(sx, sy) / 2, 3) if pitched else 0.0
     membrane = 0.05
     room = 60.0 - max(parapet, plant, roof_rise, membrane) - ground  # what the upper floors may take
     most = int(room // storey) + 1
@@ -801,7 +801,7 @@ def building(rng: np.random.Generator) -> list[Part]:
     if style == 0:
         top = height(floors)
         if pitched:
-            eave = _u(rng, 0.0, 0.6)
+            eave = dim(rng, 0.0, 0.6)
             parts.append(_block(x0 + eave, x1 - eave, y0 + eave, y1 - eave, 0.0, top, facade))
             ridge_x = sx >= sy  # the ridge runs along the longer side
             hip = rng.random() < 0.4
@@ -811,13 +811,13 @@ def building(rng: np.random.Generator) -> list[Part]:
                 pts += [(x, 0.0, top - EMBED + roof_rise) for x in (x0 + inset, x1 - inset)]
             else:
                 pts += [(0.0, y, top - EMBED + roof_rise) for y in (y0 + inset, y1 - inset)]
-            parts.append(_mesh(np.array(pts), _pick(rng, ROOFING)))
+            parts.append(_mesh(np.array(pts), pick(rng, ROOFING)))
             return parts
         parts.append(_block(x0, x1, y0, y1, 0.0, top, facade))
         roofs = [(x0, x1, y0, y1, top)]
     elif style == 1:
-        wx = _u(rng, max(6.0, 0.3 * sx), 0.65 * sx)
-        wy = _u(rng, max(6.0, 0.3 * sy), 0.65 * sy)
+        wx = dim(rng, max(6.0, 0.3 * sx), 0.65 * sx)
+        wy = dim(rng, max(6.0, 0.3 * sy), 0.65 * sy)
         other = int(np.clip(floors + rng.choice([-2, -1, 1, 2]), 1, most))
         if other == floors:
             other = floors + 1 if floors < most else floors - 1
@@ -843,7 +843,7 @@ def building(rng: np.random.Generator) -> list[Part]:
         look = facade
         for i, k in enumerate(tops):
             if i:
-                setback = _u(rng, 1.5, 5.0)
+                setback = dim(rng, 1.5, 5.0)
                 order = (0, 1, 2, 3) if sides == 0 else tuple(int(j) for j in rng.permutation(4)[:sides])
                 for j in order:
                     span = box[1] - box[0] if j < 2 else box[3] - box[2]
@@ -857,14 +857,14 @@ def building(rng: np.random.Generator) -> list[Part]:
     for a0, a1, b0, b1, z in roofs:
         parts.append(_block(a0 + 0.3, a1 - 0.3, b0 + 0.3, b1 - 0.3, z - EMBED, z + membrane, MEMBRANE))
         if parapet:
-            parts += _parapet(a0, a1, b0, b1, z, parapet, _u(rng, 0.2, 0.35), facade)
+            parts += _parapet(a0, a1, b0, b1, z, parapet, dim(rng, 0.2, 0.35), facade)
         if plant:
             for _ in range(int(rng.integers(1, 4))):
-                wx, wy = min(_u(rng, 2.0, 5.0), (a1 - a0) / 2), min(_u(rng, 2.0, 5.0), (b1 - b0) / 2)
-                cx = _u(rng, a0 + 1.0 + wx / 2, a1 - 1.0 - wx / 2) if a1 - a0 > wx + 2 else (a0 + a1) / 2
-                cy = _u(rng, b0 + 1.0 + wy / 2, b1 - 1.0 - wy / 2) if b1 - b0 > wy + 2 else (b0 + b1) / 2
-                hz = _u(rng, 1.5, plant)
-                parts.append(Box((wx, wy, hz), (cx, cy, z - EMBED + hz / 2), 0.0, _pick(rng, CONCRETE)))
+                wx, wy = min(dim(rng, 2.0, 5.0), (a1 - a0) / 2), min(dim(rng, 2.0, 5.0), (b1 - b0) / 2)
+                cx = dim(rng, a0 + 1.0 + wx / 2, a1 - 1.0 - wx / 2) if a1 - a0 > wx + 2 else (a0 + a1) / 2
+                cy = dim(rng, b0 + 1.0 + wy / 2, b1 - 1.0 - wy / 2) if b1 - b0 > wy + 2 else (b0 + b1) / 2
+                hz = dim(rng, 1.5, plant)
+                parts.append(Box((wx, wy, hz), (cx, cy, z - EMBED + hz / 2), 0.0, pick(rng, CONCRETE)))
     return parts
 
 

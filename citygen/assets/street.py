@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from citygen.assets.category import Category, zones
-from citygen.assets.furniture import CONCRETE, EMBED, PAINT, STEEL, _pick, _u
+from citygen.assets.furniture import CONCRETE, EMBED, PAINT, STEEL, dim, pick
 from citygen.assets.parts import Box, Capsule, ConvexMesh, Cylinder, Look, Part, frustum, rod
 from citygen.assets.parts import tilted_box as tilted
 
@@ -125,30 +125,30 @@ def recycling_bin(rng: np.random.Generator) -> list[Part]:
     0.44-2.24 m (y).
     """
     style = int(rng.integers(3))  # 0 square, 1 round, 2 station
-    body = _pick(rng, (*PAINT[:3], STEEL, Look("plastic", (0.85, 0.85, 0.83, 1.0))))
-    lid_t, lip = _u(rng, 0.03, 0.07), _u(rng, 0.01, 0.025)
+    body = pick(rng, (*PAINT[:3], STEEL, Look("plastic", (0.85, 0.85, 0.83, 1.0))))
+    lid_t, lip = dim(rng, 0.03, 0.07), dim(rng, 0.01, 0.025)
     if style == 1:
-        stream, r, h = _pick(rng, STREAMS), _u(rng, 0.22, 0.31), _u(rng, 0.85, 1.05)
-        label = _u(rng, 0.12, 0.25)
+        stream, r, h = pick(rng, STREAMS), dim(rng, 0.22, 0.31), dim(rng, 0.85, 1.05)
+        label = dim(rng, 0.12, 0.25)
         parts: list[Part] = [
             Cylinder(r, h - lid_t + EMBED, (0.0, 0.0, (h - lid_t + EMBED) / 2), body),
             Cylinder(r + lip, lid_t, (0.0, 0.0, h - lid_t / 2), stream),
-            Cylinder(r + 0.004, label, (0.0, 0.0, _u(rng, 0.3, h - lid_t - 0.25) + label / 2), stream),
-            Box((0.048, r * 0.9, _u(rng, 0.06, 0.10)), (-r + 0.016, 0.0, h - lid_t - 0.09), 0.0, DARK),
+            Cylinder(r + 0.004, label, (0.0, 0.0, dim(rng, 0.3, h - lid_t - 0.25) + label / 2), stream),
+            Box((0.048, r * 0.9, dim(rng, 0.06, 0.10)), (-r + 0.016, 0.0, h - lid_t - 0.09), 0.0, DARK),
         ]
         if rng.random() < 0.4:
-            parts.append(frustum(r + lip, r * 0.5, h - EMBED, h + _u(rng, 0.05, 0.12), stream))
+            parts.append(frustum(r + lip, r * 0.5, h - EMBED, h + dim(rng, 0.05, 0.12), stream))
         return parts
     if style == 0:
-        streams = [_pick(rng, STREAMS)]
-        depth, width, h = _u(rng, 0.45, 0.62), _u(rng, 0.45, 0.62), _u(rng, 0.85, 1.10)
+        streams = [pick(rng, STREAMS)]
+        depth, width, h = dim(rng, 0.45, 0.62), dim(rng, 0.45, 0.62), dim(rng, 0.85, 1.10)
         lid_y = width + 2 * lip
     else:
         n = int(rng.integers(2, 5))
         streams = [STREAMS[i] for i in rng.permutation(len(STREAMS))[:n].tolist()]
-        depth, width, h = _u(rng, 0.42, 0.60), _u(rng, 0.40, 0.55), _u(rng, 0.88, 1.08)
+        depth, width, h = dim(rng, 0.42, 0.60), dim(rng, 0.40, 0.55), dim(rng, 0.88, 1.08)
         lid_y = width - 0.006
-    label_h, slot = _u(rng, 0.15, 0.30), _u(rng, 0.06, 0.10)
+    label_h, slot = dim(rng, 0.15, 0.30), dim(rng, 0.06, 0.10)
     step = width - EMBED
     parts = []
     for i, stream in enumerate(streams):
@@ -161,10 +161,10 @@ def recycling_bin(rng: np.random.Generator) -> list[Part]:
             Box((0.01, width * 0.7, label_h), (front, y, h - lid_t - 0.06 - slot - label_h / 2), 0.0, stream),
         ]
     if len(streams) > 1 and rng.random() < 0.5:
-        roof = _u(rng, 0.04, 0.08)
+        roof = dim(rng, 0.04, 0.08)
         span = len(streams) * step + EMBED + 0.04
         parts.append(
-            Box((depth * _u(rng, 0.6, 1.0), span, roof), (0.0, 0.0, h + roof / 2 - EMBED), 0.0, body)
+            Box((depth * dim(rng, 0.6, 1.0), span, roof), (0.0, 0.0, h + roof / 2 - EMBED), 0.0, body)
         )
     return parts
 
@@ -182,11 +182,11 @@ def mailbox(rng: np.random.Generator) -> list[Part]:
     deep, 0.34-0.52 m wide, 0.40-0.60 m high on a post 0.80-1.00 m, slot towards +x.
     Colours: :data:`MAIL`. Overall: 1.12-1.68 m high, 0.24-0.71 m (x), 0.36-0.71 m (y).
     """
-    style, look = int(rng.integers(3)), _pick(rng, MAIL)
+    style, look = int(rng.integers(3)), pick(rng, MAIL)
     if style == 0:  # US collection box
-        depth, width = _u(rng, 0.46, 0.56), _u(rng, 0.45, 0.54)
-        legs, body, rise = _u(rng, 0.08, 0.14), _u(rng, 0.88, 0.98), _u(rng, 0.16, 0.22)
-        leg, top = _u(rng, 0.035, 0.06), legs + body
+        depth, width = dim(rng, 0.46, 0.56), dim(rng, 0.45, 0.54)
+        legs, body, rise = dim(rng, 0.08, 0.14), dim(rng, 0.88, 0.98), dim(rng, 0.16, 0.22)
+        leg, top = dim(rng, 0.035, 0.06), legs + body
         parts: list[Part] = [
             Box(
                 (leg, leg, legs + EMBED),
@@ -197,37 +197,37 @@ def mailbox(rng: np.random.Generator) -> list[Part]:
             for sx in (-1, 1)
             for sy in (-1, 1)
         ]
-        chute_w, chute_h = width * _u(rng, 0.6, 0.75), _u(rng, 0.10, 0.14)
-        chute_d = _u(rng, 0.03, 0.06)
+        chute_w, chute_h = width * dim(rng, 0.6, 0.75), dim(rng, 0.10, 0.14)
+        chute_d = dim(rng, 0.03, 0.06)
         parts += [
             Box((depth, width, body), (0.0, 0.0, legs + body / 2), 0.0, look),
             _arch(depth, width, rise, top - EMBED, look),
             Box((chute_d, chute_w, chute_h), (depth / 2 + chute_d / 2 - EMBED, 0.0, top - 0.12), 0.0, look),
             Box((0.008, chute_w * 0.8, 0.02), (depth / 2 + chute_d - EMBED, 0.0, top - 0.12), 0.0, DARK),
-            Box((0.006, width * 0.5, _u(rng, 0.12, 0.2)), (depth / 2, 0.0, legs + body * 0.45), 0.0, WHITE),
+            Box((0.006, width * 0.5, dim(rng, 0.12, 0.2)), (depth / 2, 0.0, legs + body * 0.45), 0.0, WHITE),
         ]
         return parts
     if style == 1:  # pillar box
-        r, body = _u(rng, 0.22, 0.30), _u(rng, 1.25, 1.45)
-        plinth, cap, cap_t = _u(rng, 0.06, 0.12), r + _u(rng, 0.015, 0.04), _u(rng, 0.05, 0.08)
-        slot_z = body - _u(rng, 0.15, 0.30)
+        r, body = dim(rng, 0.22, 0.30), dim(rng, 1.25, 1.45)
+        plinth, cap, cap_t = dim(rng, 0.06, 0.12), r + dim(rng, 0.015, 0.04), dim(rng, 0.05, 0.08)
+        slot_z = body - dim(rng, 0.15, 0.30)
         parts = [
-            Cylinder(r + _u(rng, 0.015, 0.05), plinth, (0.0, 0.0, plinth / 2), look),
+            Cylinder(r + dim(rng, 0.015, 0.05), plinth, (0.0, 0.0, plinth / 2), look),
             Cylinder(r, body - plinth + EMBED, (0.0, 0.0, (body + plinth + EMBED) / 2 - EMBED), look),
             Cylinder(cap, cap_t, (0.0, 0.0, body + cap_t / 2 - EMBED), look),
-            frustum(cap - 0.01, r * 0.3, body + cap_t - 2 * EMBED, body + cap_t + _u(rng, 0.08, 0.15), look),
+            frustum(cap - 0.01, r * 0.3, body + cap_t - 2 * EMBED, body + cap_t + dim(rng, 0.08, 0.15), look),
             Box((0.07, r * 0.8, 0.035), (r - 0.02, 0.0, slot_z), 0.0, DARK),
             Box((0.09, r * 0.95, 0.025), (r - 0.02, 0.0, slot_z + 0.03), 0.0, look),
-            Box((0.04, r * 0.7, _u(rng, 0.10, 0.16)), (r - 0.015, 0.0, slot_z - 0.18), 0.0, WHITE),
+            Box((0.04, r * 0.7, dim(rng, 0.10, 0.16)), (r - 0.015, 0.0, slot_z - 0.18), 0.0, WHITE),
         ]
         return parts
     # post box
-    post, post_h = _u(rng, 0.06, 0.10), _u(rng, 0.80, 1.00)
-    depth, width, high = _u(rng, 0.22, 0.35), _u(rng, 0.34, 0.52), _u(rng, 0.40, 0.60)
+    post, post_h = dim(rng, 0.06, 0.10), dim(rng, 0.80, 1.00)
+    depth, width, high = dim(rng, 0.22, 0.35), dim(rng, 0.34, 0.52), dim(rng, 0.40, 0.60)
     bottom = post_h - 0.05
-    roof_t = _u(rng, 0.03, 0.08)
+    roof_t = dim(rng, 0.03, 0.08)
     parts = [
-        Box((post, post, post_h), (0.0, 0.0, post_h / 2), 0.0, _pick(rng, (STEEL, *PAINT[1:3], look))),
+        Box((post, post, post_h), (0.0, 0.0, post_h / 2), 0.0, pick(rng, (STEEL, *PAINT[1:3], look))),
         Box((depth, width, high), (0.0, 0.0, bottom + high / 2), 0.0, look),
         _hip(
             (depth + 0.02, width + 0.02),
@@ -240,7 +240,7 @@ def mailbox(rng: np.random.Generator) -> list[Part]:
     ]
     if rng.random() < 0.6:  # a post-horn or logo disc
         z = bottom + high * 0.45
-        parts.append(rod(_u(rng, 0.05, 0.09), (depth / 2 - 0.01, 0.0, z), (depth / 2 + 0.006, 0.0, z), DARK))
+        parts.append(rod(dim(rng, 0.05, 0.09), (depth / 2 - 0.01, 0.0, z), (depth / 2 + 0.006, 0.0, z), DARK))
     if rng.random() < 0.5:
         parts.append(Box((0.25, 0.25, 0.015), (0.0, 0.0, 0.0075), 0.0, STEEL))
     return parts
@@ -259,7 +259,7 @@ def newspaper_box(rng: np.random.Generator) -> list[Part]:
     0.41-0.52 m (x), 0.41-1.62 m (y).
     """
     count = 1 if rng.random() < 0.5 else int(rng.integers(2, 4))
-    widths = [_u(rng, 0.40, 0.53) for _ in range(count)]
+    widths = [dim(rng, 0.40, 0.53) for _ in range(count)]
     total = sum(widths) - (count - 1) * EMBED
     parts: list[Part] = []
     left = -total / 2
@@ -272,11 +272,11 @@ def newspaper_box(rng: np.random.Generator) -> list[Part]:
 
 def _vending_box(rng: np.random.Generator, y: float, width: float) -> list[Part]:
     """One vending box ``width`` (m) wide centred at ``y`` (m), front (window) at -x."""
-    look, trim = _pick(rng, BRIGHT), _pick(rng, (DARK, STEEL, *PAINT[1:3]))
-    depth, body, stand = _u(rng, 0.36, 0.46), _u(rng, 0.55, 0.75), _u(rng, 0.25, 0.45)
-    lid_t, lip = _u(rng, 0.02, 0.04), _u(rng, 0.01, 0.02)
+    look, trim = pick(rng, BRIGHT), pick(rng, (DARK, STEEL, *PAINT[1:3]))
+    depth, body, stand = dim(rng, 0.36, 0.46), dim(rng, 0.55, 0.75), dim(rng, 0.25, 0.45)
+    lid_t, lip = dim(rng, 0.02, 0.04), dim(rng, 0.01, 0.02)
     top = stand + body
-    window = body * _u(rng, 0.40, 0.55)
+    window = body * dim(rng, 0.40, 0.55)
     front = -depth / 2 - 0.006 + EMBED
     parts: list[Part] = [
         Box((depth, width, body), (0.0, y, stand + body / 2), 0.0, look),
@@ -286,7 +286,7 @@ def _vending_box(rng: np.random.Generator, y: float, width: float) -> list[Part]
         Box((0.02, width * 0.4, 0.03), (front - 0.004, y, top - 0.10 - window), 0.0, trim),
     ]
     if rng.random() < 0.5:  # four legs
-        leg = _u(rng, 0.03, 0.045)
+        leg = dim(rng, 0.03, 0.045)
         parts += [
             Box(
                 (leg, leg, stand + EMBED),
@@ -298,7 +298,7 @@ def _vending_box(rng: np.random.Generator, y: float, width: float) -> list[Part]
             for sy in (-1, 1)
         ]
     else:  # pedestal on a foot plate
-        post, foot = _u(rng, 0.06, 0.10), _u(rng, 0.01, 0.02)
+        post, foot = dim(rng, 0.06, 0.10), dim(rng, 0.01, 0.02)
         parts += [
             Box((post, post, stand + EMBED), (0.0, y, (stand + EMBED) / 2), 0.0, trim),
             Box((depth * 0.8, width * 0.8, foot), (0.0, y, foot / 2), 0.0, trim),
@@ -319,24 +319,24 @@ def parking_meter(rng: np.random.Generator) -> list[Part]:
     Displays, slots and keypads face -x, the sidewalk. Overall: 1.24-2.32 m high,
     0.15-0.45 m (x), 0.18-0.65 m (y).
     """
-    style, look = int(rng.integers(3)), _pick(rng, (*PAINT, STEEL))
+    style, look = int(rng.integers(3)), pick(rng, (*PAINT, STEEL))
     if style == 2:
         return _pay_station(rng, look)
-    post_h = _u(rng, 0.95, 1.15)
+    post_h = dim(rng, 0.95, 1.15)
     if rng.random() < 0.6:
-        r = _u(rng, 0.03, 0.045)
+        r = dim(rng, 0.03, 0.045)
         parts: list[Part] = [Cylinder(r, post_h, (0.0, 0.0, post_h / 2), look)]
-        flange = _u(rng, 0.01, 0.02)
-        parts.append(Cylinder(r + _u(rng, 0.02, 0.04), flange, (0.0, 0.0, flange / 2), look))
+        flange = dim(rng, 0.01, 0.02)
+        parts.append(Cylinder(r + dim(rng, 0.02, 0.04), flange, (0.0, 0.0, flange / 2), look))
     else:
-        side = _u(rng, 0.06, 0.09)
+        side = dim(rng, 0.06, 0.09)
         parts = [Box((side, side, post_h), (0.0, 0.0, post_h / 2), 0.0, look)]
-    depth, width, high = _u(rng, 0.15, 0.22), _u(rng, 0.18, 0.26), _u(rng, 0.30, 0.42)
-    head = _pick(rng, (*PAINT, STEEL, *BRIGHT[:3]))
-    dome = _pick(rng, (GLASS, head)) if rng.random() < 0.5 else None
+    depth, width, high = dim(rng, 0.15, 0.22), dim(rng, 0.18, 0.26), dim(rng, 0.30, 0.42)
+    head = pick(rng, (*PAINT, STEEL, *BRIGHT[:3]))
+    dome = pick(rng, (GLASS, head)) if rng.random() < 0.5 else None
     if style == 0:
         return parts + _meter_head(0.0, post_h - 0.03, depth, width, high, head, dome)
-    gap, yoke = _u(rng, 0.02, 0.10), _u(rng, 0.04, 0.07)
+    gap, yoke = dim(rng, 0.02, 0.10), dim(rng, 0.04, 0.07)
     offset = (width + gap) / 2
     parts.append(
         Box((depth * 0.6, 2 * offset + width * 0.5, yoke), (0.0, 0.0, post_h + yoke / 2 - EMBED), 0.0, look)
@@ -366,8 +366,8 @@ def _meter_head(
 
 def _pay_station(rng: np.random.Generator, look: Look) -> list[Part]:
     """A pay-and-display machine: cabinet on a plinth, screen and keypad on -x, optional solar panel."""
-    depth, width, high = _u(rng, 0.25, 0.40), _u(rng, 0.35, 0.55), _u(rng, 1.45, 1.85)
-    plinth, cap = _u(rng, 0.04, 0.10), _u(rng, 0.03, 0.06)
+    depth, width, high = dim(rng, 0.25, 0.40), dim(rng, 0.35, 0.55), dim(rng, 1.45, 1.85)
+    plinth, cap = dim(rng, 0.04, 0.10), dim(rng, 0.03, 0.06)
     face = -depth / 2 - 0.008 + EMBED
     parts: list[Part] = [
         Box((depth - 0.03, width - 0.03, plinth + EMBED), (0.0, 0.0, (plinth + EMBED) / 2), 0.0, DARK),
@@ -375,14 +375,14 @@ def _pay_station(rng: np.random.Generator, look: Look) -> list[Part]:
             (depth, width, high - plinth - cap + 2 * EMBED), (0.0, 0.0, (high + plinth - cap) / 2), 0.0, look
         ),
         Box((depth + 0.03, width + 0.03, cap), (0.0, 0.0, high - cap / 2), 0.0, look),
-        Box((0.016, width * 0.6, _u(rng, 0.12, 0.22)), (face, 0.0, high - 0.35), 0.0, SCREEN),
+        Box((0.016, width * 0.6, dim(rng, 0.12, 0.22)), (face, 0.0, high - 0.35), 0.0, SCREEN),
         Box((0.016, width * 0.35, 0.14), (face, -width * 0.15, high - 0.62), 0.0, DARK),
         Box((0.016, 0.09, 0.03), (face, width * 0.25, high - 0.6), 0.0, DARK),
         Box((0.03, width * 0.5, 0.05), (face - 0.006, 0.0, 0.55), 0.0, DARK),
     ]
     if rng.random() < 0.5:  # solar panel on a short stem, tilted towards -x
-        stem, lean = _u(rng, 0.08, 0.2), math.radians(_u(rng, 15.0, 35.0))
-        panel = (_u(rng, 0.30, 0.42), _u(rng, 0.28, width), 0.025)
+        stem, lean = dim(rng, 0.08, 0.2), math.radians(dim(rng, 15.0, 35.0))
+        panel = (dim(rng, 0.30, 0.42), dim(rng, 0.28, width), 0.025)
         # its centre this far above its lowest edge (at +x), which rests at the stem's height
         centre = high + stem + panel[0] / 2 * math.sin(lean) + panel[2] / 2 * math.cos(lean)
         parts.append(
@@ -411,9 +411,9 @@ def telephone_booth(rng: np.random.Generator) -> list[Part]:
         return _kiosk(rng)
     if style == 1:
         return _glass_booth(rng)
-    post, post_h = _u(rng, 0.08, 0.14), _u(rng, 1.00, 1.25)
-    look = _pick(rng, (*PAINT, STEEL, *BRIGHT[:2]))
-    depth, width, high = _u(rng, 0.15, 0.25), _u(rng, 0.22, 0.32), _u(rng, 0.35, 0.50)
+    post, post_h = dim(rng, 0.08, 0.14), dim(rng, 1.00, 1.25)
+    look = pick(rng, (*PAINT, STEEL, *BRIGHT[:2]))
+    depth, width, high = dim(rng, 0.15, 0.25), dim(rng, 0.22, 0.32), dim(rng, 0.35, 0.50)
     bottom = post_h - 0.04
     parts: list[Part] = [
         Box((post, post, post_h), (0.0, 0.0, post_h / 2), 0.0, look),
@@ -434,7 +434,7 @@ def telephone_booth(rng: np.random.Generator) -> list[Part]:
         Capsule(0.025, 0.14, (depth / 2 + 0.02, width / 2 - 0.04, bottom + high * 0.55), DARK),
     ]
     if rng.random() < 0.6:  # hood: a back wall, a roof and two side wings, open to +x
-        hood_w, hood_d, hood_h = _u(rng, 0.55, 0.80), _u(rng, 0.35, 0.50), _u(rng, 0.60, 0.90)
+        hood_w, hood_d, hood_h = dim(rng, 0.55, 0.80), dim(rng, 0.35, 0.50), dim(rng, 0.60, 0.90)
         wall, z0 = 0.02, bottom - 0.1
         back = -depth / 2 - wall / 2 + EMBED
         x_mid = back - wall / 2 + hood_d / 2
@@ -451,9 +451,9 @@ def telephone_booth(rng: np.random.Generator) -> list[Part]:
 
 def _kiosk(rng: np.random.Generator) -> list[Part]:
     """A classic square kiosk, its door (+x) ajar so the inside opens to the street."""
-    side, walls, plinth = _u(rng, 0.88, 1.00), _u(rng, 2.15, 2.40), _u(rng, 0.08, 0.12)
-    post, wall = _u(rng, 0.08, 0.12), 0.04
-    look = _pick(rng, (MAIL[1], MAIL[1], MAIL[3], PAINT[3], PAINT[2]))
+    side, walls, plinth = dim(rng, 0.88, 1.00), dim(rng, 2.15, 2.40), dim(rng, 0.08, 0.12)
+    post, wall = dim(rng, 0.08, 0.12), 0.04
+    look = pick(rng, (MAIL[1], MAIL[1], MAIL[3], PAINT[3], PAINT[2]))
     top = plinth + walls
     span = side - 2 * post + 2 * EMBED
     mid = plinth + walls / 2
@@ -461,14 +461,14 @@ def _kiosk(rng: np.random.Generator) -> list[Part]:
     edge = side / 2 - wall / 2
     off = wall / 2 + 0.005 - EMBED  # a 10 mm pane's centre from its wall's centre
     parts: list[Part] = [
-        Box((side + 0.04, side + 0.04, plinth), (0.0, 0.0, plinth / 2), 0.0, _pick(rng, CONCRETE)),
+        Box((side + 0.04, side + 0.04, plinth), (0.0, 0.0, plinth / 2), 0.0, pick(rng, CONCRETE)),
         Box((side + 0.02, side + 0.02, 0.2), (0.0, 0.0, top + 0.1 - EMBED), 0.0, look),
         Box((side + 0.028, side * 0.6, 0.1), (0.0, 0.0, top + 0.1), 0.0, WHITE),
         _hip(
             (side + 0.06, side + 0.06),
             (side * 0.5, side * 0.5),
             top + 0.2 - EMBED,
-            top + 0.2 + _u(rng, 0.10, 0.20),
+            top + 0.2 + dim(rng, 0.10, 0.20),
             look,
         ),
         Box((wall, span, walls), (-edge, 0.0, mid), 0.0, look),
@@ -484,7 +484,7 @@ def _kiosk(rng: np.random.Generator) -> list[Part]:
         parts.append(Box((span, wall, walls), (0.0, sy * edge, mid), 0.0, look))
         parts.append(Box((span * 0.8, 0.01, pane_h), (0.0, sy * (edge + off), pane_z), 0.0, GLASS))
     # the door, hinged in the front post at -y, swung out by `ajar`
-    ajar = math.radians(_u(rng, 10.0, 25.0))
+    ajar = math.radians(dim(rng, 10.0, 25.0))
     hinge = (side / 2 - post / 2, -side / 2 + post - 0.01)
     length = side - 2 * post + 0.012
     along = (math.sin(ajar), math.cos(ajar))  # from the hinge to the door's free edge
@@ -504,10 +504,10 @@ def _kiosk(rng: np.random.Generator) -> list[Part]:
 
 def _glass_booth(rng: np.random.Generator) -> list[Part]:
     """A modern booth: glass panels between four posts, clear of the ground, under a roof."""
-    sx, sy, high = _u(rng, 0.85, 1.10), _u(rng, 0.85, 1.10), _u(rng, 2.20, 2.50)
-    post, roof, gap = _u(rng, 0.05, 0.08), _u(rng, 0.08, 0.15), _u(rng, 0.10, 0.25)
-    frame, band = _pick(rng, (STEEL, *PAINT[1:4])), _pick(rng, (*BRIGHT[:5], WHITE))
-    over = _u(rng, 0.02, 0.06)
+    sx, sy, high = dim(rng, 0.85, 1.10), dim(rng, 0.85, 1.10), dim(rng, 2.20, 2.50)
+    post, roof, gap = dim(rng, 0.05, 0.08), dim(rng, 0.08, 0.15), dim(rng, 0.10, 0.25)
+    frame, band = pick(rng, (STEEL, *PAINT[1:4])), pick(rng, (*BRIGHT[:5], WHITE))
+    over = dim(rng, 0.02, 0.06)
     under = high - roof  # the roof's underside
     pane, pz, ph = 0.012, (gap + under) / 2, under - gap + EMBED
     parts: list[Part] = [
@@ -529,7 +529,7 @@ def _glass_booth(rng: np.random.Generator) -> list[Part]:
         for py in (-1, 1)
     ]
     parts += [Box((sx - post, pane, ph), (0.0, py * (sy - post) / 2, pz), 0.0, GLASS) for py in (-1, 1)]
-    door = sy * _u(rng, 0.55, 0.75)
+    door = sy * dim(rng, 0.55, 0.75)
     parts.append(Box((pane, door, ph), ((sx - post) / 2, -(sy - post) / 2 + door / 2, pz), 0.0, GLASS))
     return parts
 
@@ -553,30 +553,30 @@ def advertising_board(rng: np.random.Generator) -> list[Part]:
         return _sandwich_board(rng)
     if style == 1:
         return _poster_column(rng)
-    width, high, thick = _u(rng, 1.20, 3.00), _u(rng, 1.70, 2.30), _u(rng, 0.12, 0.30)
-    legs, frame = _u(rng, 0.30, 1.20), _pick(rng, (*PAINT[:4], STEEL))
-    border = _u(rng, 0.04, 0.10)
+    width, high, thick = dim(rng, 1.20, 3.00), dim(rng, 1.70, 2.30), dim(rng, 0.12, 0.30)
+    legs, frame = dim(rng, 0.30, 1.20), pick(rng, (*PAINT[:4], STEEL))
+    border = dim(rng, 0.04, 0.10)
     parts: list[Part] = [Box((thick, width, high), (0.0, 0.0, legs + high / 2), 0.0, frame)]
     poster = (0.01, width - 2 * border, high - 2 * border)
     for sx in (1, -1) if rng.random() < 0.6 else (1,):
         at = (sx * (thick / 2 + 0.005 - EMBED), 0.0, legs + high / 2)
-        parts.append(Box(poster, at, 0.0, _pick(rng, BRIGHT[:7])))
-    leg_x, leg_y = _u(rng, 0.08, thick), _u(rng, 0.08, 0.20)
+        parts.append(Box(poster, at, 0.0, pick(rng, BRIGHT[:7])))
+    leg_x, leg_y = dim(rng, 0.08, thick), dim(rng, 0.08, 0.20)
     ys = [0.0] if width < 1.6 else [-(width / 2 - 0.3), width / 2 - 0.3]
     for y in ys:
         parts.append(Box((leg_x, leg_y, legs + 0.05), (0.0, y, (legs + 0.05) / 2), 0.0, frame))
         if rng.random() < 0.5:
-            foot = _u(rng, max(thick, 0.25), 0.45)
+            foot = dim(rng, max(thick, 0.25), 0.45)
             parts.append(Box((foot, leg_y + 0.1, 0.02), (0.0, y, 0.01), 0.0, frame))
     return parts
 
 
 def _sandwich_board(rng: np.random.Generator) -> list[Part]:
     """Two boards leaning together (an A-frame), their faces towards +-y."""
-    width, length, thick = _u(rng, 0.50, 0.70), _u(rng, 0.80, 1.10), _u(rng, 0.018, 0.03)
-    spread = _u(rng, 0.40, 0.70) / 2  # from the centre to each board's foot (m)
+    width, length, thick = dim(rng, 0.50, 0.70), dim(rng, 0.80, 1.10), dim(rng, 0.018, 0.03)
+    spread = dim(rng, 0.40, 0.70) / 2  # from the centre to each board's foot (m)
     lean = math.asin(spread / length)
-    frame, poster = _pick(rng, (*PAINT[:3], *CONCRETE[:1], WHITE)), _pick(rng, (*BRIGHT, DARK))
+    frame, poster = pick(rng, (*PAINT[:3], *CONCRETE[:1], WHITE)), pick(rng, (*BRIGHT, DARK))
     z = (length * math.cos(lean) + thick * math.sin(lean)) / 2
     parts: list[Part] = []
     for sy in (-1, 1):
@@ -605,24 +605,24 @@ def _board(
 
 def _poster_column(rng: np.random.Generator) -> list[Part]:
     """A Litfass column: plinth, poster drum, cornice, domed roof and finial."""
-    r, drum, plinth = _u(rng, 0.55, 0.70), _u(rng, 2.0, 2.8), _u(rng, 0.15, 0.35)
-    look = _pick(rng, (PAINT[0], PAINT[2], PAINT[3], *CONCRETE[:2]))
-    cornice, lip = _u(rng, 0.10, 0.20), _u(rng, 0.06, 0.12)
+    r, drum, plinth = dim(rng, 0.55, 0.70), dim(rng, 2.0, 2.8), dim(rng, 0.15, 0.35)
+    look = pick(rng, (PAINT[0], PAINT[2], PAINT[3], *CONCRETE[:2]))
+    cornice, lip = dim(rng, 0.10, 0.20), dim(rng, 0.06, 0.12)
     top = plinth + drum
-    roof = _u(rng, 0.25, 0.60)
+    roof = dim(rng, 0.25, 0.60)
     parts: list[Part] = [
-        Cylinder(r + _u(rng, 0.05, 0.10), plinth, (0.0, 0.0, plinth / 2), look),
-        Cylinder(r, drum + 2 * EMBED, (0.0, 0.0, plinth + drum / 2), _pick(rng, (WHITE, *CONCRETE[:2]))),
+        Cylinder(r + dim(rng, 0.05, 0.10), plinth, (0.0, 0.0, plinth / 2), look),
+        Cylinder(r, drum + 2 * EMBED, (0.0, 0.0, plinth + drum / 2), pick(rng, (WHITE, *CONCRETE[:2]))),
         Cylinder(r + lip, cornice, (0.0, 0.0, top + cornice / 2), look),
         frustum(r + lip * 0.6, 0.12, top + cornice - EMBED, top + cornice + roof, look),
     ]
-    finial = _u(rng, 0.06, 0.12)
+    finial = dim(rng, 0.06, 0.12)
     parts.append(Capsule(finial, 0.0, (0.0, 0.0, top + cornice + roof + finial - 0.03), look))
     bands = int(rng.integers(2, 4))
     band = (drum - 0.2) / bands
     for i in range(bands):
         parts.append(
-            Cylinder(r + 0.004, band - 0.04, (0.0, 0.0, plinth + 0.1 + (i + 0.5) * band), _pick(rng, BRIGHT))
+            Cylinder(r + 0.004, band - 0.04, (0.0, 0.0, plinth + 0.1 + (i + 0.5) * band), pick(rng, BRIGHT))
         )
     return parts
 
@@ -642,16 +642,16 @@ def street_sign(rng: np.random.Generator) -> list[Part]:
     0.15-0.23 m high, on the post top. Overall: 2.10-3.40 m high, 0.30-1.20 m (x),
     0.05-1.20 m (y).
     """
-    look = _pick(rng, (STEEL, STEEL, PAINT[1], PAINT[0], PAINT[2]))
-    top = _u(rng, 2.1, 2.9)  # top of the main plate
+    look = pick(rng, (STEEL, STEEL, PAINT[1], PAINT[0], PAINT[2]))
+    top = dim(rng, 2.1, 2.9)  # top of the main plate
     round_post = rng.random() < 0.6
-    half = _u(rng, 0.025, 0.04) if round_post else _u(rng, 0.025, 0.0375)
-    thick = _u(rng, 0.006, 0.012)
+    half = dim(rng, 0.025, 0.04) if round_post else dim(rng, 0.025, 0.0375)
+    thick = dim(rng, 0.006, 0.012)
     y0 = half - 0.008  # plates start inside the post's front
     parts: list[Part] = []
     kind = int(rng.integers(4))
     if kind == 0:  # stop
-        across = _u(rng, 0.60, 0.90)
+        across = dim(rng, 0.60, 0.90)
         radius = across / 2 / math.cos(math.pi / 8)
         zc = top - across / 2
         outline = [(radius * math.cos(a), zc + radius * math.sin(a)) for a in _OCTAGON]
@@ -662,7 +662,7 @@ def street_sign(rng: np.random.Generator) -> list[Part]:
         ]
         bottom = top - across
     elif kind == 1:  # yield: apex down
-        side = _u(rng, 0.60, 0.90)
+        side = dim(rng, 0.60, 0.90)
         tall = side * math.sqrt(3) / 2
         outline = [(-side / 2, top), (side / 2, top), (0.0, top - tall)]
         zc = top - tall / 3  # the incentre, about which the inner white triangle shrinks
@@ -673,7 +673,7 @@ def street_sign(rng: np.random.Generator) -> list[Part]:
         ]
         bottom = top - tall
     elif kind == 2:  # round
-        radius = _u(rng, 0.21, 0.375)
+        radius = dim(rng, 0.21, 0.375)
         zc = top - radius
         face, rim = [(WHITE, SIGN_RED), (SIGN[1], WHITE), (SIGN_RED, SIGN_RED)][int(rng.integers(3))]
         parts.append(rod(radius, (0.0, y0, zc), (0.0, y0 + thick, zc), rim))
@@ -685,7 +685,7 @@ def street_sign(rng: np.random.Generator) -> list[Part]:
             )
         bottom = top - 2 * radius
     else:  # rectangle
-        w, h = _u(rng, 0.30, 0.75), _u(rng, 0.30, 0.90)
+        w, h = dim(rng, 0.30, 0.75), dim(rng, 0.30, 0.90)
         bg, fg = [(WHITE, SIGN[3]), (SIGN[1], WHITE), (SIGN[0], WHITE), (AMBER, SIGN[3])][
             int(rng.integers(4))
         ]
@@ -693,7 +693,7 @@ def street_sign(rng: np.random.Generator) -> list[Part]:
         parts.append(Box((w * 0.7, 0.004, h * 0.25), (0.0, y0 + thick + 0.001, top - h * 0.45), 0.0, fg))
         bottom = top - h
     for _ in range(int(rng.integers(0, 3))):
-        w, h, gap = _u(rng, 0.30, 0.60), _u(rng, 0.15, 0.40), _u(rng, 0.03, 0.10)
+        w, h, gap = dim(rng, 0.30, 0.60), dim(rng, 0.15, 0.40), dim(rng, 0.03, 0.10)
         if bottom - gap - h < 1.2:
             break
         parts.append(
@@ -701,17 +701,17 @@ def street_sign(rng: np.random.Generator) -> list[Part]:
                 (w, thick, h),
                 (0.0, y0 + thick / 2, bottom - gap - h / 2),
                 0.0,
-                _pick(rng, (WHITE, *SIGN[:2])),
+                pick(rng, (WHITE, *SIGN[:2])),
             )
         )
         bottom -= gap + h
-    post_top = top + _u(rng, 0.0, 0.1)
+    post_top = top + dim(rng, 0.0, 0.1)
     if rng.random() < 0.4:  # street-name blades, the first along x, the second along y
-        height, lift = _u(rng, 0.15, 0.23), _u(rng, 0.05, 0.25)
+        height, lift = dim(rng, 0.15, 0.23), dim(rng, 0.05, 0.25)
         z = min(post_top + lift, 3.4 - 2 * height)
-        blade = _pick(rng, SIGN[:3])
+        blade = pick(rng, SIGN[:3])
         for along in range(int(rng.integers(1, 3))):
-            length = _u(rng, 0.60, 1.20)
+            length = dim(rng, 0.60, 1.20)
             size = (length, 0.012, height) if along == 0 else (0.012, length, height)
             parts.append(Box(size, (0.0, 0.0, z + height / 2), 0.0, blade))
             z += height - EMBED
@@ -722,8 +722,8 @@ def street_sign(rng: np.random.Generator) -> list[Part]:
     else:
         parts.append(Box((2 * half, 2 * half, post_top), (0.0, 0.0, post_top / 2), 0.0, look))
     if rng.random() < 0.3:
-        footing = _u(rng, 0.03, 0.08)
-        parts.append(Cylinder(_u(rng, 0.10, 0.15), footing, (0.0, 0.0, footing / 2), _pick(rng, CONCRETE)))
+        footing = dim(rng, 0.03, 0.08)
+        parts.append(Cylinder(dim(rng, 0.10, 0.15), footing, (0.0, 0.0, footing / 2), pick(rng, CONCRETE)))
     return parts
 
 
@@ -744,30 +744,34 @@ def traffic_light(rng: np.random.Generator) -> list[Part]:
     the pole (50 %). Overall: 2.80-7.80 m high, 0.26-5.55 m (x), 0.30-1.15 m (y).
     """
     mast = rng.random() < 0.5
-    look, head_look = _pick(rng, (*PAINT[:4], STEEL)), _pick(rng, SIGNAL)
-    lens = _u(rng, 0.10, 0.15)
+    look, head_look = pick(rng, (*PAINT[:4], STEEL)), pick(rng, SIGNAL)
+    lens = dim(rng, 0.10, 0.15)
     head = _Head(
-        lens, _u(rng, 0.18, 0.28), 2 * lens + _u(rng, 0.06, 0.10), 2 * lens + _u(rng, 0.04, 0.08), head_look
+        lens,
+        dim(rng, 0.18, 0.28),
+        2 * lens + dim(rng, 0.06, 0.10),
+        2 * lens + dim(rng, 0.04, 0.08),
+        head_look,
     )
     walk = None
     if rng.random() < 0.7:
-        walk = (_u(rng, 2.1, 2.5), _u(rng, 0.30, 0.40), _u(rng, 0.18, 0.25), rng.random() < 0.5)
+        walk = (dim(rng, 2.1, 2.5), dim(rng, 0.30, 0.40), dim(rng, 0.18, 0.25), rng.random() < 0.5)
     if mast:
-        r0, pole_h = _u(rng, 0.12, 0.18), _u(rng, 5.5, 7.5)
+        r0, pole_h = dim(rng, 0.12, 0.18), dim(rng, 5.5, 7.5)
     else:
-        r0, pole_h = _u(rng, 0.07, 0.12), _u(rng, 2.8, 4.2)
+        r0, pole_h = dim(rng, 0.07, 0.12), dim(rng, 2.8, 4.2)
         if walk:  # the vehicle heads above the pedestrian heads
             pole_h = max(pole_h, round(walk[0] + 2 * walk[1] + 0.1 + head.high, 3))
-    r1 = round(r0 * _u(rng, 0.75, 0.90), 3)
+    r1 = round(r0 * dim(rng, 0.75, 0.90), 3)
     parts: list[Part] = [frustum(r0, r1, 0.0, pole_h, look)]
     parts.append(Cylinder(r1 + 0.01, 0.03, (0.0, 0.0, pole_h - 0.015), look))  # cap
     if rng.random() < 0.5:
-        base = _u(rng, 0.3, 0.6)
-        parts.append(Cylinder(r0 + _u(rng, 0.03, 0.06), base, (0.0, 0.0, base / 2), look))
+        base = dim(rng, 0.3, 0.6)
+        parts.append(Cylinder(r0 + dim(rng, 0.03, 0.06), base, (0.0, 0.0, base / 2), look))
     back = r1 * math.cos(math.pi / 24) - 0.01  # a head's back this far from the axis is inside the pole
     if mast:
-        arm_z, rise = pole_h - _u(rng, 0.2, 0.4), _u(rng, 0.0, 0.4)
-        reach, arm_r = _u(rng, 2.5, 5.2), _u(rng, 0.05, 0.08)
+        arm_z, rise = pole_h - dim(rng, 0.2, 0.4), dim(rng, 0.0, 0.4)
+        reach, arm_r = dim(rng, 2.5, 5.2), dim(rng, 0.05, 0.08)
         parts.append(rod(arm_r, (0.0, 0.0, arm_z), (reach, 0.0, arm_z + rise), look))
         xs = [reach - 0.45] if reach < 4.0 or rng.random() < 0.5 else [reach - 0.45, reach - 3.2]
         for x in xs:  # hanging from the arm, the housing's top 10 mm above the arm's axis
@@ -783,7 +787,7 @@ def traffic_light(rng: np.random.Generator) -> list[Part]:
         parts += _walk_head(back, z, side, depth, (1, 0), head_look)
         if second:
             parts += _walk_head(back, z, side, depth, (0, 1), head_look)
-        parts.append(Box((0.06, 0.10, 0.16), (-back - 0.03 + EMBED, 0.0, _u(rng, 1.0, 1.1)), 0.0, AMBER))
+        parts.append(Box((0.06, 0.10, 0.16), (-back - 0.03 + EMBED, 0.0, dim(rng, 1.0, 1.1)), 0.0, AMBER))
     return parts
 
 
@@ -819,7 +823,7 @@ class _Head:
             parts.append(
                 rod(self.lens, (x, face - facing * 0.01, zc), (x, face + facing * 0.012, zc), colour)
             )
-            visor = _u(rng, 0.10, 0.18)
+            visor = dim(rng, 0.10, 0.18)
             parts.append(
                 Box(
                     (2 * self.lens + 0.02, visor, 0.012),
@@ -831,7 +835,7 @@ class _Head:
         if rng.random() < 0.35:  # a backplate, black or with a bright border
             plate = (self.width + 0.16, 0.015, self.high + 0.12)
             at = (x, back[1] + facing * 0.004, top - self.high / 2)
-            parts.append(Box(plate, at, 0.0, _pick(rng, (PAINT[1], SIGNAL[2], WHITE))))
+            parts.append(Box(plate, at, 0.0, pick(rng, (PAINT[1], SIGNAL[2], WHITE))))
         return parts
 
 
