@@ -45,17 +45,28 @@ from shapely.geometry import Polygon
 from citygen.assets import Asset, UnknownAsset, resolve
 from citygen.errors import ExportError
 from citygen.exporters import ExportWarning, as_scene
-from citygen.geometry.terrain import height_at, terrain_mesh
+from citygen.geometry.terrain import (
+    DEFAULT_ROUGH_CELLS,
+    MAX_ROUGH_CELLS,
+    height_at,
+    terrain_mesh,
+)
 from citygen.io import write_atomic
 from citygen.spec.agents import Vehicle
 from citygen.spec.placements import Placement
 from citygen.spec.scene import Scene
 from citygen.spec.task import NavTask, TraverseTask
+from citygen.spec.terrain import RoughTile
 
 RGBA = tuple[float, float, float, float]
 
 #: Height (m) of zone surfaces above the ground they cover, so they never z-fight with it.
 ZONE_LIFT = 0.005
+#: Default cell size (m) of rough tiles' meshes in pictures (GLB, HTML): fine enough to show
+#: the bumps, coarse enough to keep a street's file to megabytes.
+RESOLUTION = 0.1
+#: Most triangles an exporter lets the terrain's mesh have, to keep memory bounded.
+MAX_TERRAIN_TRIANGLES = 16_000_000
 #: Colour of the terrain solid and of the flat ground outside it (RGBA in [0, 1]).
 TERRAIN_RGBA: RGBA = (0.66, 0.62, 0.57, 1.0)
 GROUND_RGBA: RGBA = (0.957, 0.945, 0.918, 1.0)
@@ -132,6 +143,32 @@ def resolution_option(value: Any, fmt: str) -> float | None:
             f"{fmt} export: expected a positive number of metres for 'resolution', got {value!r}"
         )
     return float(value)
+
+
+def rough_cells(tile: RoughTile, tile_size: float, resolution: float | None) -> int:
+    """Cells along one side of a rough tile's mesh, as :func:`~citygen.geometry.terrain.tile_mesh`
+    chooses them: ``tile_size / resolution`` (1 to 1024), or without a resolution, cells of
+    ``scale / 8`` or a quarter of the taper band, whichever is finer (at most 256)."""
+    if resolution is not None:
+        return int(np.clip(math.ceil(tile_size / resolution - 1e-9), 1, MAX_ROUGH_CELLS))
+    cell = min(tile.scale / 8.0, min(tile.scale, tile_size / 4.0) / 4.0)
+    return min(math.ceil(tile_size / cell - 1e-9), DEFAULT_ROUGH_CELLS)
+
+
+def check_terrain_size(scene: Scene, resolution: float | None, fmt: str) -> int:
+    """The number of triangles of the terrain's mesh (roughly: rough tiles counted exactly),
+    or an :class:`ExportError` when it exceeds :data:`MAX_TERRAIN_TRIANGLES`."""
+    t = scene.terrain
+    if t is None:
+        return 0
+    cells = np.array([rough_cells(x, t.tile_size, resolution) for x in t.tiles if isinstance(x, RoughTile)])
+    triangles = int((2 * cells**2 + 12 * cells).sum()) + 200 * (len(t.tiles) - len(cells))
+    if triangles > MAX_TERRAIN_TRIANGLES:
+        raise ExportError(
+            f"{fmt} export: the terrain's {len(cells)} rough tiles need about {triangles:,} triangles at "
+            f"resolution={resolution!r}, more than {MAX_TERRAIN_TRIANGLES:,}; pass a coarser resolution (m)"
+        )
+    return triangles
 
 
 def scene_dir_of(scene: Scene | str | Path, options: dict[str, Any]) -> tuple[Scene, Path | None]:
@@ -275,12 +312,16 @@ def triangulate(poly: Polygon) -> tuple[np.ndarray, np.ndarray]:
 
 
 def drape(
-    scene: Scene, geometries: Sequence[shapely.Geometry], *, resolution: float | None = None
+    scene: Scene,
+    geometries: Sequence[shapely.Geometry],
+    *,
+    resolution: float | None = None,
+    mesh: trimesh.Trimesh | None = None,
 ) -> list[tuple[np.ndarray, np.ndarray]]:
     """The ground surface under each 2-d geometry: ``(vertices (n, 3), faces (k, 3))`` in
     metres, upward-facing, lying exactly on the terrain's mesh (:func:`terrain_mesh` at
-    ``resolution``) inside its grid and at ``z = 0`` outside it; empty arrays where a
-    geometry covers no ground.
+    ``resolution``, or ``mesh`` if already built) inside its grid and at ``z = 0`` outside
+    it; empty arrays where a geometry covers no ground.
 
     Tiles that lie inside one geometry give it their top faces as they are; only the
     faces of tiles that a geometry's edge crosses are clipped (shapely, vectorised).
@@ -293,26 +334,31 @@ def drape(
             xy, faces = triangulate(part)
             out[i].append((np.c_[xy, np.zeros(len(xy))], faces))
     if grid is not None and len(geometries):
-        _drape_on_terrain(scene, np.asarray(geometries, dtype=object), resolution, out)
+        tm = terrain_mesh(scene, resolution=resolution) if mesh is None else mesh
+        _drape_on_terrain(scene, np.asarray(geometries, dtype=object), tm, out)
     return [_concat(pieces) for pieces in out]
 
 
-def _drape_on_terrain(scene: Scene, geoms: np.ndarray, resolution: float | None, out: list) -> None:
+def tile_owners(scene: Scene, tree: shapely.STRtree) -> np.ndarray:
+    """For each terrain tile, the index of the tree's geometry that contains it whole, or -1."""
     t = scene.terrain
-    tm = terrain_mesh(t, resolution=resolution)
+    ids = np.arange(t.rows * t.cols)
+    x0, y0 = t.origin[0] + (ids % t.cols) * t.tile_size, t.origin[1] + (ids // t.cols) * t.tile_size
+    ci, gi = tree.query(shapely.box(x0, y0, x0 + t.tile_size, y0 + t.tile_size), predicate="within")
+    owner = np.full(len(ids), -1)
+    first = np.unique(ci, return_index=True)[1]  # the first geometry listed, where they overlap
+    owner[ci[first]] = gi[first]
+    return owner
+
+
+def _drape_on_terrain(scene: Scene, geoms: np.ndarray, tm: trimesh.Trimesh, out: list) -> None:
     v, f = tm.vertices, tm.faces
     normals = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
     up = np.flatnonzero(normals[:, 2] > 1e-12 * np.abs(normals).sum(axis=1) + 1e-300)
     faces, normals, face_tile = f[up], normals[up], tm.metadata["face_tile"][up]
     tree = shapely.STRtree(geoms)
     # Tiles wholly inside one geometry: their top faces as they are.
-    ids = np.arange(t.rows * t.cols)
-    x0, y0 = t.origin[0] + (ids % t.cols) * t.tile_size, t.origin[1] + (ids // t.cols) * t.tile_size
-    cells = shapely.box(x0, y0, x0 + t.tile_size, y0 + t.tile_size)
-    ci, gi = tree.query(cells, predicate="within")
-    owner = np.full(len(ids), -1)
-    owner[ci] = gi
-    whole = owner[face_tile]
+    whole = tile_owners(scene, tree)[face_tile]
     # The other tiles' faces: those no geometry's edge touches belong to the geometry
     # holding their centroid (or to none); the others are clipped by each geometry they meet.
     rest = np.flatnonzero(whole < 0)
@@ -467,8 +513,8 @@ class _Graph:
 
     def __init__(self, y_up: bool) -> None:
         self.scene = trimesh.Scene()
-        self.scene.graph.update(frame_from=self.scene.graph.base_frame, frame_to=ROOT,
-                                matrix=Z_UP_TO_Y_UP if y_up else np.eye(4))  # fmt: skip
+        turn = Z_UP_TO_Y_UP if y_up else np.eye(4)
+        self.scene.graph.update(frame_from=self.scene.graph.base_frame, frame_to=ROOT, matrix=turn)
 
     def add(self, node: str, geometry: str, make, matrix: np.ndarray) -> None:
         if geometry not in self.scene.geometry:
@@ -480,15 +526,16 @@ def build(
     scene: Scene | str | Path,
     *,
     scene_dir: str | Path | None = None,
-    resolution: float | None = None,
+    resolution: float | None = RESOLUTION,
     y_up: bool = True,
 ) -> trimesh.Scene:
     """The scene as a :class:`trimesh.Scene` (see the module docstring for its nodes).
 
     ``scene_dir`` is the folder mesh placements are relative to (default: the scene
     file's folder). ``resolution`` (m) is the cell size of rough terrain tiles' meshes
-    (default: :func:`~citygen.geometry.terrain.tile_mesh`'s). Agents and the task's markers
-    stand on the ground (:func:`height_at`).
+    (default :data:`RESOLUTION`; None for :func:`~citygen.geometry.terrain.tile_mesh`'s,
+    which resolves every bump). Agents and the task's markers stand on the ground
+    (:func:`height_at`).
     """
     model, folder = scene_dir_of(scene, {"scene_dir": scene_dir})
     resolution = resolution_option(resolution, "glb")
@@ -496,13 +543,16 @@ def build(
         raise ExportError(f"glb export: expected true or false for 'y_up', got {y_up!r}")
     g = _Graph(y_up)
     polys = zone_polygons(model)
+    tm = None
     if model.terrain is not None:
-        solid = terrain_solid(model, polys, resolution=resolution)
+        check_terrain_size(model, resolution, "glb")
+        tm = terrain_mesh(model, resolution=resolution)
+        solid = terrain_solid(model, polys, mesh=tm)
         g.add("ground/terrain", "terrain", lambda: solid, np.eye(4))
     verts, faces = ground_plane(model)
     if len(faces):
         g.add("ground/plane", "plane", lambda: flat_coloured(verts, faces, GROUND_RGBA), np.eye(4))
-    _add_zones(g, model, polys, resolution)
+    _add_zones(g, model, polys, tm)
     _add_placements(g, model, folder)
     _add_agents(g, model)
     _add_task(g, model)
@@ -520,34 +570,43 @@ def build(
 
 
 def terrain_solid(
-    scene: Scene, zones: Sequence[shapely.Geometry] | None = None, *, resolution: float | None = None
+    scene: Scene,
+    zones: Sequence[shapely.Geometry] | None = None,
+    *,
+    resolution: float | None = None,
+    mesh: trimesh.Trimesh | None = None,
 ) -> trimesh.Trimesh:
-    """The terrain as one closed solid (:func:`terrain_mesh`), each face coloured as the zone
-    under its centroid (so steps and walls take their zone's colour and cracks between the
-    zones' surfaces never show a different one), else :data:`TERRAIN_RGBA` (vertex colours).
-    ``zones`` are the zones' shapes if already made (:func:`zone_polygons`)."""
-    solid = terrain_mesh(scene, resolution=resolution)
+    """The terrain as one closed solid (:func:`terrain_mesh`, or ``mesh`` if already built),
+    each face coloured as the zone under its centroid (so steps and walls take their zone's
+    colour, and cracks between the zones' surfaces never show another), else
+    :data:`TERRAIN_RGBA` (vertex colours). ``zones`` are the zones' shapes if already made
+    (:func:`zone_polygons`)."""
+    solid = terrain_mesh(scene, resolution=resolution) if mesh is None else mesh
     colours = np.tile(np.round(np.asarray(TERRAIN_RGBA) * 255).astype(np.uint8), (len(solid.faces), 1))
     if scene.zones:
-        centre = solid.vertices[solid.faces].mean(axis=1)
-        shapes = zone_polygons(scene) if zones is None else zones
-        fi, zi = shapely.STRtree(shapes).query(shapely.points(centre[:, :2]), predicate="intersects")
-        first = np.unique(fi, return_index=True)[1]  # the first zone listed, where zones touch
+        shapes = np.asarray(zone_polygons(scene) if zones is None else zones, dtype=object)
         palette = np.array(
             [np.round(np.asarray(zone_rgba(z.kind)) * 255) for z in scene.zones], dtype=np.uint8
         )
-        colours[fi[first]] = palette[zi[first]]
-    mesh = trimesh.Trimesh(solid.vertices, solid.faces, process=False)
-    mesh.visual.face_colors = colours
-    return vertex_coloured(mesh)
+        tree = shapely.STRtree(shapes)
+        owner = tile_owners(scene, tree)[solid.metadata["face_tile"]]
+        colours[owner >= 0] = palette[owner[owner >= 0]]
+        rest = np.flatnonzero(owner < 0)  # faces of tiles that zone edges cross: one by one
+        centre = solid.vertices[solid.faces[rest]].mean(axis=1)
+        fi, zi = tree.query(shapely.points(centre[:, :2]), predicate="intersects")
+        first = np.unique(fi, return_index=True)[1]  # the first zone listed, where zones touch
+        colours[rest[fi[first]]] = palette[zi[first]]
+    out = trimesh.Trimesh(solid.vertices, solid.faces, process=False)
+    out.visual.face_colors = colours
+    return vertex_coloured(out)
 
 
 def _coloured_mesh(mesh: trimesh.Trimesh, colour: RGBA) -> trimesh.Trimesh:
     return flat_coloured(mesh.vertices, mesh.faces, colour)
 
 
-def _add_zones(g: _Graph, scene: Scene, polys: list, resolution: float | None) -> None:
-    surfaces = drape(scene, polys, resolution=resolution)
+def _add_zones(g: _Graph, scene: Scene, polys: list, tm: trimesh.Trimesh | None) -> None:
+    surfaces = drape(scene, polys, mesh=tm)
     for zone, (verts, faces) in zip(scene.zones, surfaces, strict=True):
         if len(faces):
             lifted = verts + np.array([0.0, 0.0, ZONE_LIFT])
@@ -612,8 +671,8 @@ def _add_agents(g: _Graph, scene: Scene) -> None:
         else:
             r = agent.radius
             m = _matrix(sx, sy, z0, 0.0, (r, r, h))
-            g.add(f"agent/{agent.id}", f"agent/{agent.kind}",
-                  lambda c=colour: _coloured_mesh(_unit_cylinder(), c), m)  # fmt: skip
+            person = lambda c=colour: _coloured_mesh(_unit_cylinder(), c)  # noqa: E731
+            g.add(f"agent/{agent.id}", f"agent/{agent.kind}", person, m)
         disc = _matrix(gx, gy, z1, 0.0, (r, r, MARKER_THICKNESS))
         marker = "agent/vehicle/goal" if isinstance(agent, Vehicle) else f"agent/{agent.kind}"
         g.add(f"agent/{agent.id}/goal", marker, lambda c=colour: _coloured_mesh(_unit_cylinder(), c), disc)
@@ -661,7 +720,7 @@ def export(scene: Scene | str | Path, out_dir: str | Path, **options: Any) -> li
     """Write ``<out_dir>/<name>.glb``; returns ``[that path]``.
 
     Options: ``name`` (default: the scene file's stem, ``<split>-<index>`` or ``scene``),
-    ``scene_dir``, ``resolution`` (m) and ``y_up`` (see :func:`build`).
+    ``scene_dir``, ``resolution`` (m, default :data:`RESOLUTION`) and ``y_up`` (see :func:`build`).
     """
     check_options(options, _OPTIONS, "glb")
     name = output_name(scene, options, "glb")

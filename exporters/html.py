@@ -37,6 +37,7 @@ from citygen.errors import ExportError
 from citygen.exporters.glb import (
     AGENT_COLORS,
     GOAL_COLOR,
+    RESOLUTION,
     START_COLOR,
     build,
     check_options,
@@ -48,9 +49,6 @@ from citygen.spec.scene import Scene
 from citygen.spec.surfaces import ZONE_KINDS
 
 THREE_VERSION = "0.160.0"
-#: Cell size (m) of rough terrain tiles' meshes in the viewer: coarser than the GLB's
-#: default, which resolves every bump, to keep pages small.
-RESOLUTION = 0.1
 BACKGROUND = "#dde6ee"
 
 _OPTIONS = ("name", "scene_dir", "resolution", "title", "legend")
@@ -301,7 +299,7 @@ def export(scene: Scene | str | Path, out_dir: str | Path, **options: Any) -> li
 
     Options: ``name`` (default: the scene file's stem, ``<split>-<index>`` or ``scene``),
     ``scene_dir`` (the folder mesh placements are relative to, for a scene model),
-    ``resolution`` (m, default :data:`RESOLUTION`), ``title`` and ``legend`` (see
+    ``resolution`` (m, default :data:`~citygen.exporters.glb.RESOLUTION`), ``title`` and ``legend`` (see
     :func:`to_html`).
     """
     check_options(options, _OPTIONS, "html")

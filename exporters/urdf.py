@@ -57,6 +57,7 @@ from citygen.exporters.glb import (
     ZONE_LIFT,
     catalog_asset,
     check_options,
+    check_terrain_size,
     colour_groups,
     drape,
     file_mesh,
@@ -342,27 +343,26 @@ def _add_terrain(w: _Writer, scene: Scene, polys: list, resolution: float | None
     for g, mu in enumerate(values):
         members = np.flatnonzero(friction == mu)
         link = w.link(f"ground/terrain/{g}", friction=mu)
-        visual = _tiles(t, members, floor, resolution)
-        _element(link, "visual", _mesh_geometry(w.mesh(*visual)), material=terrain_material)
-        for r0, c0, r1, c1, h in _flat_rectangles(t, members):
-            lo = (ox + c0 * s, oy + r0 * s, min(floor, h - MIN_THICKNESS))
-            hi = (ox + c1 * s, oy + r1 * s, h)
-            _box(link, np.array([lo, hi]))
+        # The visual is the collision geometry itself (the zones' surfaces colour it).
+        boxes = [
+            np.array(
+                [(ox + c0 * s, oy + r0 * s, min(floor, h - MIN_THICKNESS)), (ox + c1 * s, oy + r1 * s, h)]
+            )
+            for r0, c0, r1, c1, h in _flat_rectangles(t, members)
+        ]
         for k in members.tolist():
             tile = t.tiles[k]
             if isinstance(tile, StairTile):
                 corner = np.array([ox + (k % t.cols) * s, oy + (k // t.cols) * s, 0.0])
-                for box in tile_boxes(tile, s, floor=floor):
-                    _box(link, box + corner)
+                boxes += list(tile_boxes(tile, s, floor=floor) + corner)
+        for kind, material in (("visual", terrain_material), ("collision", None)):
+            for lo, hi in boxes:
+                _element(link, kind, ("box", {"size": _v(hi - lo)}), (lo + hi) / 2, material=material)
         meshes = [k for k in members.tolist() if not isinstance(t.tiles[k], FlatTile | StairTile)]
         if meshes:
-            mv, mf = _tiles(t, np.asarray(meshes), floor, resolution)
-            _element(link, "collision", _mesh_geometry(w.mesh(mv, mf)), concave=True)
-
-
-def _box(link: ET.Element, box: np.ndarray) -> None:
-    lo, hi = box
-    _element(link, "collision", ("box", {"size": _v(hi - lo)}), (lo + hi) / 2)
+            filename = w.mesh(*_tiles(t, np.asarray(meshes), floor, resolution))
+            _element(link, "visual", _mesh_geometry(filename), material=terrain_material)
+            _element(link, "collision", _mesh_geometry(filename), concave=True)
 
 
 def _tiles(t: Terrain, members: np.ndarray, floor: float, resolution: float | None):
@@ -413,6 +413,7 @@ def export(scene: Scene | str | Path, out_dir: str | Path, **options: Any) -> li
     out = Path(out_dir)
     w = _Writer(out, name)
     polys = zone_polygons(model)
+    check_terrain_size(model, resolution, "urdf")
     _add_ground(w, model, polys, resolution, thickness)
     _add_terrain(w, model, polys, resolution, floor)
     for i, pl in enumerate(model.placements):

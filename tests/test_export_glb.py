@@ -13,10 +13,11 @@ import trimesh
 
 from citygen.assets import resolve
 from citygen.errors import ExportError
-from citygen.exporters import glb
+from citygen.exporters import glb, urdf
 from citygen.exporters.picture import ZONE_COLORS
 from citygen.geometry.terrain import height_at
 from citygen.io import load_scene
+from citygen.spec.terrain import Terrain
 from tests.conftest import ROOT
 from tests.test_export_urdf import generated_scene, write_terrain_scene
 
@@ -200,6 +201,19 @@ def test_vehicles_goals_are_discs(street, tmp_path):
     assert disc.extents == pytest.approx([car.width, car.width, glb.MARKER_THICKNESS], rel=0.02)
     body = node_mesh(loaded, f"agent/{car.id}")
     assert sorted(body.extents[:2]) == pytest.approx(sorted([car.length, car.width]))
+
+
+def test_a_terrain_too_fine_to_mesh_is_refused_before_building(tmp_path):
+    """Memory stays bounded: 64 x 64 rough tiles at 5 mm would be ~10^9 triangles."""
+    rough = {"kind": "rough", "amplitude": 0.05, "scale": 0.5}
+    terrain = {"origin": [0.0, 0.0], "tile_size": 2.0, "rows": 64, "cols": 64, "tiles": [rough] * 4096}
+    scene = load_scene(ROOT / "examples" / "nav_static_10m.json").model_copy(
+        update={"terrain": Terrain.model_validate(terrain), "placements": ()}
+    )
+    with pytest.raises(ExportError, match=r"rough tiles need about [\d,]+ triangles.*coarser resolution"):
+        glb.export(scene, tmp_path, resolution=0.005)
+    with pytest.raises(ExportError, match="coarser resolution"):
+        urdf.export(scene, tmp_path, resolution=0.005)
 
 
 def test_bad_options_are_clear_errors(street, tmp_path):
