@@ -2,7 +2,9 @@
 
 One scene graph holds
 
-- ``ground/terrain``: the terrain's tiles as one closed solid (:func:`terrain_mesh`);
+- ``ground/terrain``: the terrain's tiles as one closed solid (:func:`terrain_mesh`, rough
+  tiles meshed every :data:`RESOLUTION` metres by default), each face in the colour of the
+  zone over it;
 - ``ground/plane``: the flat ground at ``z = 0`` over the scene's bounds outside the
   terrain grid;
 - ``zone/<id>``: each zone's ground surface, draped on the terrain and coloured by kind
@@ -193,12 +195,10 @@ def mesh_file(placement: Placement, index: int, scene_dir: Path | None) -> Path:
             "scene from its file or pass the option scene_dir"
         )
     rel = PurePosixPath(placement.asset)
-    if rel.is_absolute() or placement.asset.startswith("~") or ".." in rel.parts:
-        raise ExportError(f"{where}: expected a path inside the scene's folder, got {placement.asset!r}")
     base = Path(scene_dir).resolve()
     path = (base / rel).resolve()
-    if not path.is_relative_to(base):
-        raise ExportError(f"{where}: expected a mesh file inside the scene's folder, got a link to {path}")
+    if rel.is_absolute() or placement.asset.startswith("~") or not path.is_relative_to(base):
+        raise ExportError(f"{where}: expected a path inside the scene's folder, got {placement.asset!r}")
     if not path.is_file():
         raise ExportError(f"{where}: expected an existing mesh file, got no file {placement.asset!r}")
     return path
@@ -229,11 +229,11 @@ def colour_groups(mesh: trimesh.Trimesh) -> list[tuple[tuple[int, ...], np.ndarr
     the order each colour first appears."""
     colours = np.asarray(mesh.visual.face_colors, dtype=np.uint8)
     _, first, inverse = np.unique(colours, axis=0, return_index=True, return_inverse=True)
+    inverse = inverse.ravel()
+    by_colour = np.argsort(inverse, kind="stable")
+    groups = np.split(by_colour, np.flatnonzero(np.diff(inverse[by_colour])) + 1)
     order = np.argsort(first, kind="stable")
-    return [
-        (tuple(int(c) for c in colours[first[g]]), np.flatnonzero(inverse.ravel() == g))
-        for g in order.tolist()
-    ]
+    return [(tuple(int(c) for c in colours[first[g]]), groups[g]) for g in order.tolist()]
 
 
 def submesh(mesh: trimesh.Trimesh, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -13,8 +13,10 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import pybullet
 import pytest
 import trimesh
+import yourdfpy
 from shapely.geometry import Polygon
 
 from citygen import validate
@@ -29,8 +31,6 @@ from citygen.spec.placements import Placement
 from citygen.spec.surfaces import FRICTION
 from citygen.spec.task import NavTask
 from tests.conftest import ROOT
-
-pybullet = pytest.importorskip("pybullet")
 
 # --- scenes shared by the exporter tests ---------------------------------------------------
 
@@ -361,7 +361,6 @@ def test_rays_hit_flat_zones_at_ground_level_with_their_friction(street, tmp_pat
 
 
 def test_yourdfpy_reads_links_transforms_and_meshes(street, tmp_path):
-    yourdfpy = pytest.importorskip("yourdfpy")
     path, scene = street
     files = export_quiet(path, tmp_path)
     model = yourdfpy.URDF.load(str(files[0]), build_collision_scene_graph=True, load_collision_meshes=True)
