@@ -193,6 +193,168 @@ def export(
                     typer.echo(f"wrote {path}")
 
 
+def _jobs_option(value: int | None) -> int | None:
+    if value is not None and value < 1:
+        raise typer.BadParameter(f"expected at least 1 worker, got {value}")
+    return value
+
+
+JobsOption = Annotated[
+    int | None,
+    typer.Option("--jobs", "-j", callback=_jobs_option, help="Worker processes.  [default: every core]"),
+]
+
+
+@app.command()
+def generate(
+    split: Annotated[
+        str,
+        typer.Option(
+            "--split",
+            "-s",
+            help="A split (`urban-nav-2-train`), a family (`urban-nav-2`: both parts), or a "
+            "generator config / split manifest file (.toml, .json).",
+            show_default=False,
+        ),
+    ],
+    seed: Annotated[
+        int | None,
+        typer.Option(
+            "--seed", min=0, max=2**64 - 1, help="Master seed.  [default: the split's canonical seed]"
+        ),
+    ] = None,
+    count: Annotated[
+        int | None,
+        typer.Option(
+            "--count", "-n", min=0, help="Scenes per split.  [default: 1 with --index, else every scene]"
+        ),
+    ] = None,
+    index: Annotated[
+        int | None, typer.Option("--index", "-i", min=0, help="First scene index.  [default: 0]")
+    ] = None,
+    out: Annotated[Path, typer.Option("--out", "-o", help="Folder to write into.")] = Path("out"),
+    jobs: JobsOption = None,
+    resume: Annotated[
+        bool, typer.Option("--resume", help="Keep scene files already written and valid.")
+    ] = False,
+) -> None:
+    """Generate scenes of a named split (or of your own config) as JSON scene files.
+
+    Scene `i` of split `S` gets the seed derived from (master seed, `S`, `i`), written into its
+    `meta`; files go to `OUT/<family>/<part>/<index:04d>.json`, e.g. `out/urban-nav-2/train/0000.json`.
+    """
+    from citygen.generate.dataset import progress_bar, write_scenes
+    from citygen.generate.splits import indices, resolve
+
+    chosen = resolve(split, seed=seed)
+    total = sum(len(indices(s, index, count)) for s in chosen)
+    with progress_bar(total, "generating", enabled=sys.stderr.isatty() and total > 1) as advance:
+        written = write_scenes(
+            chosen, out, index=index, count=count, jobs=jobs, resume=resume, on_progress=advance
+        )
+    _report_written(written, out)
+
+
+def _report_written(written, out: Path) -> None:
+    kept = sum(w.skipped for w in written)
+    if len(written) == 1:
+        typer.echo(f"wrote {out / written[0].path}")
+        return
+    folders = list(dict.fromkeys(str(out / Path(w.path).parent) for w in written))
+    for folder in folders:
+        n = sum(str(out / Path(w.path).parent) == folder for w in written)
+        typer.echo(f"wrote {n} scenes to {folder}/")
+    if kept:
+        typer.echo(f"({kept} already there and valid, kept)")
+
+
+dataset_app = typer.Typer(
+    help="The canonical 1,536-scene Urban-Nav dataset: write it, verify it, lock its digests.",
+    invoke_without_command=True,
+)
+app.add_typer(dataset_app, name="dataset")
+
+ManifestOption = Annotated[
+    Path | None,
+    typer.Option("--manifest", help="Split manifest of the dataset.  [default: seeds/urban-nav.toml]"),
+]
+
+
+@dataset_app.callback()
+def dataset(
+    ctx: typer.Context,
+    out: Annotated[Path, typer.Option("--out", "-o", help="Folder to write into.")] = Path("dataset"),
+    jobs: JobsOption = None,
+    resume: Annotated[
+        bool, typer.Option("--resume", help="Keep scene files already written whose digest matches.")
+    ] = False,
+    manifest: ManifestOption = None,
+) -> None:
+    """Write every scene of the Urban-Nav splits (`OUT/urban-nav-1/train/0000.json` ...) and
+    `OUT/index.json`. Subcommands: `verify DIR`, `lock`."""
+    if ctx.invoked_subcommand is not None:
+        return
+    from citygen.generate.dataset import INDEX_NAME, dataset_size, progress_bar, write_dataset
+
+    total = dataset_size(manifest)
+    with progress_bar(total, "dataset", enabled=sys.stderr.isatty()) as advance:
+        written = write_dataset(out, manifest=manifest, jobs=jobs, resume=resume, on_progress=advance)
+    _report_written(written, out)
+    typer.echo(f"wrote {out / INDEX_NAME} ({len(written)} scenes)")
+
+
+@dataset_app.command("verify")
+def dataset_verify(
+    folder: Annotated[Path, typer.Argument(help="A folder `citygen dataset` wrote.", show_default=False)],
+    manifest: ManifestOption = None,
+    lock: Annotated[
+        Path | None, typer.Option("--lock", help="Lock file.  [default: beside the manifest]")
+    ] = None,
+) -> None:
+    """Check every scene file in FOLDER against the SHA-256 digests of the lock file in `seeds/`."""
+    from citygen.generate.dataset import read_lock, verify_dataset
+
+    problems = verify_dataset(folder, manifest=manifest, lock=lock)
+    if problems:
+        _print_error(SpecError(problems))
+        typer.echo(f"{folder}: {len(problems)} problems", err=True)
+        raise typer.Exit(2)
+    from citygen.generate.dataset import lock_path
+
+    typer.echo(f"{folder}: {len(read_lock(lock or lock_path(manifest)))} scenes match the lock file")
+
+
+@dataset_app.command("lock")
+def dataset_lock(
+    manifest: ManifestOption = None,
+    out: Annotated[
+        Path | None, typer.Option("--out", "-o", help="Lock file to write.  [default: beside the manifest]")
+    ] = None,
+    jobs: JobsOption = None,
+) -> None:
+    """Regenerate the dataset in a temporary folder, validate every scene and record its digests
+    in the lock file (`seeds/urban-nav.lock.json`). Run after a deliberate generator change,
+    and say in the commit what changed."""
+    import tempfile
+
+    from citygen.generate.dataset import dataset_size, progress_bar, write_dataset, write_lock
+
+    with tempfile.TemporaryDirectory(prefix="citygen-lock-") as tmp:
+        with progress_bar(dataset_size(manifest), "locking", enabled=sys.stderr.isatty()) as advance:
+            written = write_dataset(tmp, manifest=manifest, jobs=jobs, on_progress=advance)
+        bad = 0
+        for w in written:
+            problems = citygen.validate(citygen.load_scene(Path(tmp, w.path)))
+            if problems:
+                _print_error(SpecError(problems, file=w.path))
+                bad += 1
+        if bad:
+            typer.echo(f"{bad} scenes are invalid; the lock file was not written", err=True)
+            raise typer.Exit(2)
+    path = write_lock(written, manifest=manifest, path=out)
+    typer.echo(f"wrote {path} ({len(written)} scenes)")
+
+
 assets_app = typer.Typer(
     help="The asset catalog: list its categories, draw contact sheets of their variants.",
     no_args_is_help=True,

@@ -1,0 +1,188 @@
+"""Named splits: the manifests in ``seeds/*.toml``, resolved by name, generated scene by scene.
+
+A *split* is one :class:`~citygen.spec.config.SplitConfig` (``urban-nav-2-train``); a
+*family* is every split whose name starts with ``NAME-`` (``urban-nav-2`` is the train and
+test parts, ``urban-nav`` all six Urban-Nav parts). Scene ``i`` of split ``s`` with master
+seed ``m`` has the seed :func:`~citygen.seeding.scene_seed` ``(m, s, i)``, written into its
+``meta`` with the split's name and the index, so a scene file says how to make it again.
+
+Files go to ``OUT/<family>/<part>/<index:04d>.json`` where the split's name ends in
+``-train`` or ``-test`` (``out/urban-nav-2/train/0000.json``) and to
+``OUT/<name>/<index:04d>.json`` otherwise (``out/urban-tra-city/0000.json``).
+
+>>> s = splits()["urban-nav-2-train"]
+>>> s.scenes, s.config.placement.count, s.config.placement.density_levels
+(256, 4, (0.5, 1.0, 1.5))
+>>> [p.name for p in resolve("urban-nav-2")]
+['urban-nav-2-train', 'urban-nav-2-test']
+>>> relative_path("urban-nav-2-train", 7).as_posix()
+'urban-nav-2/train/0007.json'
+"""
+
+from __future__ import annotations
+
+import functools
+from pathlib import Path, PurePosixPath
+
+from citygen.errors import Problem, SpecError
+from citygen.io import load_manifest, parse, read_document
+from citygen.seeding import scene_seed
+from citygen.spec.config import GeneratorConfig, SplitConfig, SplitManifest, check_config
+from citygen.spec.scene import Scene
+
+#: Suffixes that name the part of a split within its family (the folder it is written to).
+PARTS = ("train", "test")
+
+
+def seeds_dir() -> Path:
+    """The folder of the split manifests: ``citygen/seeds`` in an installed wheel (mapped by
+    pyproject's package-dir), the repository's ``seeds/`` in a checkout."""
+    package = Path(__file__).resolve().parent.parent
+    for candidate in (package / "seeds", package.parent / "seeds"):
+        if candidate.is_dir() and any(candidate.glob("*.toml")):
+            return candidate
+    raise SpecError(
+        [Problem("$", "a seeds/ folder of split manifests beside the citygen package", "none found")],
+        file=str(package.parent / "seeds"),
+    )
+
+
+@functools.cache
+def _manifests(folder: Path) -> tuple[tuple[Path, SplitManifest], ...]:
+    return tuple((path, load_manifest(path)) for path in sorted(folder.glob("*.toml")))
+
+
+def manifests() -> tuple[tuple[Path, SplitManifest], ...]:
+    """Every manifest in :func:`seeds_dir`, by file name, each loaded and checked once."""
+    return _manifests(seeds_dir())
+
+
+def splits() -> dict[str, SplitConfig]:
+    """Every named split of the manifests in ``seeds/``, in file order, then manifest order.
+
+    Raises :class:`~citygen.errors.SpecError` if two manifests define the same name.
+    """
+    found: dict[str, SplitConfig] = {}
+    where: dict[str, Path] = {}
+    for path, manifest in manifests():
+        for split in manifest.splits:
+            if split.name in found:
+                raise SpecError(
+                    [
+                        Problem(
+                            "$.splits", f"a split name defined once (also in {where[split.name]})", split.name
+                        )
+                    ],
+                    file=str(path),
+                )
+            found[split.name] = split
+            where[split.name] = path
+    return found
+
+
+def families() -> dict[str, tuple[str, ...]]:
+    """Every name that means several splits (each prefix ending before a ``-``), to its parts.
+
+    >>> families()["urban-nav-2"]
+    ('urban-nav-2-train', 'urban-nav-2-test')
+    """
+    out: dict[str, list[str]] = {}
+    for name in splits():
+        words = name.split("-")
+        for k in range(1, len(words)):
+            out.setdefault("-".join(words[:k]), []).append(name)
+    return {k: tuple(v) for k, v in out.items() if k not in splits()}
+
+
+def known_names() -> list[str]:
+    """Split and family names a user may pass, for error messages (families with 2+ parts)."""
+    fams = [f for f, parts in families().items() if f.count("-") >= 1 and len(parts) > 1]
+    return sorted({*splits(), *fams})
+
+
+def resolve(name_or_path: str | Path, *, seed: int | None = None) -> list[SplitConfig]:
+    """The splits ``name_or_path`` means: a split name, a family name, or a file.
+
+    A file (``.toml`` or ``.json``) is either a split manifest (a document with ``splits``)
+    or a user's own :class:`~citygen.spec.config.GeneratorConfig`; a config becomes one
+    split named after the file's stem with one scene and master seed 0. ``seed`` replaces
+    every split's master seed. Raises :class:`~citygen.errors.SpecError` for an unknown
+    name (listing the known ones) or a bad file.
+    """
+    text = str(name_or_path)
+    table = splits()
+    if text in table:
+        found = [table[text]]
+    elif text in families() and len(families()[text]) >= 1 and "-" in text:
+        found = [table[n] for n in families()[text]]
+    elif Path(text).suffix.lower() in (".toml", ".json") or Path(text).is_file():
+        found = _from_file(Path(text))
+    else:
+        raise SpecError(
+            [
+                Problem(
+                    "--split",
+                    f"a split ({', '.join(known_names())}) or a config file (.toml, .json)",
+                    repr(text),
+                )
+            ]
+        )
+    if seed is not None:
+        found = [s.model_copy(update={"seed": seed}) for s in found]
+    return found
+
+
+def _from_file(path: Path) -> list[SplitConfig]:
+    document = read_document(path)
+    if isinstance(document, dict) and "splits" in document:
+        return list(load_manifest(path).splits)
+    config = parse(GeneratorConfig, document, file=str(path))
+    problems = check_config(config)
+    if problems:
+        raise SpecError(problems, file=str(path))
+    name = "".join(c if c.isalnum() or c in "-_" else "-" for c in path.stem.lower()).strip("-_") or "scene"
+    return [SplitConfig(name=name, scenes=1, seed=0, config=config)]
+
+
+def relative_path(split: str, index: int) -> PurePosixPath:
+    """Where scene ``index`` of ``split`` goes under an output folder (see the module docstring)."""
+    family, _, part = split.rpartition("-")
+    if family and part in PARTS:
+        return PurePosixPath(family, part, f"{index:04d}.json")
+    return PurePosixPath(split, f"{index:04d}.json")
+
+
+def indices(split: SplitConfig, index: int | None = None, count: int | None = None) -> range:
+    """The scene indices to make: ``count`` from ``index``; by default scene ``index`` alone
+    when an index is given, else every scene of the split. Indices past ``split.scenes``
+    extend the split with the same seed derivation."""
+    if index is not None and index < 0:
+        raise SpecError([Problem("--index", "an index >= 0", str(index))])
+    if count is not None and count < 0:
+        raise SpecError([Problem("--count", "a count >= 0", str(count))])
+    start = index or 0
+    n = count if count is not None else (1 if index is not None else split.scenes)
+    return range(start, start + n)
+
+
+def generate_scene(split: SplitConfig, index: int) -> Scene:
+    """Scene ``index`` of a split: its config and the seed ``scene_seed(split.seed, split.name, index)``."""
+    from citygen.generate.pipeline import generate
+
+    seed = scene_seed(split.seed, split.name, index)
+    return generate(split.config, seed, split=split.name, index=index)
+
+
+def generate_split(name_or_path: str | Path | SplitConfig, seed: int | None = None, index: int = 0) -> Scene:
+    """One scene of a named split (or of a config file): ``generate_split("urban-nav-2-train",
+    seed=7, index=3)``. A family name (``urban-nav-2``) means its first part.
+
+    ``seed`` is the split's master seed (default: the manifest's canonical seed).
+    """
+    if isinstance(name_or_path, SplitConfig):
+        split = name_or_path if seed is None else name_or_path.model_copy(update={"seed": seed})
+    else:
+        split = resolve(name_or_path, seed=seed)[0]
+    if isinstance(index, bool) or not isinstance(index, int) or index < 0:
+        raise SpecError([Problem("index", "an integer >= 0", repr(index))])
+    return generate_scene(split, index)

@@ -1,0 +1,141 @@
+"""Named splits, ``citygen.generate(split, ...)``, ``citygen.splits()`` and ``citygen generate``."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+import citygen
+from citygen.generate.splits import families, relative_path, resolve, splits
+from citygen.io import dumps, load_scene
+from citygen.seeding import scene_seed
+from citygen.spec.config import GeneratorConfig
+from tests.conftest import ROOT
+
+NAV = [f"urban-nav-{k}-{part}" for k in (1, 2, 3) for part in ("train", "test")]
+
+
+def test_the_urban_nav_manifest_matches_the_paper():
+    table = splits()
+    assert set(NAV) <= set(table)
+    assert sum(table[n].scenes for n in NAV) == 1536
+    for name in NAV:
+        cfg = table[name].config
+        train = name.endswith("train")
+        assert cfg.size == ((10.0, 10.0) if train else (15.0, 15.0))
+        assert cfg.layout == "region" and cfg.terrain.layout == "wfc"
+        assert all(getattr(cfg.terrain.mix, k) > 0 for k in ("flat", "slope", "stair", "rough"))
+        level = name.split("-")[2]
+        objects = 0 if level == "1" else (4 if train else 8)
+        people = (2 if train else 3) if level == "3" else 0
+        assert (cfg.placement.count, cfg.agents.people) == (objects, people)
+    assert table["urban-nav-2-train"].config.placement.density_levels == (0.5, 1.0, 1.5)
+    assert table["urban-nav-3-test"].config.agents.density_levels == (0.5, 1.0, 1.5)
+
+
+def test_names_resolve_to_splits_and_families():
+    assert [s.name for s in resolve("urban-nav-2")] == ["urban-nav-2-train", "urban-nav-2-test"]
+    assert [s.name for s in resolve("urban-nav")] == NAV
+    assert [s.name for s in resolve("urban-nav-3-test")] == ["urban-nav-3-test"]
+    assert [s.seed for s in resolve("urban-nav-2", seed=7)] == [7, 7]
+    assert families()["urban-nav-1"] == ("urban-nav-1-train", "urban-nav-1-test")
+    assert relative_path("urban-nav-1-test", 12).as_posix() == "urban-nav-1/test/0012.json"
+    assert relative_path("urban-tra-city", 0).as_posix() == "urban-tra-city/0000.json"
+
+
+def test_the_top_level_api_is_lazy_and_callable():
+    code = (
+        "import sys, citygen\n"
+        "assert 'citygen.generate' not in sys.modules\n"
+        "s = citygen.generate('urban-nav-2-train', seed=7, index=3)\n"
+        "import citygen.generate.pipeline\n"  # importing submodules does not rebind the name
+        "assert callable(citygen.generate) and citygen.generate is sys.modules['citygen.generate']\n"
+        "assert 'urban-nav-3-test' in citygen.splits()\n"
+        "print(s.meta.split, s.meta.index, s.meta.seed)\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.split() == ["urban-nav-2-train", "3", str(scene_seed(7, "urban-nav-2-train", 3))]
+
+
+def test_a_split_scene_is_its_config_with_the_derived_seed():
+    from citygen.generate import generate
+
+    split = splits()["urban-nav-3-train"]
+    scene = citygen.generate("urban-nav-3-train", index=4)
+    seed = scene_seed(split.seed, split.name, 4)
+    assert (scene.meta.split, scene.meta.index, scene.meta.seed) == ("urban-nav-3-train", 4, seed)
+    assert dumps(scene) == dumps(generate(split.config, seed, split=split.name, index=4))
+    # A config object is generated with the seed as the scene's own seed.
+    assert dumps(citygen.generate(split.config, seed=seed, index=4)).count('"seed"') >= 1
+    assert citygen.generate("urban-nav-3-train", seed=8, index=4).meta.seed != seed
+
+
+def test_generate_writes_both_parts_where_it_says(cli, tmp_path):
+    out = tmp_path / "out"
+    result = cli("generate", "--split", "urban-nav-2", "--seed", "7", "--count", "2", "--out", out)
+    assert result.code == 0, result.err
+    assert f"wrote 2 scenes to {out}/urban-nav-2/train/" in result.out
+    assert f"wrote 2 scenes to {out}/urban-nav-2/test/" in result.out
+    files = sorted(p.relative_to(out).as_posix() for p in out.rglob("*.json"))
+    assert files == [f"urban-nav-2/{p}/000{i}.json" for p in ("test", "train") for i in (0, 1)]
+    scene = load_scene(out / "urban-nav-2/test/0001.json")
+    assert (scene.meta.split, scene.meta.index) == ("urban-nav-2-test", 1)
+    assert scene.meta.seed == scene_seed(7, "urban-nav-2-test", 1)
+    assert citygen.validate(scene) == []
+    # The same command writes the same bytes, in this process or in a pool of two.
+    again = tmp_path / "again"
+    assert cli("generate", "-s", "urban-nav-2", "--seed", "7", "-n", "2", "-o", again, "-j", "2").code == 0
+    for path in out.rglob("*.json"):
+        assert path.read_bytes() == (again / path.relative_to(out)).read_bytes()
+
+
+def test_index_alone_makes_one_scene(cli, tmp_path):
+    result = cli("generate", "--split", "urban-nav-1-test", "--index", "9", "--out", tmp_path)
+    assert result.code == 0, result.err
+    assert result.out.strip() == f"wrote {tmp_path}/urban-nav-1/test/0009.json"
+    assert [p.name for p in tmp_path.rglob("*.json")] == ["0009.json"]
+
+
+def test_a_users_config_file_is_a_split(cli, tmp_path):
+    config = GeneratorConfig(size=(10.0, 12.0)).model_dump(mode="json", by_alias=True)
+    for suffix, text in ((".json", json.dumps(config)), (".toml", "size = [10.0, 12.0]\n")):
+        path = tmp_path / f"My Config{suffix}"
+        path.write_text(text)
+        out = tmp_path / f"out{suffix}"
+        result = cli("generate", "--split", path, "--seed", "3", "--count", "2", "--out", out)
+        assert result.code == 0, result.err
+        scene = load_scene(out / "my-config/0001.json")
+        assert scene.bounds.max == (10.0, 12.0)
+        assert scene.meta.seed == scene_seed(3, "my-config", 1)
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--split", "urban-nav-9"], "--split: expected a split (urban-nav, urban-nav-1,"),
+        (["--split", "nope.toml"], "nope.toml: $: expected an existing file, got no such file"),
+        (["--split", "urban-nav-2", "--jobs", "0"], "expected at least 1 worker"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(cli, tmp_path, args, message):
+    result = cli("generate", *args, "--out", tmp_path)
+    assert result.code == 2
+    assert message in result.err
+    if "urban-nav-9" in args:
+        assert len(result.err.strip().splitlines()) == 1
+    assert not list(tmp_path.rglob("*.json"))
+
+
+def test_a_bad_config_file_names_the_field(cli, tmp_path):
+    path = tmp_path / "bad.toml"
+    path.write_text("size = [10.0, 12.0]\n[terrain]\nstep_height = [0.3, 0.1]\n")
+    result = cli("generate", "--split", path, "--out", tmp_path)
+    assert result.code == 2
+    assert (
+        result.err.strip()
+        == f"{path}: $.terrain.step_height: expected [low, high] with low <= high, got [0.3, 0.1]"
+    )
