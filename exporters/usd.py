@@ -722,9 +722,7 @@ def _terrain_parts(
     ids = np.flatnonzero(~flat | cliff)
     mus = np.array([z.mu for z in scene.zones], dtype=np.float64)
     zone_of, mixed = _tile_zones(terrain, ids, polys, tree, mus)
-    own = np.array(
-        [terrain.tiles[k].material is not None or terrain.tiles[k].friction is not None for k in ids]
-    )
+    own = np.array([_own_surface(terrain.tiles[k]) for k in ids.tolist()], dtype=bool)
     lossy = np.flatnonzero(mixed & ~own & ~flat[ids])
     if len(lossy):
         warnings.warn(
@@ -831,8 +829,9 @@ def _author_ground(world: Sdf.PrimSpec, scene: Scene, resolution: float | None, 
     # Materials in a fixed order (by name and friction).
     looks = _define(world, "Looks", "Scope")
     mats: dict[int, Sdf.Path] = {}
-    for (name, mu), key in sorted(ground.materials.items()):
-        prim = name if FRICTION[name] == mu else f"{name}_mu{mu:.4f}".replace(".", "_")
+    surfaces = sorted(ground.materials.items())
+    names = prim_names(name if FRICTION[name] == mu else f"{name}_mu{mu:.4f}" for (name, mu), _ in surfaces)
+    for ((name, mu), key), prim in zip(surfaces, names, strict=True):
         mats[key] = _material(looks, prim, SURFACE_COLORS[name], mu)
     root = _define(world, "Ground", "Xform")
     groups = {"": root}

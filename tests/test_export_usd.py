@@ -512,6 +512,32 @@ def test_cliff_walls_close_raised_ground_at_the_grid_edge(exported):
     assert walls >= 2
 
 
+def test_level_terrain_leaves_the_ground_to_the_zones(tmp_path):
+    """Flat tiles at z = 0 need no terrain mesh: the zones (and the unzoned rest) are the ground."""
+    scene = load_scene(EXAMPLES / "street_corner.json")
+    terrain = Terrain(origin=(0, 0), tile_size=6.0, rows=4, cols=4, tiles=[{"kind": "flat"}] * 16)
+    files = usd.export(scene.model_copy(update={"terrain": terrain}), tmp_path)
+    stage = _stage(files)
+    assert not stage.GetPrimAtPath("/World/Ground/Terrain")
+    assert len(stage.GetPrimAtPath("/World/Ground/Zones").GetChildren()) == len(scene.zones)
+    assert usd.check(files[0]) == []
+
+
+def test_ground_materials_get_distinct_names(tmp_path):
+    """Frictions that print alike at four decimals still get a material each."""
+    scene = load_scene(EXAMPLES / "nav_static_10m.json")
+    zones = [
+        z.model_copy(update={"material": "concrete", "friction": 0.60001 + 0.00002 * k})
+        for k, z in enumerate(scene.zones)
+    ]
+    files = usd.export(scene.model_copy(update={"zones": tuple(zones)}), tmp_path)
+    stage = _stage(files)
+    looks = stage.GetPrimAtPath("/World/Looks").GetChildren()
+    frictions = sorted(UsdPhysics.MaterialAPI(p).GetStaticFrictionAttr().Get() for p in looks)
+    assert len(looks) == len({p.GetName() for p in looks}) >= 3
+    assert frictions[:3] == pytest.approx([0.60001, 0.60003, 0.60005], abs=1e-7)
+
+
 # --- agents and task ------------------------------------------------------------------------
 
 
