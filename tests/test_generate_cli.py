@@ -139,3 +139,31 @@ def test_a_bad_config_file_names_the_field(cli, tmp_path):
         result.err.strip()
         == f"{path}: $.terrain.step_height: expected [low, high] with low <= high, got [0.3, 0.1]"
     )
+
+
+SPLITS = sorted(splits())
+
+
+@pytest.mark.parametrize(
+    "name", [pytest.param(n, marks=pytest.mark.slow) if n == "urban-tra-city" else n for n in SPLITS]
+)
+def test_every_split_generates_a_valid_scene(name):
+    scene = citygen.generate(name, index=1)
+    assert citygen.validate(scene) == []
+    config = splits()[name].config
+    assert scene.bounds.max == config.size
+    assert scene.task is not None and scene.task.kind == config.task.kind
+
+
+@pytest.mark.parametrize("kind", ["flat", "slope", "stair", "rough"])
+@pytest.mark.parametrize("part", ["train", "test"])
+def test_urban_loc_manifests_are_the_papers_curriculum(kind, part):
+    from citygen.generate.terrain import loc_config
+
+    k = ["flat", "slope", "stair", "rough"].index(kind) + 1
+    config = splits()[f"urban-loc-{k}-{part}"].config
+    assert config.terrain == loc_config(part, kind)
+    rows, cols = config.terrain.grid
+    assert (rows, cols) == ((30, 30) if part == "train" else (16, 16))
+    assert config.size == (cols * config.terrain.tile_size, rows * config.terrain.tile_size)
+    assert config.task.kind == f"loco-{kind}"
