@@ -1,0 +1,588 @@
+"""Occupancy map: a scene as a labelled grid for planners, ROS and the runner.
+
+:func:`occupancy` rasterises a scene on a regular grid of square cells (default
+:data:`DEFAULT_RESOLUTION` = 0.05 m) covering its bounds, from ``bounds.min``; row ``r``
+and column ``c`` is the cell whose centre is ``(x0 + (c + 0.5) * res, y0 + (r + 0.5) * res)``,
+so rows grow with +y. A cell takes a shape's class when its *centre* lies in the shape,
+boundary included (:mod:`citygen.geometry.raster`). Three layers, each ``(rows, cols)``:
+
+- ``labels`` (uint8): what stands on the cell, an index into :data:`CLASSES`. Precedence,
+  highest first: ``out_of_bounds`` (centre outside ``$.bounds``: only in the last row or
+  column when the bounds are not a whole number of cells), then placement *bases*
+  (:attr:`~citygen.assets.Asset.base`, the parts below 2 m a robot can walk into, moved
+  by the placement's scale, yaw and position; ``building`` for the building massing
+  category, ``obstacle`` for every other object; a mesh file's base is the convex hull of
+  its vertices seen from above, as :func:`citygen.validate` measures it), then zones by
+  kind (a later zone wins where zones overlap, which a valid scene never has), then
+  ``ground``: ground inside the bounds that no zone covers (non-walkable, as the spec says).
+- ``terrain`` (uint8): the kind of the terrain tile under the cell centre, an index into
+  :data:`TERRAIN_CLASSES` (``flat`` outside the tile grid and without terrain; pyramids and
+  pits are ``slope`` or ``stair``). It is a separate layer because a stair on a sidewalk is
+  still a sidewalk: a legged robot may walk it, a wheeled one may not.
+- ``heights`` (float32, m): the ground's height at the cell centre,
+  :func:`~citygen.geometry.terrain.height_at` (objects are not in it).
+
+Classes (:data:`CLASSES`, stable ids: new zone kinds are appended)::
+
+    0 out_of_bounds   1 ground    2 obstacle   3 roadway   4 bike_lane   5 parking
+    6 curb            7 sidewalk  8 crosswalk  9 plaza    10 trail      11 building
+    12 vegetation    13 water
+
+Walkable classes are the spec's walkable zone kinds
+(:data:`~citygen.spec.surfaces.WALKABLE_ZONES`: sidewalk, crosswalk, plaza, trail);
+``obstacle`` and ``building`` stand up from the ground (:meth:`OccupancyMap.obstacle_mask`).
+
+Files (:func:`export`, named ``<name>`` like the other exporters):
+
+- ``<name>.npz``: keys ``labels``, ``heights``, ``terrain``, ``origin`` (float64
+  ``[x0, y0]``, m: the grid's minimum corner), ``resolution`` (float64, m), ``classes`` and
+  ``terrain_classes`` (unicode arrays of names indexed by value), ``walkable`` (bool per
+  class) and ``format`` (``citygen.occupancy/1``). Every array is plain numeric or unicode,
+  so ``np.load(path, allow_pickle=False)`` reads it; :func:`load` gives an
+  :class:`OccupancyMap` back.
+- ``<name>.pgm`` and ``<name>.yaml``: a ROS ``map_server`` pair. The PGM (binary P5, 8 bit)
+  is :data:`PGM_FREE` (254) where the cell is walkable and :data:`PGM_OCCUPIED` (0)
+  everywhere else (objects, buildings, roadway, vegetation, out of bounds ...); its first
+  row is the grid's last (max y), as map_server expects. The YAML says ``image``,
+  ``resolution``, ``origin: [x0, y0, 0.0]``, ``negate: 0``, ``occupied_thresh: 0.65``,
+  ``free_thresh: 0.196`` and ``mode: trinary``.
+- ``<name>-occupancy.png``: the labels in colour (:data:`CLASS_COLORS`: zone kinds in the
+  PNG map's palette, :data:`~citygen.exporters.picture.ZONE_COLORS`) with stair, slope and
+  rough tiles tinted, a legend marking the walkable classes, and a scale bar.
+
+Size: a grid has at most :data:`MAX_CELLS` cells (about 290 m x 290 m at 0.05 m, 1.2 km x
+1.2 km at 0.21 m); a larger one is an :class:`~citygen.errors.ExportError` that names the
+finest resolution that fits, never a silent change of resolution. Zones and objects cost
+the cells under their bounding boxes; heights the cells over the terrain grid.
+
+The same scene and options give the same bytes in every file (the npz is written with
+fixed zip timestamps; :func:`numpy.savez` would stamp the current time).
+
+>>> from citygen.exporters import occupancy
+>>> m = occupancy.occupancy("examples/nav_static_10m.json", resolution=0.25)
+>>> m.shape, m.classes[m.label_at(5.0, 5.0)], m.terrain_classes[m.terrain[m.cell(3.0, 5.0)]]
+((40, 40), 'sidewalk', 'stair')
+>>> round(float(m.walkable_mask().mean()), 3)
+0.242
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import warnings
+import zipfile
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, get_args
+
+import numpy as np
+import shapely
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.font_manager import FontProperties
+from matplotlib.patches import Patch
+from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
+from shapely.geometry import Polygon
+
+from citygen.errors import ExportError, Problem, SpecError
+from citygen.exporters import ExportWarning
+from citygen.exporters.glb import (
+    catalog_asset,
+    check_options,
+    load_mesh_file,
+    output_name,
+    resolution_option,
+    scene_dir_of,
+    zone_polygons,
+)
+from citygen.exporters.picture import (
+    _FONT_PT,
+    _OBJECT,
+    ZONE_COLORS,
+    _check_size,
+    _layout,
+    _style,
+    scale_bar_length,
+)
+from citygen.geometry.raster import Grid, erode, paint
+from citygen.geometry.terrain import height_at
+from citygen.io import write_atomic
+from citygen.spec.scene import Scene
+from citygen.spec.surfaces import WALKABLE_ZONES, ZONE_KINDS
+from citygen.spec.terrain import TILE_TYPES
+
+FORMAT = "citygen.occupancy/1"
+"""The ``format`` entry of the npz; a reader checks it before trusting the keys."""
+
+#: Class names indexed by label value (see the module docstring for precedence).
+CLASSES: tuple[str, ...] = ("out_of_bounds", "ground", "obstacle", *ZONE_KINDS)
+OUT_OF_BOUNDS, GROUND, OBSTACLE = 0, 1, 2
+BUILDING = CLASSES.index("building")
+#: Label value of each zone kind.
+ZONE_CLASS = {kind: CLASSES.index(kind) for kind in ZONE_KINDS}
+#: Classes a pedestrian or micromobility robot is meant to move on.
+WALKABLE_CLASSES: tuple[int, ...] = tuple(i for i, name in enumerate(CLASSES) if name in WALKABLE_ZONES)
+#: Classes that stand up from the ground: objects and buildings.
+OBSTACLE_CLASSES: tuple[int, ...] = (OBSTACLE, BUILDING)
+#: Terrain tile kinds indexed by ``terrain`` value; ``flat`` also where no tile is.
+TERRAIN_CLASSES: tuple[str, ...] = tuple(get_args(t.model_fields["kind"].annotation)[0] for t in TILE_TYPES)
+
+#: Default cell size (m).
+DEFAULT_RESOLUTION = 0.05
+#: Most cells in one map: about 7 bytes each in memory (labels, terrain, heights, image).
+MAX_CELLS = 1 << 25
+#: PGM values: walkable and everything else (map_server reads 254 as free, 0 as occupied).
+PGM_FREE, PGM_OCCUPIED = 254, 0
+#: The ROS map_server thresholds written into the YAML.
+OCCUPIED_THRESH, FREE_THRESH = 0.65, 0.196
+
+#: Colour of each class in the PNG (hex RGB): zone kinds as in the PNG map.
+#: Uncovered ground gets its own colour here: in the map's palette it is close to sidewalk's.
+CLASS_COLORS = {"out_of_bounds": "#ffffff", "ground": "#e9c9c9", "obstacle": _OBJECT, **ZONE_COLORS}
+#: Tint (hex RGB, alpha) of non-flat terrain kinds laid over the classes in the PNG.
+TERRAIN_TINTS = {"slope": ("#1f5fd1", 0.35), "stair": ("#6a1b9a", 0.45), "rough": ("#b8860b", 0.4)}
+
+_OPTIONS = ("name", "resolution", "scene_dir", "size_px", "legend")
+_ROWS_PER_CHUNK = 1 << 20  # cells per height_at call, to bound temporaries
+_ZIP_TIME = (1980, 1, 1, 0, 0, 0)
+_NPZ_KEYS = (
+    "format",
+    "labels",
+    "heights",
+    "terrain",
+    "origin",
+    "resolution",
+    "classes",
+    "terrain_classes",
+    "walkable",
+)
+
+
+# --- the map ---------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class OccupancyMap:
+    """A scene rasterised: ``labels``, ``terrain`` and ``heights`` on ``grid`` (see the module
+    docstring). Arrays are ``grid.shape`` = ``(rows, cols)``, row 0 at the minimum y."""
+
+    labels: np.ndarray
+    """uint8 class per cell, an index into ``classes``."""
+    heights: np.ndarray
+    """float32 ground height (m) at each cell centre."""
+    terrain: np.ndarray
+    """uint8 terrain tile kind per cell, an index into ``terrain_classes``."""
+    grid: Grid
+    classes: tuple[str, ...] = CLASSES
+    terrain_classes: tuple[str, ...] = TERRAIN_CLASSES
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(rows, cols)``."""
+        return self.grid.shape
+
+    @property
+    def resolution(self) -> float:
+        """Side of a cell (m)."""
+        return self.grid.resolution
+
+    @property
+    def origin(self) -> tuple[float, float]:
+        """The grid's minimum corner ``(x0, y0)`` (m): the outer corner of cell (0, 0)."""
+        return (self.grid.x0, self.grid.y0)
+
+    def class_id(self, name: str) -> int:
+        """The label value of a class name."""
+        try:
+            return self.classes.index(name)
+        except ValueError:
+            raise ValueError(f"class: expected one of {', '.join(self.classes)}, got {name!r}") from None
+
+    def _in(self, names: Sequence[str] | frozenset[str]) -> np.ndarray:
+        lut = np.zeros(256, dtype=bool)
+        lut[[i for i, n in enumerate(self.classes) if n in names]] = True
+        return lut[self.labels]
+
+    def walkable_mask(self) -> np.ndarray:
+        """Cells a pedestrian or micromobility robot may stand on (bool): walkable zone
+        kinds with no object on them. The ROS map's free cells."""
+        return self._in(WALKABLE_ZONES)
+
+    def obstacle_mask(self) -> np.ndarray:
+        """Cells under an object's base or a building (bool)."""
+        return self._in(("obstacle", "building"))
+
+    def occupied_mask(self) -> np.ndarray:
+        """Cells that are not walkable (bool): the ROS map's occupied cells."""
+        return ~self.walkable_mask()
+
+    def inflated(self, radius: float) -> np.ndarray:
+        """Occupied cells grown by ``radius`` (m): True where a disc of that radius centred
+        on the cell centre would reach a non-walkable cell's centre or the map's edge
+        (:func:`~citygen.geometry.raster.erode`), so a robot of that radius keeps its
+        centre on False cells."""
+        if isinstance(radius, bool) or not isinstance(radius, int | float) or not radius >= 0:
+            raise ValueError(f"radius: expected a length >= 0 in metres, got {radius!r}")
+        return ~erode(self.walkable_mask(), radius / self.resolution)
+
+    def cell(self, x: float, y: float) -> tuple[int, int]:
+        """The ``(row, col)`` of the cell containing ``(x, y)`` (m), clamped to the grid."""
+        return self.grid.cell(x, y)
+
+    def label_at(self, xs: Any, ys: Any) -> np.ndarray:
+        """The label of the cells containing points ``(xs, ys)`` (m, broadcastable);
+        ``out_of_bounds`` (0) for points outside the grid."""
+        x, y = np.broadcast_arrays(np.asarray(xs, dtype=np.float64), np.asarray(ys, dtype=np.float64))
+        g = self.grid
+        col = np.floor((x - g.x0) / g.resolution)
+        row = np.floor((y - g.y0) / g.resolution)
+        inside = (col >= 0) & (col < g.cols) & (row >= 0) & (row < g.rows)
+        out = np.zeros(x.shape, dtype=np.uint8)
+        out[inside] = self.labels[row[inside].astype(np.int64), col[inside].astype(np.int64)]
+        return out
+
+
+def _grid(scene: Scene, resolution: float) -> Grid:
+    """The grid over the scene's bounds, or an ExportError when it has too many cells."""
+    (x0, y0), (x1, y1) = scene.bounds.min, scene.bounds.max
+    grid = Grid.covering((x0, y0, max(x1, x0), max(y1, y0)), resolution)
+    if grid.rows * grid.cols > MAX_CELLS:
+        finest = math.ceil(math.sqrt((x1 - x0) * (y1 - y0) / MAX_CELLS) * 100) / 100
+        while (g := Grid.covering((x0, y0, x1, y1), finest)).rows * g.cols > MAX_CELLS:
+            finest = round(finest + 0.01, 2)
+        raise ExportError(
+            f"occupancy export: a {x1 - x0:g} m x {y1 - y0:g} m scene at resolution={resolution:g} m needs "
+            f"{grid.cols:,} x {grid.rows:,} cells, more than {MAX_CELLS:,}; pass resolution={finest:g} "
+            "(m) or coarser"
+        )
+    return grid
+
+
+def _bases(scene: Scene, scene_dir: Path | None) -> list[tuple[shapely.Geometry, int]]:
+    """Every placement's base in the world frame and its class, in spec order."""
+    out: list[tuple[shapely.Geometry, int]] = []
+    hulls: dict[str, np.ndarray | None] = {}
+    for i, pl in enumerate(scene.placements):
+        if pl.is_mesh:
+            if pl.asset not in hulls:
+                mesh = load_mesh_file(pl, i, scene_dir)
+                hull = shapely.MultiPoint(np.asarray(mesh.vertices)[:, :2]).convex_hull
+                hulls[pl.asset] = np.asarray(hull.exterior.coords) if isinstance(hull, Polygon) else None
+            ring, cls = hulls[pl.asset], OBSTACLE
+            if ring is None:
+                warnings.warn(
+                    ExportWarning(
+                        f"$.placements[{i}].asset: {pl.asset!r} has no area seen from above; "
+                        "left out of the occupancy map"
+                    ),
+                    stacklevel=3,
+                )
+                continue
+        else:
+            asset = catalog_asset(pl, i)
+            ring = np.asarray(asset.base.exterior.coords)
+            cls = BUILDING if asset.category == "building" else OBSTACLE
+        c, s = math.cos(pl.yaw), math.sin(pl.yaw)
+        xy = ring * pl.scale @ np.array([[c, s], [-s, c]]) + np.asarray(pl.position[:2])
+        out.append((Polygon(xy), cls))
+    return out
+
+
+def _labels(scene: Scene, grid: Grid, bases: list[tuple[shapely.Geometry, int]]) -> np.ndarray:
+    labels = np.full(grid.shape, GROUND, dtype=np.uint8)
+    for zone, shape in zip(scene.zones, zone_polygons(scene), strict=True):
+        paint(grid, labels, shape, ZONE_CLASS[zone.kind])
+    for shape, cls in bases:
+        paint(grid, labels, shape, cls)
+    (x0, y0), (x1, y1) = scene.bounds.min, scene.bounds.max
+    xs, ys = grid.xs(), grid.ys()
+    labels[:, (xs < x0) | (xs > x1)] = OUT_OF_BOUNDS
+    labels[(ys < y0) | (ys > y1), :] = OUT_OF_BOUNDS
+    return labels
+
+
+def _terrain_window(scene: Scene, grid: Grid) -> tuple[slice, slice]:
+    t = scene.terrain
+    ox, oy = t.origin
+    return grid.window((ox, oy, ox + t.cols * t.tile_size, oy + t.rows * t.tile_size))
+
+
+def _heights(scene: Scene, grid: Grid) -> np.ndarray:
+    heights = np.zeros(grid.shape, dtype=np.float32)
+    if scene.terrain is None:
+        return heights
+    rows, cols = _terrain_window(scene, grid)
+    xs, ys = grid.xs()[cols], grid.ys()
+    step = max(1, _ROWS_PER_CHUNK // max(xs.size, 1))
+    for r in range(rows.start, rows.stop, step):
+        r1 = min(r + step, rows.stop)
+        heights[r:r1, cols] = height_at(scene.terrain, xs[None, :], ys[r:r1, None])
+    return heights
+
+
+def _terrain(scene: Scene, grid: Grid) -> np.ndarray:
+    """The tile kind under each cell centre, by :func:`height_at`'s rule: a centre on the
+    border between tiles belongs to the one with the larger index."""
+    out = np.zeros(grid.shape, dtype=np.uint8)
+    t = scene.terrain
+    if t is None:
+        return out
+    rows, cols = _terrain_window(scene, grid)
+    s, (ox, oy) = t.tile_size, t.origin
+    col = np.minimum(np.floor((grid.xs()[cols] - ox) / s), t.cols - 1).astype(np.int64)
+    row = np.minimum(np.floor((grid.ys()[rows] - oy) / s), t.rows - 1).astype(np.int64)
+    kinds = np.array([TERRAIN_CLASSES.index(tile.kind) for tile in t.tiles], dtype=np.uint8)
+    out[rows, cols] = kinds[row[:, None] * t.cols + col[None, :]]
+    return out
+
+
+def occupancy(
+    scene: Scene | str | Path, resolution: float = DEFAULT_RESOLUTION, *, scene_dir: str | Path | None = None
+) -> OccupancyMap:
+    """The scene's occupancy map in memory, cells of ``resolution`` metres.
+
+    ``scene_dir`` is the folder mesh placements are relative to, for a scene given as a
+    model (a scene file's own folder otherwise). Raises :class:`~citygen.errors.ExportError`
+    when the grid would exceed :data:`MAX_CELLS` cells.
+    """
+    res = resolution_option(resolution, "occupancy") or DEFAULT_RESOLUTION
+    model, folder = scene_dir_of(scene, {"scene_dir": scene_dir})
+    grid = _grid(model, res)
+    labels = _labels(model, grid, _bases(model, folder))
+    return OccupancyMap(labels, _heights(model, grid), _terrain(model, grid), grid)
+
+
+# --- files -----------------------------------------------------------------------------
+
+
+def npz_bytes(m: OccupancyMap) -> bytes:
+    """The map as an ``.npz`` (deflated zip of ``.npy`` files, see the module docstring);
+    the same map always gives the same bytes (fixed zip timestamps and attributes)."""
+    arrays = {
+        "format": np.array(FORMAT),
+        "labels": m.labels.astype(np.uint8, copy=False),
+        "heights": m.heights.astype(np.float32, copy=False),
+        "terrain": m.terrain.astype(np.uint8, copy=False),
+        "origin": np.array(m.origin, dtype=np.float64),
+        "resolution": np.array(m.resolution, dtype=np.float64),
+        "classes": np.array(m.classes, dtype=np.str_),
+        "terrain_classes": np.array(m.terrain_classes, dtype=np.str_),
+        "walkable": np.array([c in WALKABLE_ZONES for c in m.classes], dtype=bool),
+    }
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", compression=zipfile.ZIP_DEFLATED, compresslevel=6) as zf:
+        for key in _NPZ_KEYS:
+            info = zipfile.ZipInfo(f"{key}.npy", date_time=_ZIP_TIME)
+            info.compress_type = zipfile.ZIP_DEFLATED
+            info.create_system = 3  # Unix, whatever the platform
+            info.external_attr = 0o644 << 16
+            with zf.open(info, "w", force_zip64=True) as f:
+                np.lib.format.write_array(f, arrays[key], allow_pickle=False)
+    return buf.getvalue()
+
+
+def load(path: str | Path) -> OccupancyMap:
+    """An occupancy map read back from an ``.npz`` written by :func:`export`.
+
+    Raises :class:`~citygen.errors.SpecError` naming the key when the file is not one.
+    """
+    file = str(path)
+
+    def fail(key: str, expected: str, found: str) -> SpecError:
+        return SpecError([Problem(key, expected, found)], file=file)
+
+    try:
+        with np.load(path, allow_pickle=False) as npz:
+            data = {k: npz[k] for k in npz.files if k in _NPZ_KEYS}
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+        raise fail("$", "an occupancy map (.npz)", f"{type(exc).__name__}: {exc}") from None
+    missing = [k for k in _NPZ_KEYS if k not in data]
+    if missing:
+        raise fail(missing[0], "an array of that name in the .npz", "none")
+    if data["format"].shape != () or str(data["format"]) != FORMAT:
+        raise fail("format", repr(FORMAT), repr(data["format"].tolist()))
+    labels, heights, terrain = data["labels"], data["heights"], data["terrain"]
+    if labels.ndim != 2 or labels.dtype != np.uint8:
+        raise fail("labels", "a 2-D uint8 array", f"{labels.ndim}-D {labels.dtype}")
+    for key, arr in (("heights", heights), ("terrain", terrain)):
+        if arr.shape != labels.shape:
+            raise fail(key, f"an array of the labels' shape {labels.shape}", str(arr.shape))
+    origin, res = data["origin"], data["resolution"]
+    if origin.shape != (2,) or res.shape != () or not (np.all(np.isfinite(origin)) and float(res) > 0):
+        raise fail(
+            "origin", "[x0, y0] (m) and a positive resolution (m)", f"{origin.tolist()}, {res.tolist()}"
+        )
+    classes = tuple(str(c) for c in data["classes"].tolist())
+    terrain_classes = tuple(str(c) for c in data["terrain_classes"].tolist())
+    if labels.size and int(labels.max()) >= len(classes):
+        raise fail("labels", f"values below {len(classes)} (the classes)", str(int(labels.max())))
+    grid = Grid(float(origin[0]), float(origin[1]), float(res), labels.shape[0], labels.shape[1])
+    return OccupancyMap(
+        labels, heights.astype(np.float32, copy=False), terrain, grid, classes, terrain_classes
+    )
+
+
+def pgm_bytes(m: OccupancyMap) -> bytes:
+    """The binary occupancy as a P5 PGM: :data:`PGM_FREE` where walkable, :data:`PGM_OCCUPIED`
+    elsewhere; the first image row is the grid's last row (max y)."""
+    image = np.where(m.walkable_mask(), PGM_FREE, PGM_OCCUPIED).astype(np.uint8)[::-1]
+    header = f"P5\n{m.grid.cols} {m.grid.rows}\n255\n".encode("ascii")
+    return header + np.ascontiguousarray(image).tobytes()
+
+
+def _num(x: float) -> str:
+    """A float as YAML reads it back exactly (Python's shortest round-trip repr)."""
+    return repr(float(x))
+
+
+def ros_yaml(m: OccupancyMap, image: str) -> str:
+    """The map_server YAML for the PGM file named ``image`` (relative to the YAML)."""
+    x0, y0 = m.origin
+    return (
+        f"image: {image}\n"
+        f"resolution: {_num(m.resolution)}\n"
+        f"origin: [{_num(x0)}, {_num(y0)}, 0.0]\n"
+        "negate: 0\n"
+        f"occupied_thresh: {OCCUPIED_THRESH}\n"
+        f"free_thresh: {FREE_THRESH}\n"
+        "mode: trinary\n"
+    )
+
+
+def _rgba(colour: str, alpha: float = 1.0) -> np.ndarray:
+    h = colour.lstrip("#")
+    return np.array([int(h[i : i + 2], 16) / 255 for i in (0, 2, 4)] + [alpha])
+
+
+def figure(m: OccupancyMap, *, size_px: int = 1600, legend: bool = True, title: str = "") -> Figure:
+    """The map as a matplotlib :class:`~matplotlib.figure.Figure` (Agg canvas, no pyplot):
+    classes in colour, non-flat terrain tinted, a legend of what the map holds, a scale bar;
+    axes in metres. ``size_px`` is the larger side of the picture in pixels."""
+    size_px = _check_size(size_px)
+    with _style():
+        return _figure(m, size_px, legend, title)
+
+
+def _figure(m: OccupancyMap, size_px: int, legend: bool, title: str) -> Figure:
+    g = m.grid
+    width_m, height_m = g.cols * g.resolution, g.rows * g.resolution
+    # At most about one cell per pixel: sample every k-th cell at the middle of its block.
+    k = max(1, math.ceil(max(g.rows, g.cols) / size_px))
+    labels, terrain = m.labels[k // 2 :: k, k // 2 :: k], m.terrain[k // 2 :: k, k // 2 :: k]
+    present = np.flatnonzero(np.bincount(m.labels.ravel(), minlength=len(m.classes)))
+    kinds = np.flatnonzero(np.bincount(m.terrain.ravel(), minlength=len(m.terrain_classes)))
+    handles = [
+        Patch(
+            facecolor=CLASS_COLORS.get(m.classes[i], "#000000"),
+            edgecolor="#555555",
+            label=f"{m.classes[i]} (walkable)" if m.classes[i] in WALKABLE_ZONES else m.classes[i],
+        )
+        for i in present.tolist()
+    ]
+    tints = {m.terrain_classes[i]: TERRAIN_TINTS[m.terrain_classes[i]] for i in kinds.tolist()
+             if m.terrain_classes[i] in TERRAIN_TINTS}  # fmt: skip
+    handles += [
+        Patch(facecolor=colour, alpha=alpha, edgecolor="none", label=f"{kind} tile")
+        for kind, (colour, alpha) in tints.items()
+    ]
+    layout = _layout(width_m, height_m, size_px, len(handles), legend)
+    fig = Figure(figsize=(layout.width_px / layout.dpi, layout.height_px / layout.dpi), dpi=layout.dpi)
+    FigureCanvasAgg(fig)
+    fig.set_facecolor("white")
+    ax = fig.add_axes(layout.axes)
+    x0, y0 = m.origin
+    ax.set_xlim(x0, x0 + width_m)
+    ax.set_ylim(y0, y0 + height_m)
+    ax.set_aspect("equal", adjustable="box", anchor="C")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.tick_params(labelsize=_FONT_PT - 0.5)
+    ax.set_title(title or f"occupancy {g.cols} x {g.rows} cells of {g.resolution:g} m", loc="left",
+                 fontsize=_FONT_PT)  # fmt: skip
+    lut = np.array([_rgba(CLASS_COLORS.get(c, "#000000")) for c in m.classes])
+    extent = (x0, x0 + labels.shape[1] * k * g.resolution, y0, y0 + labels.shape[0] * k * g.resolution)
+    common = {"extent": extent, "origin": "lower", "interpolation": "nearest", "resample": False}
+    ax.imshow(lut[labels], zorder=1, **common)
+    if tints:
+        tlut = np.zeros((len(m.terrain_classes), 4))
+        for kind, (colour, alpha) in tints.items():
+            tlut[m.terrain_classes.index(kind)] = _rgba(colour, alpha)
+        ax.imshow(tlut[terrain], zorder=2, **common)
+    bar = scale_bar_length(width_m)
+    px_per_m = layout.px_per_m / width_m
+    ax.add_artist(
+        AnchoredSizeBar(
+            ax.transData, bar, f"{bar:g} m", "lower left", pad=0.3, borderpad=0.6, sep=3, color="black",
+            frameon=True, size_vertical=1.8 * layout.dpi / 72 / px_per_m,
+            fontproperties=FontProperties(size=_FONT_PT), zorder=10,
+        )
+    )  # fmt: skip
+    if legend and handles:
+        fig.legend(
+            handles=handles, loc="upper left", bbox_to_anchor=layout.legend_anchor, frameon=False,
+            fontsize=_FONT_PT, handlelength=1.8, borderaxespad=0.0,
+        )  # fmt: skip
+    return fig
+
+
+def png_bytes(m: OccupancyMap, *, size_px: int = 1600, legend: bool = True, title: str = "") -> bytes:
+    """The picture of :func:`figure` as PNG bytes, the same for the same map and options."""
+    size_px = _check_size(size_px)
+    buf = io.BytesIO()
+    with _style():
+        fig = _figure(m, size_px, legend, title)
+        # No "Software" (matplotlib's version) and no time: the bytes depend on the map only.
+        fig.savefig(buf, format="png", dpi=fig.dpi, metadata={"Software": None})
+    return buf.getvalue()
+
+
+def export(scene: Scene | str | Path, out_dir: str | Path, **options: object) -> list[Path]:
+    """Write ``<name>.npz``, ``<name>.yaml``, ``<name>.pgm`` and ``<name>-occupancy.png``
+    into ``out_dir`` (atomically); returns their paths in that order.
+
+    Options: ``name`` (default: the scene file's stem, else ``<split>-<index>``, else
+    ``scene``), ``resolution`` (cell side in m, default 0.05), ``scene_dir`` (the folder mesh
+    placements are relative to, for a scene given as a model), ``size_px`` (the PNG's
+    larger side, default 1600) and ``legend`` (default True). Agents and the task are not
+    part of a static map: an :class:`~citygen.exporters.ExportWarning` says so.
+    """
+    check_options(dict(options), _OPTIONS, "occupancy")
+    name = output_name(scene, dict(options), "occupancy")
+    size_px = _check_size(options.get("size_px", 1600))
+    legend = options.get("legend", True)
+    if not isinstance(legend, bool):
+        raise ExportError(f"occupancy export: expected True or False for 'legend', got {legend!r}")
+    model, folder = scene_dir_of(scene, dict(options))
+    m = occupancy(model, options.get("resolution", DEFAULT_RESOLUTION), scene_dir=folder)  # type: ignore[arg-type]
+    if model.agents:
+        warnings.warn(
+            ExportWarning(
+                f"$.agents: an occupancy map is static; {len(model.agents)} agent(s) left out "
+                "(MJCF and GLB keep them)"
+            ),
+            stacklevel=2,
+        )
+    if model.task is not None:
+        warnings.warn(
+            ExportWarning(f"$.task: an occupancy map has no task; the {model.task.kind} task is left out"),
+            stacklevel=2,
+        )
+    out = Path(out_dir)
+    paths = [out / f"{name}.npz", out / f"{name}.yaml", out / f"{name}.pgm", out / f"{name}-occupancy.png"]
+    title = f"{name}: {m.grid.cols} x {m.grid.rows} cells of {m.resolution:g} m"
+    contents = (
+        lambda: npz_bytes(m),
+        lambda: ros_yaml(m, paths[2].name).encode("utf-8"),
+        lambda: pgm_bytes(m),
+        lambda: png_bytes(m, size_px=size_px, legend=legend, title=title),
+    )
+    try:
+        for path, content in zip(paths, contents, strict=True):
+            write_atomic(path, content())
+    except OSError as exc:
+        raise ExportError(
+            f"{out}: cannot write the occupancy map: {exc.strerror or type(exc).__name__}"
+        ) from None
+    return paths
