@@ -131,7 +131,8 @@ TERRAIN_CLASSES: tuple[str, ...] = tuple(get_args(t.model_fields["kind"].annotat
 
 #: Default cell size (m).
 DEFAULT_RESOLUTION = 0.05
-#: Most cells in one map: about 7 bytes each in memory (labels, terrain, heights, image).
+#: Most cells in one map: an export peaks at about 11 bytes a cell (labels, terrain, heights,
+#: the files being written), so about 370 MB at this limit.
 MAX_CELLS = 1 << 25
 #: PGM values: walkable and everything else (map_server reads 254 as free, 0 as occupied).
 PGM_FREE, PGM_OCCUPIED = 254, 0
@@ -145,7 +146,7 @@ CLASS_COLORS = {"out_of_bounds": "#ffffff", "ground": "#e9c9c9", "obstacle": _OB
 TERRAIN_TINTS = {"slope": ("#1f5fd1", 0.35), "stair": ("#6a1b9a", 0.45), "rough": ("#b8860b", 0.4)}
 
 _OPTIONS = ("name", "resolution", "scene_dir", "size_px", "legend")
-_ROWS_PER_CHUNK = 1 << 20  # cells per height_at call, to bound temporaries
+_CHUNK_CELLS = 1 << 18  # cells per height_at call: its temporaries take about 200 bytes a cell
 _ZIP_TIME = (1980, 1, 1, 0, 0, 0)
 _NPZ_KEYS = (
     "format",
@@ -315,7 +316,7 @@ def _heights(scene: Scene, grid: Grid) -> np.ndarray:
         return heights
     rows, cols = _terrain_window(scene, grid)
     xs, ys = grid.xs()[cols], grid.ys()
-    step = max(1, _ROWS_PER_CHUNK // max(xs.size, 1))
+    step = max(1, _CHUNK_CELLS // max(xs.size, 1))
     for r in range(rows.start, rows.stop, step):
         r1 = min(r + step, rows.stop)
         heights[r:r1, cols] = height_at(scene.terrain, xs[None, :], ys[r:r1, None])
@@ -334,7 +335,7 @@ def _terrain(scene: Scene, grid: Grid) -> np.ndarray:
     col = np.minimum(np.floor((grid.xs()[cols] - ox) / s), t.cols - 1).astype(np.int64)
     row = np.minimum(np.floor((grid.ys()[rows] - oy) / s), t.rows - 1).astype(np.int64)
     kinds = np.array([TERRAIN_CLASSES.index(tile.kind) for tile in t.tiles], dtype=np.uint8)
-    out[rows, cols] = kinds[row[:, None] * t.cols + col[None, :]]
+    out[rows, cols] = kinds.reshape(t.rows, t.cols)[row][:, col]  # uint8 throughout: no index grid
     return out
 
 
@@ -427,7 +428,7 @@ def load(path: str | Path) -> OccupancyMap:
 def pgm_bytes(m: OccupancyMap) -> bytes:
     """The binary occupancy as a P5 PGM: :data:`PGM_FREE` where walkable, :data:`PGM_OCCUPIED`
     elsewhere; the first image row is the grid's last row (max y)."""
-    image = np.where(m.walkable_mask(), PGM_FREE, PGM_OCCUPIED).astype(np.uint8)[::-1]
+    image = np.where(m.walkable_mask(), np.uint8(PGM_FREE), np.uint8(PGM_OCCUPIED))[::-1]
     header = f"P5\n{m.grid.cols} {m.grid.rows}\n255\n".encode("ascii")
     return header + np.ascontiguousarray(image).tobytes()
 
@@ -452,8 +453,10 @@ def ros_yaml(m: OccupancyMap, image: str) -> str:
 
 
 def _rgba(colour: str, alpha: float = 1.0) -> np.ndarray:
+    """``#rrggbb`` and an alpha in [0, 1] as 8-bit RGBA (images of bytes keep matplotlib's
+    copies of them small)."""
     h = colour.lstrip("#")
-    return np.array([int(h[i : i + 2], 16) / 255 for i in (0, 2, 4)] + [alpha])
+    return np.array([int(h[i : i + 2], 16) for i in (0, 2, 4)] + [round(alpha * 255)], dtype=np.uint8)
 
 
 def figure(m: OccupancyMap, *, size_px: int = 1600, legend: bool = True, title: str = "") -> Figure:
@@ -465,14 +468,23 @@ def figure(m: OccupancyMap, *, size_px: int = 1600, legend: bool = True, title: 
         return _figure(m, size_px, legend, title)
 
 
+def _values(a: np.ndarray) -> np.ndarray:
+    """The distinct values of a uint8 array, ascending (counted a band of rows at a time:
+    ``bincount`` of the whole would copy it as 64-bit integers)."""
+    seen = np.zeros(256, dtype=bool)
+    step = max(1, _CHUNK_CELLS // max(a.shape[1], 1))
+    for r in range(0, a.shape[0], step):
+        seen |= np.bincount(a[r : r + step].ravel(), minlength=256) > 0
+    return np.flatnonzero(seen)
+
+
 def _figure(m: OccupancyMap, size_px: int, legend: bool, title: str) -> Figure:
     g = m.grid
     width_m, height_m = g.cols * g.resolution, g.rows * g.resolution
     # At most about one cell per pixel: sample every k-th cell at the middle of its block.
     k = max(1, math.ceil(max(g.rows, g.cols) / size_px))
     labels, terrain = m.labels[k // 2 :: k, k // 2 :: k], m.terrain[k // 2 :: k, k // 2 :: k]
-    present = np.flatnonzero(np.bincount(m.labels.ravel(), minlength=len(m.classes)))
-    kinds = np.flatnonzero(np.bincount(m.terrain.ravel(), minlength=len(m.terrain_classes)))
+    present, kinds = _values(m.labels), _values(m.terrain)
     handles = [
         Patch(
             facecolor=CLASS_COLORS.get(m.classes[i], "#000000"),
@@ -506,7 +518,7 @@ def _figure(m: OccupancyMap, size_px: int, legend: bool, title: str) -> Figure:
     common = {"extent": extent, "origin": "lower", "interpolation": "nearest", "resample": False}
     ax.imshow(lut[labels], zorder=1, **common)
     if tints:
-        tlut = np.zeros((len(m.terrain_classes), 4))
+        tlut = np.zeros((len(m.terrain_classes), 4), dtype=np.uint8)
         for kind, (colour, alpha) in tints.items():
             tlut[m.terrain_classes.index(kind)] = _rgba(colour, alpha)
         ax.imshow(tlut[terrain], zorder=2, **common)
