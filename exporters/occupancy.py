@@ -248,7 +248,10 @@ class OccupancyMap:
 def _grid(scene: Scene, resolution: float) -> Grid:
     """The grid over the scene's bounds, or an ExportError when it has too many cells."""
     (x0, y0), (x1, y1) = scene.bounds.min, scene.bounds.max
-    grid = Grid.covering((x0, y0, max(x1, x0), max(y1, y0)), resolution)
+    if not (x1 > x0 and y1 > y0):
+        found = f"min [{x0:g}, {y0:g}], max [{x1:g}, {y1:g}]"
+        raise SpecError([Problem("$.bounds", "max greater than min in x and y", found)])
+    grid = Grid.covering((x0, y0, x1, y1), resolution)
     if grid.rows * grid.cols > MAX_CELLS:
         finest = math.ceil(math.sqrt((x1 - x0) * (y1 - y0) / MAX_CELLS) * 100) / 100
         while (g := Grid.covering((x0, y0, x1, y1), finest)).rows * g.cols > MAX_CELLS:
@@ -305,9 +308,11 @@ def _labels(scene: Scene, grid: Grid, bases: list[tuple[shapely.Geometry, int]])
 
 
 def _terrain_window(scene: Scene, grid: Grid) -> tuple[slice, slice]:
-    t = scene.terrain
+    """Rows and columns of the cells whose centres may lie on the tile grid (one cell of
+    margin: :func:`height_at` itself decides the cells on its border)."""
+    t, e = scene.terrain, grid.resolution
     ox, oy = t.origin
-    return grid.window((ox, oy, ox + t.cols * t.tile_size, oy + t.rows * t.tile_size))
+    return grid.window((ox - e, oy - e, ox + t.cols * t.tile_size + e, oy + t.rows * t.tile_size + e))
 
 
 def _heights(scene: Scene, grid: Grid) -> np.ndarray:
@@ -323,19 +328,28 @@ def _heights(scene: Scene, grid: Grid) -> np.ndarray:
     return heights
 
 
+def _tile_index(coords: np.ndarray, origin: float, size: float, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """Tile index along one axis of each coordinate and whether it lies on the grid, by
+    :func:`height_at`'s rule: the grid includes its border, and a coordinate on the border
+    between two tiles belongs to the one with the larger index."""
+    g = (coords - origin) / size
+    return np.clip(np.floor(g), 0, count - 1).astype(np.int64), (g >= 0) & (g <= count)
+
+
 def _terrain(scene: Scene, grid: Grid) -> np.ndarray:
-    """The tile kind under each cell centre, by :func:`height_at`'s rule: a centre on the
-    border between tiles belongs to the one with the larger index."""
+    """The kind of the tile under each cell centre; ``flat`` (0) off the tile grid."""
     out = np.zeros(grid.shape, dtype=np.uint8)
     t = scene.terrain
     if t is None:
         return out
     rows, cols = _terrain_window(scene, grid)
-    s, (ox, oy) = t.tile_size, t.origin
-    col = np.minimum(np.floor((grid.xs()[cols] - ox) / s), t.cols - 1).astype(np.int64)
-    row = np.minimum(np.floor((grid.ys()[rows] - oy) / s), t.rows - 1).astype(np.int64)
+    col, on_x = _tile_index(grid.xs()[cols], t.origin[0], t.tile_size, t.cols)
+    row, on_y = _tile_index(grid.ys()[rows], t.origin[1], t.tile_size, t.rows)
     kinds = np.array([TERRAIN_CLASSES.index(tile.kind) for tile in t.tiles], dtype=np.uint8)
-    out[rows, cols] = kinds.reshape(t.rows, t.cols)[row][:, col]  # uint8 throughout: no index grid
+    window = kinds.reshape(t.rows, t.cols)[row][:, col]  # uint8 throughout: no index grid
+    window[~on_y, :] = 0
+    window[:, ~on_x] = 0
+    out[rows, cols] = window
     return out
 
 

@@ -237,6 +237,43 @@ def test_terrain_layer_is_the_kind_of_the_tile_under_each_centre(kiosk_street):
     assert set(np.unique(m.terrain).tolist()) == set(range(len(occ.TERRAIN_CLASSES)))
 
 
+def test_centres_on_tile_borders_follow_height_at():
+    """Cell centres exactly on the tile grid's lines: a border belongs to the tile with the
+    larger index, the grid's east and north edges to the last tile, beyond them is flat."""
+    scene = Scene.model_validate(
+        {
+            "format": "citygen.scene/1",
+            "bounds": {"min": [-0.0625, -0.0625], "max": [3.0625, 1.3125]},
+            "terrain": {
+                "origin": [0.0, 0.0],
+                "tile_size": 1.0,
+                "rows": 1,
+                "cols": 2,
+                "tiles": [
+                    {"kind": "flat", "height": 0.2},
+                    {"kind": "stair", "step_height": 0.1, "step_count": 1},
+                ],
+            },
+        }
+    )
+    m = occ.occupancy(scene, resolution=0.125)  # centres exactly on multiples of 0.125 m
+    assert m.grid.centre(m.cell(2.0, 1.0)) == (2.0, 1.0)
+    kind = {x: m.terrain_classes[m.terrain[m.cell(x, 0.5)]] for x in (0.0, 0.875, 1.0, 2.0, 2.125)}
+    assert kind == {0.0: "flat", 0.875: "flat", 1.0: "stair", 2.0: "stair", 2.125: "flat"}
+    assert m.terrain_classes[m.terrain[m.cell(1.5, 1.0)]] == "stair"  # the north edge
+    assert m.terrain_classes[m.terrain[m.cell(1.5, 1.125)]] == "flat"
+    x, y = centres(m)
+    np.testing.assert_array_equal(m.heights, height_at(scene, x, y).astype(np.float32))
+    assert m.heights[m.cell(0.0, 0.5)] == np.float32(0.2) and m.heights[m.cell(2.125, 0.5)] == 0.0
+    assert m.heights[m.cell(2.0, 0.5)] == np.float32(0.1)
+
+
+def test_empty_bounds_are_a_spec_error():
+    scene = Scene.model_validate({"format": "citygen.scene/1", "bounds": {"min": [0, 0], "max": [0, 5]}})
+    with pytest.raises(SpecError, match=r"\$\.bounds: expected max greater than min"):
+        occ.occupancy(scene)
+
+
 # --- the Python API -----------------------------------------------------------------------------
 
 
