@@ -116,7 +116,7 @@ def test_a_users_config_file_is_a_split(cli, tmp_path):
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["--split", "urban-nav-9"], "--split: expected a split (urban-nav, urban-nav-1,"),
+        (["--split", "urban-nav-9"], "urban-nav-2, urban-nav-2-test, urban-nav-2-train"),
         (["--split", "nope.toml"], "nope.toml: $: expected an existing file, got no such file"),
         (["--split", "urban-nav-2", "--jobs", "0"], "expected at least 1 worker"),
     ],
