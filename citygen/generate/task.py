@@ -22,7 +22,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.ndimage
 import shapely
 
 from citygen.errors import GenerationError
@@ -85,21 +84,21 @@ def choose_endpoints(
             f"no walkable ground wide enough for the {cfg.robot} robot ({2 * radius:g} m across)",
         )
     need = cfg.min_distance
-    for attempt in range(24):
-        piece = candidates[min(attempt // 3, len(candidates) - 1, 7)]
+    # Pieces that could hold two points ``need`` apart, largest first.
+    able = [p for p in candidates if math.dist(p.bounds[:2], p.bounds[2:]) >= need][:8]
+    for piece in able:
+        if cfg.kind == "traverse":
+            found = _traverse(piece, need, rng)
+            if found is None:
+                continue
+            start, route = found
+            # Face the first leg: a traverse starts on its route.
+            yaw = round(math.atan2(route[0][1] - start[1], route[0][0] - start[0]), 6)
+            return Endpoints(start, yaw, None, tuple(route), radius=radius)
         pair = far_pair(piece, Sampler(piece), rng, need)
-        if pair is None:
-            continue
-        start, goal = pair
-        yaw = round(float(rng.uniform(-math.pi, math.pi)), 6)
-        if cfg.kind != "traverse":
-            return Endpoints(start, yaw, goal, radius=radius)
-        route = _route(piece, start, goal)
-        if route is None:
-            continue
-        # Face the first leg: a traverse starts on its route.
-        yaw = round(math.atan2(route[0][1] - start[1], route[0][0] - start[0]), 6)
-        return Endpoints(start, yaw, None, tuple(route), radius=radius)
+        if pair is not None:
+            yaw = round(float(rng.uniform(-math.pi, math.pi)), 6)
+            return Endpoints(pair[0], yaw, pair[1], radius=radius)
     raise GenerationError(
         "task",
         seed,
@@ -108,32 +107,44 @@ def choose_endpoints(
     )
 
 
-def _route(
-    piece: shapely.Polygon, start: tuple[float, float], goal: tuple[float, float]
-) -> list[tuple[float, float]] | None:
-    """Waypoints from ``start`` to ``goal`` inside ``piece``: the shortest 8-connected path on a
-    grid of cells whose centres keep half a diagonal inside it (so every leg between
-    neighbours stays inside), straightened, with no leg longer than :data:`LEG`. The first
-    point after the start comes first; the goal is last. None when the grid finds no path
-    (a neck of the piece narrower than a cell)."""
+def _traverse(
+    piece: shapely.Polygon, need: float, rng: np.random.Generator, tries: int = 256
+) -> tuple[tuple[float, float], list[tuple[float, float]]] | None:
+    """A start and a route of waypoints inside ``piece`` ending at least ``need`` metres from
+    the start, or None.
+
+    The piece is rasterised into cells whose centres keep half a diagonal inside it (so a
+    straight step between neighbouring centres never leaves it); start and goal are cells of
+    the largest 8-connected group, so the shortest path between them exists on the grid. The
+    path is straightened (legs kept inside the piece) and cut so no leg exceeds :data:`LEG`.
+    """
     x0, y0, x1, y1 = piece.bounds
     res = min(1.0, max(0.1, math.sqrt((x1 - x0) * (y1 - y0) / 2e6)))
     grid = raster.Grid.covering((x0 - res, y0 - res, x1 + res, y1 + res), res)
     free = raster.mask(grid, piece.buffer(-0.75 * res, quad_segs=4))
-    if not free.any():
+    labels, count = raster.components(free)
+    if count == 0:
         return None
-    # Start and goal snap to their nearest free cells.
-    _, (near_r, near_c) = scipy.ndimage.distance_transform_edt(~free, return_indices=True)
-    a, b = grid.cell(*start), grid.cell(*goal)
-    cells = raster.shortest_path(free, (int(near_r[a]), int(near_c[a])), (int(near_r[b]), int(near_c[b])))
-    if cells is None:
+    sizes = np.bincount(labels.ravel())
+    sizes[0] = 0
+    largest = int(np.argmax(sizes))
+    cells = np.argwhere(labels == largest)
+    for _ in range(tries):
+        a, b = (tuple(int(v) for v in cells[int(rng.integers(len(cells)))]) for _ in range(2))
+        if math.dist(grid.centre(a), grid.centre(b)) >= need + res:
+            break
+    else:
         return None
-    points = straighten([start, *(grid.centre(c) for c in cells), goal], piece)
+    path = raster.shortest_path(labels == largest, a, b)
+    if path is None:  # cannot happen: a and b are in one 8-connected group
+        return None
+    points = straighten([grid.centre(c) for c in path], piece)
     legs = []
     for p, q in itertools.pairwise(points):
         n = max(1, math.ceil(math.dist(p, q) / LEG))
         legs += [(p[0] + (q[0] - p[0]) * k / n, p[1] + (q[1] - p[1]) * k / n) for k in range(1, n + 1)]
-    return [(round(x, 3) + 0.0, round(y, 3) + 0.0) for x, y in legs]
+    start = (round(points[0][0], 3) + 0.0, round(points[0][1], 3) + 0.0)
+    return start, [(round(x, 3) + 0.0, round(y, 3) + 0.0) for x, y in legs]
 
 
 def make_task(

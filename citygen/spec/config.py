@@ -286,7 +286,7 @@ def check_config(config: BaseModel, path: str = "$") -> list[Problem]:
         elif isinstance(value, tuple) and value and isinstance(value[0], BaseModel):
             for i, item in enumerate(value):
                 problems += check_config(item, f"{where}[{i}]")
-        elif field.annotation in _RANGE_TYPES and value is not None and value[0] > value[1]:
+        elif _is_range(config, name, field) and value is not None and value[0] > value[1]:
             problems.append(Problem(where, "[low, high] with low <= high", f"[{value[0]}, {value[1]}]"))
     if isinstance(config, RegionShapes | BlockWeights | TerrainMix | PeopleMix) and not any(
         getattr(config, name) > 0 for name in type(config).model_fields
@@ -304,3 +304,11 @@ def check_config(config: BaseModel, path: str = "$") -> list[Problem]:
 
 
 _RANGE_TYPES = (Range, IntRange, LotRange)
+
+
+def _is_range(config: BaseModel, name: str, field: object) -> bool:
+    """A ``[low, high]`` field. ``GeneratorConfig.size`` has the same type (two floats) but is a
+    width and a depth, which may come in any order."""
+    if isinstance(config, GeneratorConfig) and name == "size":
+        return False
+    return field.annotation in _RANGE_TYPES
