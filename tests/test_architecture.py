@@ -179,6 +179,10 @@ def test_wheel_packages_every_module_and_maps_exporters(tmp_path):
         "citygen/exporters/" + str(p.relative_to(ROOT / "exporters"))
         for p in (ROOT / "exporters").rglob("*.py")
     }
+    # Data the package reads at run time: the split manifests and lock, the viewer's three.js.
+    seeds = [p for p in (ROOT / "seeds").iterdir() if p.suffix in (".toml", ".json")]
+    expected |= {"citygen/seeds/" + p.name for p in seeds}
+    expected |= {"citygen/exporters/vendor/" + p.name for p in (ROOT / "exporters" / "vendor").iterdir()}
     assert expected <= names, sorted(expected - names)
     # Installed from the wheel (not the checkout), `citygen.exporters` is importable.
     target = tmp_path / "site"
