@@ -154,6 +154,12 @@ def export(
         ),
     ] = "all",
     out: Annotated[Path, typer.Option("--out", "-o", help="Folder to write into.")] = Path("export"),
+    resolution: Annotated[
+        float | None,
+        typer.Option(
+            "--resolution", min=0.005, max=10.0, help="Cell size of the occupancy map, m.  [default: 0.05]"
+        ),
+    ] = None,
 ) -> None:
     """Compile scenes to the files other simulators load: MJCF, USD, URDF, an occupancy map
     (npz, ROS yaml/pgm, png), GLB, a self-contained HTML viewer, PNG pictures.
@@ -180,7 +186,10 @@ def export(
                 with warnings.catch_warnings(record=True) as caught:
                     warnings.simplefilter("always", ExportWarning)
                     try:
-                        written = module.export(scene, out)
+                        options = (
+                            {"resolution": resolution} if module_name == "occupancy" and resolution else {}
+                        )
+                        written = module.export(scene, out, **options)
                     except RuntimeError as exc:
                         if module_name != "view":
                             raise
