@@ -662,6 +662,30 @@ def test_bad_placements_name_their_json_path(tmp_path):
         usd.export(with_asset("m/x.obj"), tmp_path, mesh_dir=tmp_path)
 
 
+def test_default_sampling_coarsens_on_big_terrains_with_a_warning(tmp_path, monkeypatch):
+    """Without a terrain_resolution, rough tiles that would pass the triangle budget are
+    sampled more coarsely, and an ExportWarning says how."""
+    tile = {"kind": "rough", "amplitude": 0.05, "scale": 1.0}
+    scene = Scene(
+        format="citygen.scene/1",
+        bounds={"min": [0, 0], "max": [30, 30]},
+        terrain=Terrain(origin=(0, 0), tile_size=10.0, rows=3, cols=3, tiles=[tile] * 9),
+    )
+    monkeypatch.setattr(usd, "DEFAULT_TERRAIN_TRIANGLES", 20_000)  # 80 x 80 cells a tile would be 115,200
+    with pytest.warns(
+        ExportWarning, match=r"9 rough tiles sampled with at most 33 x 33 cells \(0.30303 m apart\)"
+    ):
+        files = usd.export(scene, tmp_path)
+    stage = _stage(files)
+    faces = sum(
+        len(UsdGeom.Mesh(p).GetFaceVertexCountsAttr().Get())
+        for p in stage.GetPrimAtPath("/World/Ground/Terrain").GetChildren()
+    )
+    # Every tile's edges are level at 0 (no walls needed): 9 surfaces of 33 x 33 cells.
+    assert faces == 9 * 2 * 33 * 33
+    assert usd.check(files[0]) == []
+
+
 def test_too_fine_a_terrain_is_refused_before_building_it(tmp_path):
     tile = {"kind": "rough", "amplitude": 0.05, "scale": 1.0}
     scene = Scene(
