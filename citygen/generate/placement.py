@@ -40,7 +40,7 @@ from shapely.geometry.base import BaseGeometry
 from citygen.assets import CATEGORIES, resolve
 from citygen.assets.catalog import Asset
 from citygen.errors import GenerationError
-from citygen.generate.space import GRID, Sampler, free_space, walkable_ground, zone_polygon
+from citygen.generate.space import GRID, Sampler, free_space, grid_path, walkable_ground, zone_polygon
 from citygen.generate.task import Endpoints
 from citygen.geometry.terrain import height_at
 from citygen.seeding import child
@@ -61,6 +61,8 @@ CROSSING_REACH = 6.0
 ROADS = ("roadway", "bike_lane", "parking")
 MIN_BUILDING_SCALE = 0.25
 """Smallest scale a building massing is shrunk to to fit its lot; smaller lots stay empty."""
+EXACT_AREA = 5_000.0
+"""Walkable area (m2) up to which placement keeps the task's connection exactly (see :class:`_Path`)."""
 HASH = 8.0
 """Cell size (m) of the spatial hash of placed objects."""
 
@@ -238,11 +240,25 @@ def _base_ring(asset: Asset) -> np.ndarray:
 
 
 class _Path:
-    """The connected piece of free space holding the robot's start and goal, kept whole."""
+    """Keeps a walkable connection between the robot's start and goal while objects are placed.
+
+    In scenes up to :data:`EXACT_AREA` of walkable ground the connection is kept exactly:
+    the connected piece of free space holding the start (the walkable ground shrunk by the
+    robot's clearance, minus the objects grown by it) must still cover the goal with each
+    new object, so an object may stand in the way but never cut it. In larger scenes that
+    test would cost a polygon difference over the whole city per object, so a corridor of
+    the robot's clearance along one shortest walkable path is kept free instead.
+    """
 
     def __init__(self, ground: BaseGeometry, ends: Endpoints):
         self.start, self.goal, self.radius = Point(ends.start), Point(ends.goal), ends.radius
         self.piece = self._holding_start(free_space(ground, (), ends.radius))
+        self.corridor: BaseGeometry | None = None
+        if self.piece is not None and self.piece.area > EXACT_AREA:
+            path = grid_path(self.piece, ends.start, ends.goal)
+            if path is not None:
+                self.corridor = LineString(path).buffer(self.radius, quad_segs=4)
+                shapely.prepare(self.corridor)
 
     def _holding_start(self, free: BaseGeometry) -> BaseGeometry | None:
         for g in shapely.get_parts(free):
@@ -253,6 +269,8 @@ class _Path:
 
     def allows(self, base: Polygon) -> bool:
         """Whether start and goal stay connected with ``base`` standing; if so, keep it."""
+        if self.corridor is not None:
+            return not self.corridor.intersects(base)
         if self.piece is None:
             return True
         grown = base.buffer(self.radius, quad_segs=4)

@@ -14,10 +14,12 @@ import math
 from collections.abc import Iterable, Sequence
 
 import numpy as np
+import scipy.ndimage
 import shapely
 from shapely.geometry import LineString, Point, Polygon
 from shapely.geometry.base import BaseGeometry
 
+from citygen.geometry import raster
 from citygen.spec.surfaces import WALKABLE_ZONES
 from citygen.spec.zones import Zone
 
@@ -108,3 +110,24 @@ def straighten(points: Sequence[tuple[float, float]], free: BaseGeometry) -> lis
         out.append(points[j])
         i = j
     return out
+
+
+def grid_path(
+    piece: Polygon, start: tuple[float, float], goal: tuple[float, float]
+) -> list[tuple[float, float]] | None:
+    """A walkable path from ``start`` to ``goal`` inside ``piece``: the shortest 8-connected path
+    over cells whose centres keep half a diagonal inside it (so straight steps between
+    neighbours stay inside), from and to the cells nearest the two points, straightened.
+    None when those cells are not connected on the grid."""
+    x0, y0, x1, y1 = piece.bounds
+    res = min(1.0, max(0.1, math.sqrt((x1 - x0) * (y1 - y0) / 2e6)))
+    grid = raster.Grid.covering((x0 - res, y0 - res, x1 + res, y1 + res), res)
+    free = raster.mask(grid, piece.buffer(-0.75 * res, quad_segs=4))
+    if not free.any():
+        return None
+    _, (rows, cols) = scipy.ndimage.distance_transform_edt(~free, return_indices=True)
+    a, b = grid.cell(*start), grid.cell(*goal)
+    cells = raster.shortest_path(free, (int(rows[a]), int(cols[a])), (int(rows[b]), int(cols[b])))
+    if cells is None:
+        return None
+    return straighten([start, *(grid.centre(c) for c in cells), goal], piece)
