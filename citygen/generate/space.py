@@ -116,18 +116,25 @@ def grid_path(
     piece: Polygon, start: tuple[float, float], goal: tuple[float, float]
 ) -> list[tuple[float, float]] | None:
     """A walkable path from ``start`` to ``goal`` inside ``piece``: the shortest 8-connected path
-    over cells whose centres keep half a diagonal inside it (so straight steps between
-    neighbours stay inside), from and to the cells nearest the two points, straightened.
-    None when those cells are not connected on the grid."""
+    over cells (at most 0.5 m) whose centres keep half a diagonal inside it, so straight steps
+    between neighbours stay inside; it runs from the cell nearest ``start`` to the cell
+    nearest ``goal`` among those connected to it (a neck narrower than a cell can split the
+    grid where the piece itself is connected), then is straightened. None on an empty grid."""
     x0, y0, x1, y1 = piece.bounds
-    res = min(1.0, max(0.1, math.sqrt((x1 - x0) * (y1 - y0) / 2e6)))
+    res = min(0.5, max(0.1, math.sqrt((x1 - x0) * (y1 - y0) / 4e6)))
     grid = raster.Grid.covering((x0 - res, y0 - res, x1 + res, y1 + res), res)
     free = raster.mask(grid, piece.buffer(-0.75 * res, quad_segs=4))
     if not free.any():
         return None
+    labels, _ = raster.components(free)
     _, (rows, cols) = scipy.ndimage.distance_transform_edt(~free, return_indices=True)
-    a, b = grid.cell(*start), grid.cell(*goal)
-    cells = raster.shortest_path(free, (int(rows[a]), int(cols[a])), (int(rows[b]), int(cols[b])))
+    a = grid.cell(*start)
+    a = (int(rows[a]), int(cols[a]))
+    mine = labels == labels[a]
+    _, (rows, cols) = scipy.ndimage.distance_transform_edt(~mine, return_indices=True)
+    b = grid.cell(*goal)
+    b = (int(rows[b]), int(cols[b]))
+    cells = raster.shortest_path(mine, a, b)
     if cells is None:
         return None
     return straighten([start, *(grid.centre(c) for c in cells), goal], piece)
