@@ -11,8 +11,10 @@ from __future__ import annotations
 
 import hashlib
 from pathlib import Path
+from types import MappingProxyType
 from typing import Protocol
 
+from citygen.errors import ExportError
 from citygen.io import load_scene, write_atomic
 from citygen.spec.scene import Scene
 
@@ -52,3 +54,38 @@ def shared_file(out_dir: str | Path, data: bytes, suffix: str) -> Path:
     if not path.exists():
         write_atomic(path, data)
     return path
+
+
+#: The colour of each zone kind, shared by every exporter that draws zones (the PNG map,
+#: MJCF materials, GLB, the HTML viewer, the occupancy picture).
+ZONE_COLORS = MappingProxyType(
+    {
+        "roadway": "#4d5257",
+        "bike_lane": "#2f8f83",
+        "parking": "#8795a6",
+        "curb": "#bdbdbd",
+        "sidewalk": "#ebe6da",
+        "crosswalk": "#3b4a5e",
+        "plaza": "#e0c59a",
+        "trail": "#bf9960",
+        "building": "#9c8f86",
+        "vegetation": "#8cc269",
+        "water": "#7fb4e0",
+    }
+)
+
+
+def output_name(scene: Scene | str | Path, name: object, fmt: str) -> str:
+    """The file stem an exporter writes ``scene`` under: ``name`` when given, else the scene
+    file's stem, else ``<split>-<index>`` from its meta, else ``scene``. A name with folders
+    in it is an :class:`~citygen.errors.ExportError` naming the format."""
+    if name is None:
+        if not isinstance(scene, Scene):
+            name = Path(scene).stem
+        elif scene.meta.split is not None and scene.meta.index is not None:
+            name = f"{scene.meta.split}-{scene.meta.index:05d}"
+        else:
+            name = "scene"
+    if not isinstance(name, str) or not name or "/" in name or "\\" in name or name in (".", ".."):
+        raise ExportError(f"{fmt} export: expected a file name without folders for 'name', got {name!r}")
+    return name

@@ -8,7 +8,7 @@ One scene graph holds
 - ``ground/plane``: the flat ground at ``z = 0`` over the scene's bounds outside the
   terrain grid;
 - ``zone/<id>``: each zone's ground surface, draped on the terrain and coloured by kind
-  (:data:`~citygen.exporters.picture.ZONE_COLORS`), lifted :data:`ZONE_LIFT` above it;
+  (:data:`~citygen.exporters.ZONE_COLORS`), lifted :data:`ZONE_LIFT` above it;
 - ``<id>``: each placement, the asset's visual mesh (one mesh per asset, reused by every
   node that places it: glTF instancing) moved, turned and scaled by the node;
 - ``agent/<id>`` and ``agent/<id>/goal``: people as cylinders of their radius, vehicles as
@@ -46,7 +46,8 @@ from shapely.geometry import Polygon
 
 from citygen.assets import Asset, UnknownAsset, resolve
 from citygen.errors import ExportError
-from citygen.exporters import ExportWarning, as_scene
+from citygen.exporters import ZONE_COLORS, ExportWarning, as_scene
+from citygen.exporters import output_name as shared_output_name
 from citygen.geometry.terrain import (
     DEFAULT_ROUGH_CELLS,
     MAX_ROUGH_CELLS,
@@ -99,7 +100,6 @@ def rgba(colour: str | Sequence[float]) -> RGBA:
 
 def zone_rgba(kind: str) -> RGBA:
     """The colour of a zone kind, the PNG map's palette."""
-    from citygen.exporters.picture import ZONE_COLORS  # matplotlib loads only when used
 
     return rgba(ZONE_COLORS[kind])
 
@@ -108,19 +108,8 @@ def zone_rgba(kind: str) -> RGBA:
 
 
 def output_name(scene: Scene | str | Path, options: dict[str, Any], fmt: str) -> str:
-    """The file stem for ``scene``: option ``name``, else the scene file's stem, else
-    ``<split>-<index>`` from its meta, else ``scene``."""
-    name = options.get("name")
-    if name is None:
-        if not isinstance(scene, Scene):
-            name = Path(scene).stem
-        elif scene.meta.split is not None and scene.meta.index is not None:
-            name = f"{scene.meta.split}-{scene.meta.index:05d}"
-        else:
-            name = "scene"
-    if not isinstance(name, str) or not name or "/" in name or "\\" in name or name in (".", ".."):
-        raise ExportError(f"{fmt} export: expected a file name without folders for 'name', got {name!r}")
-    return name
+    """The file stem for ``scene`` (:func:`citygen.exporters.output_name` of option ``name``)."""
+    return shared_output_name(scene, options.get("name"), fmt)
 
 
 def check_options(options: dict[str, Any], allowed: Sequence[str], fmt: str) -> None:

@@ -10,7 +10,7 @@ instanced meshes. No network access is needed at view time.
 The camera orbits the scene (drag to turn, scroll to zoom, right-drag to pan; Z is up);
 clicking a thing shows its node name (a placement's id, ``zone/<id>``, ``agent/<id>``
 ...). A legend lists the zone kinds in the scene with their colours
-(:data:`~citygen.exporters.picture.ZONE_COLORS`), then agents and the task's markers.
+(:data:`~citygen.exporters.ZONE_COLORS`), then agents and the task's markers.
 Lighting is set so that ground seen from above shows its zone's colour exactly.
 
 The same scene always gives the same bytes.
@@ -34,6 +34,7 @@ import numpy as np
 import trimesh
 
 from citygen.errors import ExportError
+from citygen.exporters import ZONE_COLORS
 from citygen.exporters.glb import (
     AGENT_COLORS,
     GOAL_COLOR,
@@ -93,7 +94,6 @@ def scene_payload(
     meshes = [
         {"name": name, **_mesh_payload(graph.geometry[name]), "instances": instances[name]} for name in names
     ]
-    from citygen.exporters.picture import ZONE_COLORS
 
     kinds = {z.kind for z in model.zones}
     legend = [[kind, ZONE_COLORS[kind]] for kind in ZONE_KINDS if kind in kinds]

@@ -17,7 +17,8 @@ What the model holds (metres, radians, Z up; ``<compiler angle="radian"/>``):
   slope and rough tiles are one heightfield each, sampled from
   :func:`~citygen.geometry.terrain.tile_height` every ``resolution`` metres or finer
   (rough tiles every ``scale / 8``, at most four times finer than ``resolution``), so
-  every tile edge is exact and meets its neighbour. A non-level tile has one friction: its own (``friction`` or ``material``),
+  every tile edge is exact and meets its neighbour. A non-level tile has one friction: its
+  own (``friction`` or ``material``),
   else that of the zone covering most of it, else :data:`DEFAULT_FRICTION`; where zones
   of different friction share such a tile an :class:`ExportWarning` says so.
 - **Objects.** One static body per placement (``object/<id>``) whose geoms are the
@@ -93,7 +94,7 @@ from shapely.geometry import box as rect
 
 from citygen.assets import Box, Capsule, ConvexMesh, Cylinder, UnknownAsset, resolve
 from citygen.errors import DependencyMissing, ExportError, Problem, SpecError
-from citygen.exporters import ExportWarning, as_scene, shared_file
+from citygen.exporters import ZONE_COLORS, ExportWarning, as_scene, output_name, shared_file
 from citygen.geometry.terrain import MIN_THICKNESS, height_at, tile_boxes, tile_height
 from citygen.io import write_atomic
 from citygen.spec.agents import Person
@@ -120,25 +121,10 @@ DEFAULT_FRICTION = FRICTION["concrete"]
 #: MuJoCo's default torsional and rolling friction, written after the sliding one.
 _SPIN_ROLL = (0.005, 0.0001)
 
-#: Zone colours (RGBA in [0, 1]): the same palette as the PNG map
-#: (:data:`citygen.exporters.picture.ZONE_COLORS`, a test keeps them equal).
+#: Zone colours (RGBA in [0, 1]) from the exporters' shared palette
+#: (:data:`citygen.exporters.ZONE_COLORS`).
 ZONE_RGBA = MappingProxyType(
-    {
-        kind: (*(int(h[i : i + 2], 16) / 255 for i in (1, 3, 5)), 1.0)
-        for kind, h in {
-            "roadway": "#4d5257",
-            "bike_lane": "#2f8f83",
-            "parking": "#8795a6",
-            "curb": "#bdbdbd",
-            "sidewalk": "#ebe6da",
-            "crosswalk": "#3b4a5e",
-            "plaza": "#e0c59a",
-            "trail": "#bf9960",
-            "building": "#9c8f86",
-            "vegetation": "#8cc269",
-            "water": "#7fb4e0",
-        }.items()
-    }
+    {kind: (*(int(h[i : i + 2], 16) / 255 for i in (1, 3, 5)), 1.0) for kind, h in ZONE_COLORS.items()}
 )
 _GROUND_RGBA = (0.957, 0.945, 0.918, 1.0)  # ground inside the scene no zone covers
 _OUTSIDE_RGBA = (0.8, 0.8, 0.78, 1.0)
@@ -909,18 +895,8 @@ def _check_options(options: Mapping[str, object]) -> dict[str, Any]:
 
 
 def scene_name(scene: Scene | str | Path, name: object = None) -> str:
-    """The file name stem for a scene: ``name``, else the scene file's stem, else
-    ``<split>-<index>`` from its meta, else ``scene``."""
-    if name is None:
-        if not isinstance(scene, Scene):
-            name = Path(scene).stem
-        elif scene.meta.split is not None and scene.meta.index is not None:
-            name = f"{scene.meta.split}-{scene.meta.index:05d}"
-        else:
-            name = "scene"
-    if not isinstance(name, str) or not name or "/" in name or "\\" in name or name in (".", ".."):
-        raise ExportError(f"mjcf export: expected a file name without folders for 'name', got {name!r}")
-    return name
+    """The file name stem for a scene (:func:`citygen.exporters.output_name`)."""
+    return output_name(scene, name, "mjcf")
 
 
 def to_mjcf(scene: Scene | str | Path, **options: object) -> MJCF:

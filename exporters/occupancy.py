@@ -47,7 +47,7 @@ Files (:func:`export`, named ``<name>`` like the other exporters):
   ``resolution``, ``origin: [x0, y0, 0.0]``, ``negate: 0``, ``occupied_thresh: 0.65``,
   ``free_thresh: 0.196`` and ``mode: trinary``.
 - ``<name>-occupancy.png``: the labels in colour (:data:`CLASS_COLORS`: zone kinds in the
-  PNG map's palette, :data:`~citygen.exporters.picture.ZONE_COLORS`) with stair, slope and
+  PNG map's palette, :data:`~citygen.exporters.ZONE_COLORS`) with stair, slope and
   rough tiles tinted, a legend marking the walkable classes, and a scale bar.
 
 Size: a grid has at most :data:`MAX_CELLS` cells (about 290 m x 290 m at 0.05 m, 1.2 km x

@@ -57,7 +57,7 @@ from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 
 from citygen.assets import UnknownAsset, resolve
 from citygen.errors import ExportError, Problem, SpecError
-from citygen.exporters import as_scene
+from citygen.exporters import ZONE_COLORS, as_scene, output_name
 from citygen.geometry.roads import block_outline
 from citygen.geometry.terrain import height_at
 from citygen.io import write_atomic
@@ -67,22 +67,6 @@ from citygen.spec.surfaces import ZONE_KINDS
 from citygen.spec.task import NavTask, TraverseTask
 from citygen.spec.terrain import RoughTile, SlopeTile, StairTile
 
-#: Fill colour of each zone kind (hex RGB). Hand-picked so that neighbouring kinds differ.
-ZONE_COLORS = MappingProxyType(
-    {
-        "roadway": "#4d5257",
-        "bike_lane": "#2f8f83",
-        "parking": "#8795a6",
-        "curb": "#bdbdbd",
-        "sidewalk": "#ebe6da",
-        "crosswalk": "#3b4a5e",
-        "plaza": "#e0c59a",
-        "trail": "#bf9960",
-        "building": "#9c8f86",
-        "vegetation": "#8cc269",
-        "water": "#7fb4e0",
-    }
-)
 #: Hatching of a zone kind (matplotlib hatch pattern, drawn in white): crosswalk stripes.
 ZONE_HATCH = MappingProxyType({"crosswalk": "///"})
 
@@ -840,15 +824,6 @@ def export(scene: Scene | str | Path, out_dir: str | Path, **options: object) ->
     if unknown:
         allowed = ", ".join(_OPTIONS)
         raise ExportError(f"picture export: unknown option {unknown[0]!r}; expected one of {allowed}")
-    name = options.get("name")
-    if name is None:
-        if not isinstance(scene, Scene):
-            name = Path(scene).stem
-        elif scene.meta.split is not None and scene.meta.index is not None:
-            name = f"{scene.meta.split}-{scene.meta.index:05d}"
-        else:
-            name = "scene"
-    if not isinstance(name, str) or not name or "/" in name or "\\" in name or name in (".", ".."):
-        raise ExportError(f"picture export: expected a file name without folders for 'name', got {name!r}")
+    name = output_name(scene, options.get("name"), "picture")
     kwargs: dict[str, Any] = {k: options[k] for k in ("size_px", "terrain", "legend") if k in options}
     return [render(scene, Path(out_dir) / f"{name}.png", **kwargs)]

@@ -93,7 +93,7 @@ from shapely.geometry import Polygon
 
 from citygen.assets import Asset, Box, Capsule, ConvexMesh, Cylinder, Look, UnknownAsset, resolve
 from citygen.errors import DependencyMissing, ExportError, Problem, SpecError
-from citygen.exporters import ExportWarning, as_scene, shared_file
+from citygen.exporters import ExportWarning, as_scene, output_name, shared_file
 from citygen.geometry.terrain import DEFAULT_ROUGH_CELLS, MAX_ROUGH_CELLS, height_at, tile_mesh
 from citygen.spec.agents import Person, Vehicle
 from citygen.spec.scene import Scene
@@ -965,17 +965,7 @@ def _author_task(world: Sdf.PrimSpec, scene: Scene) -> None:
 
 
 def _name(scene: Scene | str | Path, options: dict[str, object]) -> str:
-    name = options.get("name")
-    if name is None:
-        if not isinstance(scene, Scene):
-            name = Path(scene).stem
-        elif scene.meta.split is not None and scene.meta.index is not None:
-            name = f"{scene.meta.split}-{scene.meta.index:05d}"
-        else:
-            name = "scene"
-    if not isinstance(name, str) or not name or "/" in name or "\\" in name or name in (".", ".."):
-        raise ExportError(f"usd export: expected a file name without folders for 'name', got {name!r}")
-    return name
+    return output_name(scene, options.get("name"), "usd")
 
 
 def _layer_data(scene: Scene) -> dict[str, str | int]:
