@@ -20,9 +20,10 @@ from collections.abc import Sequence
 import numpy as np
 import shapely
 from shapely.geometry import Point
+from shapely.geometry.base import BaseGeometry
 
-from citygen.assets import resolve
 from citygen.errors import GenerationError
+from citygen.generate.placement import base_of
 from citygen.generate.space import GRID, Sampler, free_space, pieces, walkable_ground, zone_polygon
 from citygen.generate.task import Endpoints
 from citygen.geometry.roads import block_geometry, road_graph
@@ -70,9 +71,11 @@ def place_agents(
     ends: Endpoints | None = None,
     robot_radius: float = 0.0,
     seed: int = 0,
+    walkable: BaseGeometry | None = None,
 ) -> tuple[Person | Vehicle, ...]:
-    """People and vehicles of one scene; ``level`` scales the config's counts."""
-    people = _people(bounds, zones, placements, cfg, child(rng, 0), level, ends, robot_radius, seed)
+    """People and vehicles of one scene; ``level`` scales the config's counts; ``walkable`` is
+    the walkable ground when the caller has it."""
+    people = _people(bounds, zones, placements, cfg, child(rng, 0), level, ends, robot_radius, seed, walkable)
     vehicles = math.floor(cfg.vehicles * level + 0.5)
     if vehicles and not blocks:
         raise GenerationError(
@@ -84,7 +87,7 @@ def place_agents(
     return (*people, *cars)
 
 
-def _people(bounds, zones, placements, cfg, rng, level, ends, robot_radius, seed) -> list[Person]:
+def _people(bounds, zones, placements, cfg, rng, level, ends, robot_radius, seed, walkable) -> list[Person]:
     count = math.floor(cfg.people * level + 0.5)
     if count == 0:
         return []
@@ -96,8 +99,8 @@ def _people(bounds, zones, placements, cfg, rng, level, ends, robot_radius, seed
         "scooter": cfg.scooter_radius,
     }
     speed = {"pedestrian": cfg.pedestrian_speed, "cyclist": cfg.cyclist_speed, "scooter": cfg.scooter_speed}
-    ground = walkable_ground(zones, (*bounds.min, *bounds.max))
-    bases = [_base(p) for p in placements if not p.is_mesh]
+    ground = walkable if walkable is not None else walkable_ground(zones, (*bounds.min, *bounds.max))
+    bases = [base_of(p) for p in placements if not p.is_mesh]
     spaces: dict[str, list] = {}
     taken: list[tuple[float, float, float]] = []
     if ends is not None:
@@ -126,12 +129,6 @@ def _people(bounds, zones, placements, cfg, rng, level, ends, robot_radius, seed
         taken.append((*start, r))
         out.append(Person(id=f"{kind}-{i + 1}", kind=kind, start=start, goal=goal, radius=r, speed=v))
     return out
-
-
-def _base(p: Placement) -> shapely.Polygon:
-    ring = np.asarray(resolve(p.asset).base.exterior.coords) * p.scale
-    c, s = math.cos(p.yaw), math.sin(p.yaw)
-    return shapely.Polygon(ring @ np.array([[c, s], [-s, c]]) + np.asarray(p.position[:2]))
 
 
 def _trip(spaces, rng, trip, r, taken):

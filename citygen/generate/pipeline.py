@@ -14,6 +14,7 @@ from citygen.generate.agents import place_agents
 from citygen.generate.blocks import connect_blocks
 from citygen.generate.ground import ground_margin, plan_ground, plan_region
 from citygen.generate.placement import place_objects
+from citygen.generate.space import walkable_ground
 from citygen.generate.task import choose_endpoints, make_task, robot_clearance
 from citygen.generate.terrain import build_terrain
 from citygen.seeding import child, stage_rng
@@ -52,7 +53,11 @@ def generate(
     agents: level ``index % len(levels)``.
     """
     scene = layout(config, seed, split=split, index=index)
-    ends = choose_endpoints(scene.bounds, scene.zones, config.task, stage_rng(seed, "task"), seed=seed)
+    # The walkable ground, shared by the task, placement and agent stages.
+    walkable = walkable_ground(scene.zones, (*scene.bounds.min, *scene.bounds.max))
+    ends = choose_endpoints(
+        scene.bounds, scene.zones, config.task, stage_rng(seed, "task"), seed=seed, walkable=walkable
+    )
     terrain = build_terrain(
         scene.bounds,
         scene.zones,
@@ -71,6 +76,7 @@ def generate(
         level=_level(config.placement.density_levels, k),
         ends=ends,
         seed=seed,
+        walkable=walkable,
     )
     agents = place_agents(
         scene.bounds,
@@ -83,6 +89,7 @@ def generate(
         ends=ends,
         robot_radius=robot_clearance(config.task),
         seed=seed,
+        walkable=walkable,
     )
     task = make_task(config.task, ends, terrain, child(stage_rng(seed, "task"), 1))
     return scene.model_copy(

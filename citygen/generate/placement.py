@@ -239,6 +239,13 @@ def _base_ring(asset: Asset) -> np.ndarray:
     return np.asarray(asset.base.exterior.coords)
 
 
+def base_of(placement: Placement) -> Polygon:
+    """A catalog placement's base (:attr:`Asset.base`) in the scene: scaled, turned, moved."""
+    x, y = placement.position[:2]
+    ring = _base_ring(resolve(placement.asset))
+    return Polygon(_pose(ring, x, y, placement.yaw, placement.scale))
+
+
 class _Path:
     """Keeps a walkable connection between the robot's start and goal while objects are placed.
 
@@ -299,11 +306,13 @@ def place_objects(
     level: float = 1.0,
     ends: Endpoints | None = None,
     seed: int = 0,
+    walkable: BaseGeometry | None = None,
 ) -> tuple[Placement, ...]:
     """The scene's static objects: buildings in their lots, then the counted furniture.
 
     ``rng`` is the placement stage's generator; ``level`` the density factor; ``ends``
-    the task's start and goal to keep clear and connected; ``seed`` only labels errors.
+    the task's start and goal to keep clear and connected; ``seed`` only labels errors;
+    ``walkable`` the walkable ground when the caller has it.
     """
     names = cfg.categories or tuple(CATEGORIES)
     unknown = [n for n in names if n not in CATEGORIES]
@@ -323,14 +332,16 @@ def place_objects(
     slots = {n: s for n in furniture if (s := ground.slot(n)) is not None}
     # The zones tile the ground, so the area they cover is the sum over distinct zones.
     ground_zones = {id(p): p.area for s in slots.values() for p in s.region.polygons}
-    area = float(sum(ground_zones[k] for k in sorted(ground_zones)))
+    area = float(sum(ground_zones.values()))  # in insertion order, never by address
     wanted = target_count(cfg, level, area)
     if not slots or wanted == 0:
         return tuple(placed)
     keep_out = _keep_out(ends)
-    path = (
-        _Path(walkable_ground(zones, (*bounds.min, *bounds.max)), ends) if ends and ends.needs_path else None
-    )
+    path = None
+    if ends is not None and ends.needs_path:
+        if walkable is None:
+            walkable = walkable_ground(zones, (*bounds.min, *bounds.max))
+        path = _Path(walkable, ends)
     taken = _Hash()
     reach = max(cfg.clearance, *(CATEGORIES[n].clearance for n in slots))
     rng = child(rng, 200)

@@ -112,6 +112,16 @@ def straighten(points: Sequence[tuple[float, float]], free: BaseGeometry) -> lis
     return out
 
 
+def cell_groups(piece: Polygon, res: float) -> tuple[raster.Grid, np.ndarray]:
+    """The piece's cells of ``res`` metres whose centres keep half a diagonal inside it (so a
+    straight step between neighbouring centres never leaves it), labelled by 8-connected
+    group (0: not inside)."""
+    x0, y0, x1, y1 = piece.bounds
+    grid = raster.Grid.covering((x0 - res, y0 - res, x1 + res, y1 + res), res)
+    labels, _ = raster.components(raster.mask(grid, piece.buffer(-0.75 * res, quad_segs=4)))
+    return grid, labels
+
+
 def grid_path(
     piece: Polygon, start: tuple[float, float], goal: tuple[float, float]
 ) -> list[tuple[float, float]] | None:
@@ -121,13 +131,10 @@ def grid_path(
     nearest ``goal`` among those connected to it (a neck narrower than a cell can split the
     grid where the piece itself is connected), then is straightened. None on an empty grid."""
     x0, y0, x1, y1 = piece.bounds
-    res = min(0.5, max(0.1, math.sqrt((x1 - x0) * (y1 - y0) / 4e6)))
-    grid = raster.Grid.covering((x0 - res, y0 - res, x1 + res, y1 + res), res)
-    free = raster.mask(grid, piece.buffer(-0.75 * res, quad_segs=4))
-    if not free.any():
+    grid, labels = cell_groups(piece, min(0.5, max(0.1, math.sqrt((x1 - x0) * (y1 - y0) / 4e6))))
+    if not labels.any():
         return None
-    labels, _ = raster.components(free)
-    _, (rows, cols) = scipy.ndimage.distance_transform_edt(~free, return_indices=True)
+    _, (rows, cols) = scipy.ndimage.distance_transform_edt(labels == 0, return_indices=True)
     a = grid.cell(*start)
     a = (int(rows[a]), int(cols[a]))
     mine = labels == labels[a]

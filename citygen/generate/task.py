@@ -23,9 +23,18 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
+from shapely.geometry.base import BaseGeometry
 
 from citygen.errors import GenerationError
-from citygen.generate.space import Sampler, far_pair, free_space, pieces, straighten, walkable_ground
+from citygen.generate.space import (
+    Sampler,
+    cell_groups,
+    far_pair,
+    free_space,
+    pieces,
+    straighten,
+    walkable_ground,
+)
 from citygen.geometry import raster
 from citygen.spec.blocks import Pose2
 from citygen.spec.config import TaskConfig
@@ -67,15 +76,23 @@ def robot_clearance(cfg: TaskConfig) -> float:
 
 
 def choose_endpoints(
-    bounds: Bounds, zones: Sequence[Zone], cfg: TaskConfig, rng: np.random.Generator, *, seed: int
+    bounds: Bounds,
+    zones: Sequence[Zone],
+    cfg: TaskConfig,
+    rng: np.random.Generator,
+    *,
+    seed: int,
+    walkable: BaseGeometry | None = None,
 ) -> Endpoints | None:
     """The start and goal (nav), the route (traverse); None for locomotion tasks, whose
-    start is chosen on the terrain grid by :func:`make_task`."""
+    start is chosen on the terrain grid by :func:`make_task`. ``walkable`` is the walkable
+    ground when the caller has it (:func:`~citygen.generate.space.walkable_ground`)."""
     if cfg.kind.startswith("loco-"):
         return None
     radius = robot_clearance(cfg)
-    box = (*bounds.min, *bounds.max)
-    free = free_space(walkable_ground(zones, box), (), radius)
+    if walkable is None:
+        walkable = walkable_ground(zones, (*bounds.min, *bounds.max))
+    free = free_space(walkable, (), radius)
     candidates = pieces(free)
     if not candidates:
         raise GenerationError(
@@ -120,10 +137,8 @@ def _traverse(
     """
     x0, y0, x1, y1 = piece.bounds
     res = min(1.0, max(0.1, math.sqrt((x1 - x0) * (y1 - y0) / 2e6)))
-    grid = raster.Grid.covering((x0 - res, y0 - res, x1 + res, y1 + res), res)
-    free = raster.mask(grid, piece.buffer(-0.75 * res, quad_segs=4))
-    labels, count = raster.components(free)
-    if count == 0:
+    grid, labels = cell_groups(piece, res)
+    if not labels.any():
         return None
     sizes = np.bincount(labels.ravel())
     sizes[0] = 0
