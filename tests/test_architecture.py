@@ -33,6 +33,7 @@ LAYERS = {
     "citygen.exporters": "exporters",
     "citygen.runner": "runner",
     "citygen.cli": "cli",
+    "citygen.cli_runner": "cli",
     "citygen.__main__": "cli",
     "citygen": "package",
 }
