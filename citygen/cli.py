@@ -13,6 +13,7 @@ from typing import Annotated
 import typer
 
 import citygen
+from citygen.cli_runner import register as register_runner
 from citygen.errors import CitygenError, SpecError
 
 app = typer.Typer(
@@ -405,6 +406,10 @@ def assets_render(
 
     path = contact_sheet(category, out, count=count, start=start, size_px=size)
     typer.echo(f"wrote {path}")
+
+
+# `citygen bench` and `citygen run` (the MuJoCo runner) live in their own module.
+register_runner(app)
 
 
 def _print_error(exc: CitygenError) -> None:
