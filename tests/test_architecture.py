@@ -1,7 +1,8 @@
 """The dependency rule of DESIGN.md section 3, and the packaging of citygen.exporters.
 
 spec <- geometry (height_at, tile meshes: pure functions of the spec);
-spec <- assets <- generate; spec, geometry, assets <- exporters; spec, exporters <- runner;
+spec <- assets <- generate; spec, geometry, assets <- exporters; spec, exporters, generate <- runner
+(the runner samples scenes of a named split);
 everything <- cli. Nothing imports cli; exporters never import generate or runner;
 the generator, the spec and the assets never import mujoco or pxr.
 """
@@ -45,7 +46,7 @@ ALLOWED = {
     "validate": {"base", "spec", "geometry", "assets", "validate"},
     "generate": {"base", "spec", "geometry", "assets", "validate", "generate"},
     "exporters": {"base", "spec", "geometry", "assets", "exporters"},
-    "runner": {"base", "spec", "geometry", "assets", "exporters", "runner"},
+    "runner": {"base", "spec", "geometry", "assets", "validate", "generate", "exporters", "runner"},
     "package": {"base", "spec", "geometry", "validate", "package"},
     "cli": set(LAYERS.values()),
 }
