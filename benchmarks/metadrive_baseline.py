@@ -32,17 +32,34 @@ Isolation
     MetaDrive runs in a child process: its globals (engine singleton), Panda3D and its
     dependency pins cannot disturb the caller, and the child may be another interpreter
     (``python=...``, or the ``CITYGEN_METADRIVE_PYTHON`` environment variable), so a caller
-    whose venv lacks MetaDrive can still measure it. This file uses only the standard
-    library and runs on the Python versions MetaDrive supports (3.8 to 3.11).
+    whose venv lacks MetaDrive can still measure it. This file runs on the Python versions
+    MetaDrive supports (3.8 to 3.11); the parent side uses only the standard library (the
+    step benchmark's child also uses numpy, a MetaDrive dependency).
+
+Environment steps per second (:func:`measure_metadrive_steps`)
+    The runner benchmark's MetaDrive figure: an ordinary ``MetaDriveEnv`` (MetaDrive's
+    defaults: a 3-block map, scenario 0 only, no horizon) with ``use_render=False`` and no
+    image observation, so the observation is MetaDrive's default state vector (ego state,
+    navigation and a 240-beam lidar, 259 floats). The loop is ``env.step(action)`` with
+    uniform random actions in [-1, 1]^2 (``numpy.random.default_rng(0)``, drawn before the
+    clock starts, as ``bench_runner.py`` drives NavStatic) and ``env.reset()`` whenever the
+    episode ends; resets inside the loop count against the rate. Each traffic density runs
+    in its own child, so each pays its own one-time start (import, engine initialisation,
+    first reset, 20 warm-up steps), reported separately and never counted in the rate. One
+    env step advances ``decision_repeat`` physics steps of ``physics_world_step_size``
+    seconds (MetaDrive's defaults 5 x 0.02 s = 0.1 s), reported so rates can be compared
+    per simulated second.
 
 Standalone: ``python benchmarks/metadrive_baseline.py [--blocks 7] [--seeds 10] [--python PATH]``
-prints a table and, as its last line, one JSON object of figures in milliseconds.
+prints a table and, as its last line, one JSON object of figures in milliseconds;
+``--steps N [--traffic 0.1 0]`` measures environment steps per second instead.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import logging
 import os
 import statistics
 import subprocess
@@ -59,6 +76,30 @@ GRASS_TEXTURE = ("textures", "grass1", "GroundGrassGreen002_COL_1K.jpg")
 
 _RESULT_TAG = "METADRIVE_BASELINE_RESULT "
 _DEFAULT_TIMEOUT_S = 300.0
+
+#: Steps taken (and not timed) after the first reset, before the steps/s clock starts.
+WARMUP_STEPS = 20
+
+#: Traffic densities :func:`measure_metadrive_steps` measures by default; 0.1 is MetaDrive's default.
+DEFAULT_TRAFFIC_DENSITIES = (0.1, 0.0)
+
+#: Keys of one traffic density's run in :func:`measure_metadrive_steps`' result (see there).
+_RUN_KEYS = (
+    "traffic_density",
+    "steps_per_s",
+    "cpu_steps_per_s",
+    "simulated_s_per_wall_s",
+    "loop_s",
+    "loop_cpu_s",
+    "resets",
+    "reset_s",
+    "traffic_vehicles",
+    "import_s",
+    "engine_init_s",
+    "first_reset_s",
+    "warmup_s",
+    "process_s",
+)
 
 
 class MetaDriveBaselineError(RuntimeError):
@@ -183,6 +224,60 @@ def time_metadrive_maps(
     return list(measure_metadrive(blocks, seeds, python).map_s)
 
 
+def measure_metadrive_steps(
+    steps: int = 2000,
+    python: str | None = None,
+    timeout_s: float = _DEFAULT_TIMEOUT_S,
+    traffic_densities: Sequence[float] = DEFAULT_TRAFFIC_DENSITIES,
+) -> dict:
+    """Headless ``MetaDriveEnv`` steps per second, one child process per traffic density.
+
+    Each child builds an ordinary ``MetaDriveEnv`` (``use_render=False``, state-vector
+    observation, the given ``traffic_density``), resets it, takes :data:`WARMUP_STEPS`
+    untimed steps, then times ``steps`` calls of ``env.step`` with uniform random actions,
+    resetting whenever an episode ends (those resets are inside the timed loop).
+    ``timeout_s`` bounds each child. Prepares the assets first (see :func:`prepare_assets`).
+
+    Returns a JSON-ready dict. Shared by every run: ``version`` (MetaDrive's), ``python``,
+    ``steps``, ``map_blocks`` (blocks in MetaDrive's default map), ``observation_size``
+    (floats per observation), ``decision_repeat`` (physics steps per env step),
+    ``physics_world_step_size_s`` (seconds per physics step) and ``simulated_s_per_step``
+    (their product, seconds). ``runs`` holds one dict per density, in the order given:
+    ``traffic_density``; ``steps_per_s`` (env steps per wall second) and ``cpu_steps_per_s``
+    (per CPU second of the child process, steadier on a busy machine); ``simulated_s_per_wall_s``
+    (the real-time factor); ``loop_s`` and ``loop_cpu_s`` (the timed loop, seconds);
+    ``resets`` (episodes ended in the loop) and ``reset_s`` (wall seconds those resets took);
+    ``traffic_vehicles`` (traffic vehicles MetaDrive placed at the first reset); and the
+    one-time start cost, never in the rate: ``import_s`` (``import metadrive``),
+    ``engine_init_s`` (env construction and engine start), ``first_reset_s`` (first map and
+    vehicles), ``warmup_s`` and ``process_s`` (the whole child, seconds, interpreter start
+    included). The first run's figures are repeated at the top level, so ``result["steps_per_s"]``
+    is the rate at the first density (MetaDrive's default traffic unless told otherwise).
+    """
+    if isinstance(steps, bool) or not isinstance(steps, int) or not 1 <= steps <= 10_000_000:
+        raise ValueError(f"steps: expected an int in [1, 10000000], got {steps!r}")
+    densities = tuple(traffic_densities)
+    bad = [d for d in densities if isinstance(d, bool) or not isinstance(d, (int, float)) or not 0 <= d <= 1]
+    if not densities or bad:
+        raise ValueError(f"traffic_densities: expected one or more numbers in [0, 1], got {densities!r}")
+    interpreter = python or default_python()
+    shared: dict = {}
+    runs = []
+    for density in densities:
+        job = {"steps": steps, "traffic_density": float(density), "warmup": WARMUP_STEPS}
+        started = time.perf_counter()
+        result = _run_child(["--steps-worker", json.dumps(job)], interpreter, timeout_s)
+        result["process_s"] = time.perf_counter() - started
+        run = {key: result.pop(key) for key in _RUN_KEYS}
+        if shared and result != shared:
+            raise MetaDriveBaselineError(
+                f"MetaDrive children disagree on the step settings: {shared} vs {result}"
+            )
+        shared = result
+        runs.append(run)
+    return {"python": interpreter, "steps": steps, **shared, **runs[0], "runs": runs}
+
+
 # --------------------------------------------------------------------------- parent side
 
 
@@ -279,26 +374,29 @@ def _refuse_download(*_args, **_kwargs) -> None:
     raise MetaDriveBaselineError("MetaDrive tried to download its assets; run prepare_assets() first")
 
 
-def _worker(blocks: int, seeds: list[int]) -> dict:
-    """Runs in the child: time one cold map, then one map and one reset per seed."""
-    perf, cpu = time.perf_counter, time.process_time
-    version = _prepare_assets_here()
-
-    started = perf()
-    import logging
-
+def _import_metadrive() -> tuple[type, float]:
+    """Import MetaDrive with its asset download refused: ``(MetaDriveEnv, seconds importing)``."""
+    started = time.perf_counter()
     import metadrive  # noqa: F401  (the package import is part of the measured import cost)
     from metadrive.engine import base_engine
     from metadrive.engine.asset_loader import AssetLoader
     from metadrive.envs.metadrive_env import MetaDriveEnv
 
-    import_s = perf() - started
+    import_s = time.perf_counter() - started
 
     if AssetLoader.should_update_asset():
         raise MetaDriveBaselineError(
             f"MetaDrive still wants to download assets into {AssetLoader.asset_path}"
         )
     base_engine.pull_asset = _refuse_download
+    return MetaDriveEnv, import_s
+
+
+def _worker(blocks: int, seeds: list[int]) -> dict:
+    """Runs in the child: time one cold map, then one map and one reset per seed."""
+    perf, cpu = time.perf_counter, time.process_time
+    version = _prepare_assets_here()
+    MetaDriveEnv, import_s = _import_metadrive()
 
     env = MetaDriveEnv(
         {
@@ -366,6 +464,83 @@ def _worker(blocks: int, seeds: list[int]) -> dict:
     }
 
 
+def _steps_worker(steps: int, traffic_density: float, warmup: int) -> dict:
+    """Runs in the child: time ``steps`` random-action env steps after the untimed start."""
+    perf, cpu = time.perf_counter, time.process_time
+    version = _prepare_assets_here()
+    MetaDriveEnv, import_s = _import_metadrive()
+    import numpy as np  # a MetaDrive dependency, already imported by it
+
+    actions = np.random.default_rng(0).uniform(-1.0, 1.0, (warmup + steps, 2)).astype(np.float32)
+
+    started = perf()
+    env = MetaDriveEnv(
+        {
+            "use_render": False,
+            "image_observation": False,
+            "traffic_density": traffic_density,
+            "log_level": logging.CRITICAL,
+        }
+    )
+    env.lazy_init()
+    engine_init_s = perf() - started
+    try:
+        started = perf()
+        observation, _ = env.reset()
+        first_reset_s = perf() - started
+        if np.ndim(observation) != 1:
+            raise MetaDriveBaselineError(
+                f"expected a state-vector observation, got shape {np.shape(observation)}"
+            )
+        traffic_vehicles = len(env.engine.traffic_manager.spawned_objects)
+
+        started = perf()
+        for action in actions[:warmup]:
+            _, _, terminated, truncated, _ = env.step(action)
+            if terminated or truncated:
+                env.reset()
+        warmup_s = perf() - started
+
+        resets, reset_s = 0, 0.0
+        started, started_cpu = perf(), cpu()
+        for action in actions[warmup:]:
+            _, _, terminated, truncated, _ = env.step(action)
+            if terminated or truncated:
+                began = perf()
+                env.reset()
+                reset_s += perf() - began
+                resets += 1
+        loop_s, loop_cpu_s = perf() - started, cpu() - started_cpu
+
+        decision_repeat = int(env.config["decision_repeat"])
+        physics_step_s = float(env.config["physics_world_step_size"])
+        map_blocks = int(env.config["map"])
+    finally:
+        env.close()
+    simulated_s_per_step = decision_repeat * physics_step_s
+    return {
+        "version": version,
+        "map_blocks": map_blocks,
+        "observation_size": int(np.size(observation)),
+        "decision_repeat": decision_repeat,
+        "physics_world_step_size_s": physics_step_s,
+        "simulated_s_per_step": simulated_s_per_step,
+        "traffic_density": traffic_density,
+        "steps_per_s": steps / loop_s,
+        "cpu_steps_per_s": steps / loop_cpu_s,
+        "simulated_s_per_wall_s": steps * simulated_s_per_step / loop_s,
+        "loop_s": loop_s,
+        "loop_cpu_s": loop_cpu_s,
+        "resets": resets,
+        "reset_s": reset_s,
+        "traffic_vehicles": traffic_vehicles,
+        "import_s": import_s,
+        "engine_init_s": engine_init_s,
+        "first_reset_s": first_reset_s,
+        "warmup_s": warmup_s,
+    }
+
+
 # --------------------------------------------------------------------------- standalone
 
 
@@ -397,20 +572,70 @@ def _figures(t: MetaDriveTimings) -> dict[str, float]:
     }
 
 
+def _steps_table(r: dict) -> str:
+    rows = [
+        f"MetaDrive {r['version']} ({r['python']}), MetaDriveEnv headless, {r['map_blocks']}-block map, "
+        f"{r['observation_size']}-float state observation, random actions, {r['steps']} steps per run",
+        f"one env step = {r['decision_repeat']} physics steps x {r['physics_world_step_size_s'] * 1e3:g} ms "
+        f"= {r['simulated_s_per_step'] * 1e3:g} ms simulated",
+        f"{'traffic':>7} {'steps/s':>9} {'per CPU s':>9} {'sim s/s':>8} {'resets':>6} {'reset s':>7} "
+        f"{'vehicles':>8}   start: {'import':>7} {'engine':>7} {'1st reset':>9} {'warm-up':>7} {'child':>6}",
+    ]
+    for run in r["runs"]:
+        rows.append(
+            f"{run['traffic_density']:>7g} {run['steps_per_s']:>9.1f} {run['cpu_steps_per_s']:>9.1f} "
+            f"{run['simulated_s_per_wall_s']:>8.1f} {run['resets']:>6} {run['reset_s']:>7.2f} "
+            f"{run['traffic_vehicles']:>8}          {run['import_s']:>6.2f}s {run['engine_init_s']:>6.2f}s "
+            f"{run['first_reset_s']:>8.2f}s {run['warmup_s']:>6.2f}s {run['process_s']:>5.1f}s"
+        )
+    return "\n".join(rows)
+
+
+def _steps_figures(r: dict) -> dict[str, float | str]:
+    figures: dict[str, float | str] = {
+        "metadrive_version": r["version"],
+        "metadrive_decision_repeat": r["decision_repeat"],
+        "metadrive_physics_step_ms": round(r["physics_world_step_size_s"] * 1e3, 3),
+        "metadrive_simulated_ms_per_step": round(r["simulated_s_per_step"] * 1e3, 3),
+    }
+    for run in r["runs"]:
+        tag = f"traffic{run['traffic_density']:g}"
+        figures[f"metadrive_steps_per_s_{tag}"] = round(run["steps_per_s"], 1)
+        figures[f"metadrive_cpu_steps_per_s_{tag}"] = round(run["cpu_steps_per_s"], 1)
+        figures[f"metadrive_start_ms_{tag}"] = round(
+            (run["import_s"] + run["engine_init_s"] + run["first_reset_s"]) * 1e3, 1
+        )
+    return figures
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--blocks", type=int, default=7, help="sampled blocks per map (default 7)")
     parser.add_argument("--seeds", type=int, default=10, help="number of seeds, 0..N-1 (default 10)")
     parser.add_argument("--python", default=None, help=f"interpreter with metadrive (default ${PYTHON_ENV})")
+    parser.add_argument(
+        "--steps", type=int, default=None, help="measure N env steps per traffic density instead of maps"
+    )
+    parser.add_argument(
+        "--traffic",
+        type=float,
+        nargs="+",
+        default=list(DEFAULT_TRAFFIC_DENSITIES),
+        help="traffic densities for --steps, one child each (default 0.1 0)",
+    )
     parser.add_argument("--worker", help=argparse.SUPPRESS)
+    parser.add_argument("--steps-worker", help=argparse.SUPPRESS)
     parser.add_argument("--prepare-assets", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
 
-    if args.prepare_assets or args.worker:  # child side: report errors as one line, exit 1
+    if args.prepare_assets or args.worker or args.steps_worker:  # child side: errors as one line, exit 1
         try:
             if args.worker:
                 job = json.loads(args.worker)
                 _emit(_worker(int(job["blocks"]), [int(s) for s in job["seeds"]]))
+            elif args.steps_worker:
+                job = json.loads(args.steps_worker)
+                _emit(_steps_worker(int(job["steps"]), float(job["traffic_density"]), int(job["warmup"])))
             else:
                 _emit({"version": _prepare_assets_here()})
         except MetaDriveBaselineError as exc:
@@ -428,8 +653,13 @@ def main(argv: list[str] | None = None) -> int:
         print("{}")
         return 1
     try:
+        if args.steps is not None:
+            result = measure_metadrive_steps(args.steps, python, traffic_densities=args.traffic)
+            print(_steps_table(result))
+            print(json.dumps(_steps_figures(result)))
+            return 0
         timings = measure_metadrive(args.blocks, range(args.seeds), python)
-    except MetaDriveBaselineError as exc:
+    except (MetaDriveBaselineError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         print("{}")
         return 1
