@@ -1,0 +1,179 @@
+"""Running episodes: one (:func:`run_episode`), a benchmark of many in a process pool
+(:func:`run_bench`, the ``citygen bench`` command) and vector environments whose
+sub-environments each run a different scene (:func:`make_vector_env`)."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from citygen.errors import SpecError
+from citygen.runner import ENV_IDS
+from citygen.spec import Scene
+
+#: Task kind -> environment class name in :mod:`citygen.runner.envs`.
+KINDS = tuple(ENV_IDS.values())
+
+
+def make_env(task: str, scene: Scene | str | Path | None = None, **kwargs: Any):
+    """The environment of a task kind (``"nav-static"``) on a scene or a split."""
+    from citygen.runner import envs
+
+    if task not in KINDS:
+        raise SpecError(f"task: expected one of {', '.join(KINDS)}, got {task!r}")
+    cls = (
+        envs.NavEnv
+        if task.startswith("nav")
+        else envs.LocoEnv
+        if task.startswith("loco")
+        else envs.TraverseEnv
+    )
+    return cls(task, scene, **kwargs)
+
+
+def run_episode(
+    env: Any,
+    policy: Any,
+    *,
+    seed: int | None = None,
+    index: int | None = None,
+    on_step: Callable[[Any, int], None] | None = None,
+) -> dict[str, Any]:
+    """One episode of ``policy`` in ``env`` (reset with ``seed`` and scene ``index``); returns
+    the task's metrics plus ``return``, ``steps``, ``scene`` and ``index``. ``on_step(env,
+    t)`` is called after the reset and after every step (to save frames)."""
+    options = None if index is None else {"index": index}
+    obs, info = env.reset(seed=seed, options=options)
+    policy.reset(env.unwrapped)
+    total, t = 0.0, 0
+    if on_step is not None:
+        on_step(env, t)
+    while True:
+        obs, reward, terminated, truncated, info = env.step(policy.act(obs))
+        total += reward
+        t += 1
+        if on_step is not None:
+            on_step(env, t)
+        if terminated or truncated:
+            break
+    return {
+        **info["metrics"],
+        "return": total,
+        "steps": t,
+        "scene": info.get("scene"),
+        "index": info.get("index"),
+    }
+
+
+@dataclass(frozen=True)
+class BenchSpec:
+    task: str
+    split: str
+    robot: str | None
+    policy: str
+    seed: int = 0
+    env_options: tuple[tuple[str, Any], ...] = ()
+
+
+_WORKER: dict[str, Any] = {}
+
+
+def _episode(spec: BenchSpec, i: int) -> dict[str, Any]:
+    """Episode ``i`` of a benchmark: scene ``i`` of the split, seed ``seed + i`` (one env per
+    worker process, reused)."""
+    from citygen.runner.policies import make_policy
+
+    key = repr(spec)
+    if _WORKER.get("key") != key:
+        _WORKER.clear()
+        _WORKER["key"] = key
+        _WORKER["env"] = make_env(spec.task, split=spec.split, robot=spec.robot, **dict(spec.env_options))
+    policy = make_policy(spec.policy, seed=spec.seed + i)
+    return run_episode(_WORKER["env"], policy, seed=spec.seed + i, index=i)
+
+
+def run_bench(
+    task: str,
+    split: str,
+    *,
+    robot: str | None = None,
+    policy: str = "planner",
+    episodes: int = 16,
+    jobs: int | None = None,
+    seed: int = 0,
+    progress: Callable[[int, int], None] | None = None,
+    **env_options: Any,
+) -> list[dict[str, Any]]:
+    """``episodes`` episodes (scene ``i`` of ``split`` for episode ``i``) in ``jobs`` processes;
+    the per-episode metric rows, in episode order (the same for any ``jobs``)."""
+    from citygen.runner.policies import POLICIES
+
+    if policy not in POLICIES:
+        raise SpecError(f"policy: expected one of {', '.join(POLICIES)}, got {policy!r}")
+    if task not in KINDS:
+        raise SpecError(f"task: expected one of {', '.join(KINDS)}, got {task!r}")
+    spec = BenchSpec(task, split, robot, policy, seed, tuple(sorted(env_options.items())))
+    jobs = max(1, min(jobs or os.cpu_count() or 1, episodes))
+    rows: list[dict[str, Any]] = [{}] * episodes
+    if jobs == 1:
+        for i in range(episodes):
+            rows[i] = _episode(spec, i)
+            if progress:
+                progress(i + 1, episodes)
+        return rows
+    with ProcessPoolExecutor(jobs) as pool:
+        futures = {pool.submit(_episode, spec, i): i for i in range(episodes)}
+        done = 0
+        for fut in as_completed(futures):
+            rows[futures[fut]] = fut.result()
+            done += 1
+            if progress:
+                progress(done, episodes)
+    return rows
+
+
+def make_vector_env(
+    task: str,
+    *,
+    split: str | None = None,
+    num_envs: int | None = None,
+    asynchronous: bool = True,
+    **kwargs: Any,
+):
+    """A Gymnasium vector environment of ``num_envs`` (default: one per core) environments of
+    ``task`` sampling ``split``: every sub-environment draws its own scene on every reset (from
+    its own generator, seeded ``seed + i`` by Gymnasium) out of its process's cache of compiled
+    scenes -- asynchronous scene sampling. ``asynchronous=True`` runs one process per
+    sub-environment."""
+    import gymnasium
+
+    n = num_envs or os.cpu_count() or 1
+    fns = [_factory(task, split, kwargs) for _ in range(n)]
+    if asynchronous:
+        return gymnasium.vector.AsyncVectorEnv(fns, shared_memory=False)
+    return gymnasium.vector.SyncVectorEnv(fns)
+
+
+def _factory(task: str, split: str | None, kwargs: dict[str, Any]) -> Callable[[], Any]:
+    def make():
+        return make_env(task, split=split, **kwargs)
+
+    return make
+
+
+def summary_json(rows: Sequence[dict[str, Any]], **header: Any) -> dict[str, Any]:
+    """The benchmark's JSON document: the header, the summary (mean, standard error, n per
+    metric) and every episode's row."""
+    from citygen.runner.metrics import summarise
+
+    numeric = [
+        {k: v for k, v in r.items() if isinstance(v, int | float | np.floating) and k != "index"}
+        for r in rows
+    ]
+    return {**header, "episodes": len(rows), "summary": summarise(numeric), "rows": list(rows)}

@@ -1,0 +1,737 @@
+"""Gymnasium environments for the URBAN-BENCH tasks (registered by :mod:`citygen.runner`).
+
+Every environment runs one robot (:mod:`citygen.runner.robots`) in a scene compiled to
+MuJoCo by :mod:`citygen.exporters.mjcf`. It is built from a scene (``scene=`` a
+:class:`~citygen.spec.Scene` or a scene file) or from a split to sample from (``split=``,
+default the task's Urban-Nav / Urban-Loc / Urban-Tra test split): then every
+:meth:`reset` draws a scene index from the environment's generator (``options={"index": i}``
+picks one), and compiled scenes come from a per-process cache.
+
+**Navigation** (:class:`NavEnv`; NavClear, NavStatic, NavDynamic), as in the paper's
+appendix: the action is ``[v, w]`` in [-1, 1], scaled to the robot's maximum forward speed
+and yaw rate, held for one control step of :data:`NAV_DT` s; the observation is a dict
+with ``goal`` (the goal in the robot's frame, m), ``velocity`` (``[vx, vy, wz]`` in the
+robot's frame) and ``height_map`` (ground heights relative to the robot's feet on a
+1.6 m x 1.0 m grid around it, every 0.1 m, from :func:`citygen.height_at`), plus ``depth``
+and ``rgb`` (MuJoCo renderer, ``image_size`` square, off unless asked) and ``rays``
+(ranges of :data:`RAY_COUNT` horizontal rays, off unless asked). Reward per step:
+``+50`` on reaching the goal and ``-100`` on leaving the scene's bounds (both end the
+episode; a fall ends it like leaving the bounds), ``2.0 * [(1 - tanh(d / 1.0)) + 0.2 (1 -
+tanh(d / 0.2))]`` for the distance ``d`` to the goal, ``-0.5`` on non-walkable ground and
+``-1.0`` in collision (a contact with an object or an agent, or a person's disc
+overlapping the robot's). The horizon is :data:`NAV_HORIZON` steps. NavDynamic's people
+move by ORCA and its vehicles by IDM (:mod:`citygen.runner.crowd`); in NavClear and
+NavStatic the scene's agents are removed.
+
+**Locomotion** (:class:`LocoEnv`; LocoFlat, LocoSlope, LocoStair, LocoRough): joint-level
+actions in [-1, 1] (targets around the robot's standing pose) every :data:`LOCO_DT` s;
+the observation is the base's linear and angular velocity, the command, joint positions
+and velocities, the last action and the height map. Reward as in the paper: ``-100`` and
+the end of the episode when a robot part other than a foot or wheel presses on the ground
+with more than 1 N; ``exp(-|v_xy - c_xy|^2 / 0.25^2) + 0.5 exp(-(w_z - c_wz)^2 / 0.25^2)``
+for tracking the command; ``-2.0 v_z^2``; ``-0.01 |a_t - a_(t-1)|^2``. Horizon
+:data:`LOCO_HORIZON` steps.
+
+**Traverse** (:class:`TraverseEnv`): navigation along the task's route, waypoint by
+waypoint; a fall, leaving the bounds or :data:`STUCK_SECONDS` without progress puts the
+robot back at the last waypoint reached (an *attempt*) instead of ending the episode; it
+ends at the route's last point or the task's time limit. Who is driving is told by
+:meth:`TraverseEnv.set_operator` (the control modes of :mod:`citygen.runner.policies`).
+
+Each environment fills ``info["metrics"]`` on the last step of an episode with the paper's
+metrics of its task (:mod:`citygen.runner.metrics`).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import gymnasium
+import numpy as np
+from gymnasium import spaces
+
+from citygen.errors import SpecError
+from citygen.geometry.terrain import height_at
+from citygen.runner import metrics as M
+from citygen.runner.scenes import Prepared, SceneSource, process_cache
+from citygen.spec import Scene
+
+#: Control step (s) of navigation and traverse: actions are held this long.
+NAV_DT = 0.1
+#: Navigation episodes end after this many steps (the paper's horizon).
+NAV_HORIZON = 200
+#: Control step (s) of locomotion.
+LOCO_DT = 0.02
+#: Locomotion episodes end after this many steps (the paper's horizon).
+LOCO_HORIZON = 1000
+#: Height map: forward and lateral extent (m) and spacing (m), centred on the robot.
+HEIGHT_MAP = (1.6, 1.0, 0.1)
+#: Horizontal rays of the ``rays`` observation, their height above the feet and range (m).
+RAY_COUNT, RAY_HEIGHT, RAY_RANGE = 32, 0.3, 8.0
+#: Contact force (N) on a non-foot part that counts as a fall in locomotion.
+FALL_FORCE = 1.0
+#: Traverse: seconds without getting closer to the next waypoint before a reset.
+STUCK_SECONDS = 15.0
+
+#: Default split of each task kind (the test part of its dataset).
+DEFAULT_SPLIT = {
+    "nav-clear": "urban-nav-1-test",
+    "nav-static": "urban-nav-2-test",
+    "nav-dynamic": "urban-nav-3-test",
+    "loco-flat": "urban-loc-1-test",
+    "loco-slope": "urban-loc-2-test",
+    "loco-stair": "urban-loc-3-test",
+    "loco-rough": "urban-loc-4-test",
+    "traverse": "urban-tra-standard",
+}
+
+
+def _yaw_rotate(vx: np.ndarray, vy: np.ndarray, yaw: float) -> tuple[np.ndarray, np.ndarray]:
+    """World vectors into the frame turned by ``yaw``."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    return c * vx + s * vy, -s * vx + c * vy
+
+
+class _CitygenEnv(gymnasium.Env):
+    """What the three task families share: scenes, the robot, the MuJoCo loop, images."""
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+    default_robot = "wheeled"
+    dt = NAV_DT
+
+    def __init__(
+        self,
+        task: str,
+        scene: Scene | str | Path | None = None,
+        *,
+        split: str | None = None,
+        seed: int | None = None,
+        robot: str | Path | None = None,
+        adapter: Any = None,
+        depth: bool = False,
+        rgb: bool = False,
+        rays: bool = False,
+        image_size: int = 128,
+        render_mode: str | None = None,
+        max_steps: int | None = None,
+    ):
+        from citygen.runner.robots import load_robot
+
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise SpecError(
+                f"render_mode: expected one of {self.metadata['render_modes']}, got {render_mode!r}"
+            )
+        if scene is None and split is None:
+            split = DEFAULT_SPLIT[task]
+        self.task_kind = task
+        self.source = SceneSource(scene, split, seed)
+        self.robot = load_robot(robot or self.default_robot, adapter)
+        self.use_depth, self.use_rgb, self.use_rays = depth, rgb, rays
+        self.image_size = int(image_size)
+        self.render_mode = render_mode
+        self.max_steps = max_steps
+        self.prepared: Prepared | None = None
+        self.model = None
+        self.data = None
+        self.handle = None
+        self._renderer = None
+        self._viewer = None
+        self._index = -1
+        hx, hy, step = HEIGHT_MAP
+        nx, ny = round(hx / step) + 1, round(hy / step) + 1
+        u, v = np.meshgrid(np.linspace(-hx / 2, hx / 2, nx), np.linspace(-hy / 2, hy / 2, ny), indexing="ij")
+        self._hm_local = (u.ravel(), v.ravel(), (nx, ny))
+        angles = np.linspace(0.0, 2 * np.pi, RAY_COUNT, endpoint=False)
+        self._ray_dirs = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
+
+    # --- spaces -------------------------------------------------------------------------
+
+    def _image_spaces(self) -> dict[str, spaces.Space]:
+        n = self.image_size
+        out: dict[str, spaces.Space] = {}
+        if self.use_depth:
+            out["depth"] = spaces.Box(0.0, np.inf, (n, n), np.float32)
+        if self.use_rgb:
+            out["rgb"] = spaces.Box(0, 255, (n, n, 3), np.uint8)
+        if self.use_rays:
+            out["rays"] = spaces.Box(0.0, RAY_RANGE, (RAY_COUNT,), np.float32)
+        return out
+
+    def _height_space(self) -> spaces.Box:
+        return spaces.Box(-np.inf, np.inf, self._hm_local[2], np.float32)
+
+    # --- scenes and the model ------------------------------------------------------------
+
+    def _load(self, index: int) -> None:
+        import mujoco
+
+        from citygen.runner.robots import RobotHandle
+
+        prepared = process_cache().get(self.source, index, self.robot)
+        if prepared is not self.prepared:
+            self.prepared = prepared
+            self.model = prepared.model
+            self.data = mujoco.MjData(self.model)
+            self.handle = RobotHandle(self.model, self.robot)
+            self._robot_geoms = np.zeros(self.model.ngeom, dtype=bool)
+            self._robot_geoms[self.handle.geom_ids] = True
+            self._foot_geoms = np.zeros(self.model.ngeom, dtype=bool)
+            self._foot_geoms[self.handle.foot_geom_ids] = True
+            self._substeps = max(1, round(self.dt / self.model.opt.timestep))
+            if self._renderer is not None:
+                self._renderer.close()
+                self._renderer = None
+        self._index = index
+        self.scene = prepared.scene
+
+    def _pick_index(self, options: dict | None) -> int:
+        if options and "index" in options:
+            return int(options["index"])
+        if self.source.size == 1:
+            return 0
+        return int(self.np_random.integers(self.source.size))
+
+    def _ground_z(self, x: float, y: float) -> float:
+        return float(height_at(self.scene, x, y))
+
+    def _physics(self, command: Any) -> None:
+        import mujoco
+
+        for _ in range(self._substeps):
+            command()
+            mujoco.mj_step(self.model, self.data)
+
+    # --- observations --------------------------------------------------------------------
+
+    def _height_map(self, x: float, y: float, z_feet: float, yaw: float) -> np.ndarray:
+        u, v, shape = self._hm_local
+        c, s = math.cos(yaw), math.sin(yaw)
+        xs, ys = x + c * u - s * v, y + s * u + c * v
+        return (height_at(self.scene, xs, ys) - z_feet).reshape(shape).astype(np.float32)
+
+    def _images(self, pose: tuple[float, float, float, float]) -> dict[str, np.ndarray]:
+        out: dict[str, np.ndarray] = {}
+        if not (self.use_depth or self.use_rgb or self.use_rays):
+            return out
+        x, y, z, yaw = pose
+        if self.use_rays:
+            out["rays"] = self._ray_ranges(x, y, z, yaw)
+        if self.use_depth or self.use_rgb:
+            renderer = self._get_renderer(self.image_size, self.image_size)
+            cam = self._eye_camera(pose)
+            if self.use_rgb:
+                renderer.disable_depth_rendering()
+                renderer.update_scene(self.data, camera=cam)
+                out["rgb"] = renderer.render().copy()
+            if self.use_depth:
+                renderer.enable_depth_rendering()
+                renderer.update_scene(self.data, camera=cam)
+                out["depth"] = renderer.render().astype(np.float32)
+                renderer.disable_depth_rendering()
+        return out
+
+    def _ray_ranges(self, x: float, y: float, z: float, yaw: float) -> np.ndarray:
+        import mujoco
+
+        ground = self._ground_z(x, y)
+        c, s = math.cos(yaw), math.sin(yaw)
+        d = self._ray_dirs
+        dirs = np.stack([c * d[:, 0] - s * d[:, 1], s * d[:, 0] + c * d[:, 1], d[:, 2]], axis=1)
+        pnt = np.array([x, y, ground + RAY_HEIGHT])
+        out = np.full(RAY_COUNT, RAY_RANGE, dtype=np.float32)
+        geomid = np.zeros(RAY_COUNT, dtype=np.int32)
+        dist = np.zeros(RAY_COUNT, dtype=np.float64)
+        # Group 3 holds nothing of the scene; the robot's own body is excluded by its id.
+        mujoco.mj_multiRay(
+            self.model, self.data, pnt, dirs.ravel(), None, 1, self.handle.base_id,
+            geomid, dist, None, RAY_COUNT, RAY_RANGE,
+        )  # fmt: skip
+        hit = (geomid >= 0) & (dist >= 0)
+        out[hit] = np.minimum(dist[hit], RAY_RANGE)
+        return out
+
+    def _eye_camera(self, pose: tuple[float, float, float, float]):
+        import mujoco
+
+        x, y, z, yaw = pose
+        cam = mujoco.MjvCamera()
+        cam.type = mujoco.mjtCamera.mjCAMERA_FREE
+        ground = self._ground_z(x, y)
+        eye = 0.6
+        cam.lookat[:] = (x + 1.5 * math.cos(yaw), y + 1.5 * math.sin(yaw), ground + eye - 0.2)
+        cam.distance = 1.5 + max(self.robot.radius, 0.2)
+        cam.azimuth = math.degrees(yaw)
+        cam.elevation = -8.0
+        return cam
+
+    def _get_renderer(self, width: int, height: int):
+        import mujoco
+
+        if self._renderer is None or (self._renderer.width, self._renderer.height) != (width, height):
+            if self._renderer is not None:
+                self._renderer.close()
+            self._renderer = mujoco.Renderer(self.model, height=height, width=width)
+        return self._renderer
+
+    def render(self):
+        if self.render_mode != "rgb_array" or self.model is None:
+            return None
+        renderer = self._get_renderer(
+            min(640, self.model.vis.global_.offwidth), min(480, self.model.vis.global_.offheight)
+        )
+        renderer.update_scene(self.data, camera=self._chase_camera())
+        return renderer.render().copy()
+
+    def _chase_camera(self):
+        import mujoco
+
+        x, y, z, yaw = self.handle.pose(self.data)
+        cam = mujoco.MjvCamera()
+        cam.type = mujoco.mjtCamera.mjCAMERA_FREE
+        cam.lookat[:] = (x, y, z)
+        cam.distance = 6.0
+        cam.azimuth = math.degrees(yaw) + 180.0 - 180.0
+        cam.elevation = -35.0
+        return cam
+
+    def close(self):
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    # --- contacts ------------------------------------------------------------------------
+
+    def _contacts(self) -> tuple[np.ndarray, np.ndarray]:
+        n = self.data.ncon
+        if n == 0:
+            empty = np.zeros(0, dtype=np.int64)
+            return empty, empty
+        c = self.data.contact
+        return np.asarray(c.geom1[:n]), np.asarray(c.geom2[:n])
+
+    def _touching_obstacle(self) -> bool:
+        g1, g2 = self._contacts()
+        if g1.size == 0:
+            return False
+        rg, ob = self._robot_geoms, self.prepared.obstacle_geoms
+        return bool(np.any((rg[g1] & ob[g2]) | (rg[g2] & ob[g1])))
+
+
+# --- navigation ---------------------------------------------------------------------------
+
+
+class NavEnv(_CitygenEnv):
+    """Point-goal navigation: NavClear, NavStatic, NavDynamic (see the module docstring)."""
+
+    def __init__(self, task: str = "nav-static", scene: Scene | str | Path | None = None, **kwargs: Any):
+        if not task.startswith(("nav", "traverse")):
+            raise SpecError(f"task: expected a navigation task kind, got {task!r}")
+        super().__init__(task, scene, **kwargs)
+        self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
+        obs = {
+            "goal": spaces.Box(-np.inf, np.inf, (2,), np.float32),
+            "velocity": spaces.Box(-np.inf, np.inf, (3,), np.float32),
+            "height_map": self._height_space(),
+        }
+        obs.update(self._image_spaces())
+        self.observation_space = spaces.Dict(obs)
+        self.horizon = self.max_steps or NAV_HORIZON
+        self.crowd = None
+        self.traffic = None
+
+    # The goal of the current step (a traverse moves it along the route).
+    def _goal(self) -> tuple[float, float]:
+        return self.goal
+
+    def _setup_task(self) -> None:
+        task = self.scene.task
+        if task is None or not hasattr(task, "goal"):
+            raise SpecError(
+                f"{self.source.name}: task: expected a navigation task (with a goal), got {task!r}"
+            )
+        self.goal = tuple(task.goal)
+        self.tolerance = task.goal_tolerance
+
+    def _dynamic(self) -> bool:
+        return self.task_kind in ("nav-dynamic", "traverse")
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        self._load(self._pick_index(options))
+        self._setup_task()
+        task = self.scene.task
+        x, y = task.start.position
+        self._start = (float(x), float(y))
+        self.handle.reset(self.data, (x, y, self._ground_z(x, y), task.start.yaw))
+        self._place_agents()
+        import mujoco
+
+        mujoco.mj_forward(self.model, self.data)
+        self.steps = 0
+        self.collisions = 0
+        self._last_collision = False
+        self.recorder = self._new_record()
+        obs = self._observation()
+        return obs, self._info(obs, distance=self._distance())
+
+    def _new_record(self):
+        best = self.prepared.geodesic(self._start, self.goal)
+        if not math.isfinite(best) or best <= 0:  # no walkable route: the straight line
+            best = max(math.dist(self._start, self.goal), 1e-6)
+        return M.NavEpisode(start_xy=self._start, best_length=best)
+
+    # --- agents --------------------------------------------------------------------------
+
+    def _place_agents(self) -> None:
+        self.crowd = self.traffic = None
+        d = self.data
+        if self._dynamic() and self.prepared.agent_bodies:
+            from citygen.runner.crowd import Crowd, Traffic
+
+            self.crowd = Crowd(self.scene, self.prepared.occupancy, rng=self.np_random, dt=self.dt)
+            if len(self.crowd.ids) == 0:
+                self.crowd = None
+            self.traffic = Traffic(self.scene, dt=self.dt)
+            if len(self.traffic.ids) == 0:
+                self.traffic = None
+            self._write_agents()
+        else:
+            # NavClear / NavStatic: no moving agents; their bodies are parked far below.
+            for mocap in self.prepared.agent_bodies.values():
+                d.mocap_pos[mocap] = (0.0, 0.0, -100.0)
+
+    def _write_agents(self) -> None:
+        d, bodies = self.data, self.prepared.agent_bodies
+        for group in (self.crowd, self.traffic):
+            if group is None:
+                continue
+            z = height_at(self.scene, group.pos[:, 0], group.pos[:, 1])
+            yaw = group.headings() if hasattr(group, "headings") else group.yaw
+            for k, aid in enumerate(group.ids):
+                m = bodies[aid]
+                d.mocap_pos[m] = (group.pos[k, 0], group.pos[k, 1], z[k])
+                d.mocap_quat[m] = (math.cos(yaw[k] / 2), 0.0, 0.0, math.sin(yaw[k] / 2))
+
+    def others(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Positions, velocities and radii of the moving agents near the robot (people
+        and vehicles, a vehicle as a disc of half its length)."""
+        xy, vel, rad = [np.zeros((0, 2))], [np.zeros((0, 2))], [np.zeros(0)]
+        if self.crowd is not None:
+            xy.append(self.crowd.pos)
+            vel.append(self.crowd.vel)
+            rad.append(self.crowd.radius)
+        if self.traffic is not None:
+            xy.append(self.traffic.pos)
+            vel.append(self.traffic.vel)
+            rad.append(self.traffic.radius)
+        return np.concatenate(xy), np.concatenate(vel), np.concatenate(rad)
+
+    # --- stepping ------------------------------------------------------------------------
+
+    def step(self, action):
+        a = np.clip(np.asarray(action, dtype=np.float64).reshape(2), -1.0, 1.0)
+        v, w = a[0] * self.robot.max_speed, a[1] * self.robot.max_yaw_rate
+        if self.crowd is not None or self.traffic is not None:
+            x, y, _, yaw = self.handle.pose(self.data)
+            vel = self.handle.velocity(self.data)
+            c, s = math.cos(yaw), math.sin(yaw)
+            robot_vel = np.array([c * vel[0] - s * vel[1], s * vel[0] + c * vel[1]])
+            if self.crowd is not None:
+                self.crowd.step(np.array([x, y]), robot_vel, self.robot.radius)
+            if self.traffic is not None:
+                obstacles = [np.array([[x, y]])]
+                radii = [np.array([self.robot.radius])]
+                if self.crowd is not None:
+                    obstacles.append(self.crowd.pos)
+                    radii.append(self.crowd.radius)
+                self.traffic.step(np.concatenate(obstacles), np.concatenate(radii))
+            self._write_agents()
+        self._physics(lambda: self.handle.drive(self.data, v, w))
+        self.steps += 1
+        return self._after_step()
+
+    def _distance(self) -> float:
+        x, y, _, _ = self.handle.pose(self.data)
+        gx, gy = self._goal()
+        return math.hypot(gx - x, gy - y)
+
+    def _collision(self, x: float, y: float) -> bool:
+        if self._touching_obstacle():
+            return True
+        if self.crowd is not None:
+            gap = np.hypot(self.crowd.pos[:, 0] - x, self.crowd.pos[:, 1] - y) - self.crowd.radius
+            if np.any(gap < self.robot.radius):
+                return True
+        return False
+
+    def _fallen(self, z: float, x: float, y: float) -> bool:
+        """Tipped over (base tilted more than 60 degrees) or fallen through the ground."""
+        up = self.data.xmat[self.handle.base_id][8]
+        return bool(up < 0.5 or z < self._ground_z(x, y) - 0.5)
+
+    def _out_of_bounds(self, x: float, y: float) -> bool:
+        (x0, y0), (x1, y1) = self.scene.bounds.min, self.scene.bounds.max
+        return not (x0 <= x <= x1 and y0 <= y <= y1)
+
+    def _after_step(self):
+        x, y, z, _yaw = self.handle.pose(self.data)
+        d = self._distance()
+        walkable = bool(
+            self.prepared.walkable[self.prepared.occupancy.cell(x, y)]
+        ) and not self._out_of_bounds(x, y)
+        collision = self._collision(x, y)
+        success = d <= self.tolerance
+        lost = self._out_of_bounds(x, y) or self._fallen(z, x, y)
+        reward = 2.0 * ((1.0 - math.tanh(d / 1.0)) + 0.2 * (1.0 - math.tanh(d / 0.2)))
+        reward -= 0.5 * (not walkable)
+        reward -= 1.0 * collision
+        if success:
+            reward += 50.0
+        elif lost:
+            reward -= 100.0
+        terminated = success or lost
+        truncated = not terminated and self.steps >= self.horizon
+        self.recorder.record_step((x, y), walkable=walkable, collision=collision)
+        obs = self._observation()
+        info = self._info(obs, distance=d, walkable=walkable, collision=collision, success=success, lost=lost)
+        if terminated or truncated:
+            left = 0.0 if success else self.prepared.geodesic((x, y), self.goal)
+            self.recorder.finish(success=success, distance_left=left if math.isfinite(left) else d)
+            info["metrics"] = M.nav_metrics(self.recorder)
+        return obs, float(reward), bool(terminated), bool(truncated), info
+
+    def _observation(self) -> dict[str, np.ndarray]:
+        x, y, z, yaw = self.handle.pose(self.data)
+        gx, gy = self._goal()
+        gu, gv = _yaw_rotate(np.float64(gx - x), np.float64(gy - y), yaw)
+        vel = self.handle.velocity(self.data)
+        feet = self._ground_z(x, y)
+        obs = {
+            "goal": np.array([gu, gv], dtype=np.float32),
+            "velocity": np.array([vel[0], vel[1], vel[3]], dtype=np.float32),
+            "height_map": self._height_map(x, y, feet, yaw),
+        }
+        obs.update(self._images((x, y, z, yaw)))
+        return obs
+
+    def _info(self, obs: dict, **extra: Any) -> dict[str, Any]:
+        x, y, _, yaw = self.handle.pose(self.data)
+        return {"scene": self.source.name, "index": self._index, "pose": (x, y, yaw), **extra}
+
+
+# --- traverse -----------------------------------------------------------------------------
+
+
+class TraverseEnv(NavEnv):
+    """A route of waypoints to the end (see the module docstring)."""
+
+    def __init__(self, task: str = "traverse", scene: Scene | str | Path | None = None, **kwargs: Any):
+        super().__init__(task, scene, **kwargs)
+        self.human = False
+
+    def set_operator(self, human: bool) -> None:
+        """Say who drives the next steps: a person (True) or the AI (False); the Labor Cost and
+        Human Intervention metrics count the steps a person drove."""
+        self.human = bool(human)
+
+    def _setup_task(self) -> None:
+        task = self.scene.task
+        if task is None or task.kind != "traverse":
+            raise SpecError(
+                f"{self.source.name}: task: expected a traverse task (with a route), got {task!r}"
+            )
+        self.route = [tuple(p) for p in task.route]
+        self.waypoint = 0
+        self.goal = self.route[0]
+        self.tolerance = task.goal_tolerance
+        if self.max_steps is None:
+            self.horizon = max(1, math.ceil(task.time_limit / self.dt))
+        self._anchor = (tuple(task.start.position), task.start.yaw)
+        self._best = math.inf
+        self._since_progress = 0.0
+        self.attempts = 0
+
+    def _goal(self) -> tuple[float, float]:
+        return self.route[self.waypoint]
+
+    def _new_record(self):
+        return M.TraverseEpisode(start_xy=self._start, dt=self.dt, mass=self.robot.mass)
+
+    def _after_step(self):
+        import mujoco
+
+        x, y, z, yaw = self.handle.pose(self.data)
+        d = self._distance()
+        collision = self._collision(x, y)
+        walkable = bool(self.prepared.walkable[self.prepared.occupancy.cell(x, y)])
+        reset = False
+        if d <= self.tolerance:
+            # A reset puts the robot back here, facing the next waypoint.
+            here = self.route[self.waypoint]
+            ahead = self.route[min(self.waypoint + 1, len(self.route) - 1)]
+            self._anchor = (
+                here,
+                math.atan2(ahead[1] - here[1], ahead[0] - here[0]) if ahead != here else yaw,
+            )
+            self.waypoint += 1
+            self._best, self._since_progress = math.inf, 0.0
+        elif d < self._best - 0.05:
+            self._best, self._since_progress = d, 0.0
+        else:
+            self._since_progress += self.dt
+        done = self.waypoint >= len(self.route)
+        if not done and (
+            self._out_of_bounds(x, y) or self._fallen(z, x, y) or self._since_progress > STUCK_SECONDS
+        ):
+            (ax, ay), ayaw = self._anchor
+            self.handle.reset(self.data, (ax, ay, self._ground_z(ax, ay), ayaw))
+            mujoco.mj_forward(self.model, self.data)
+            self.attempts += 1
+            self._best, self._since_progress = math.inf, 0.0
+            reset = True
+        if done:
+            self.waypoint = len(self.route) - 1
+        reward = 2.0 * ((1.0 - math.tanh(d / 1.0)) + 0.2 * (1.0 - math.tanh(d / 0.2)))
+        reward -= 0.5 * (not walkable) + 1.0 * collision + 100.0 * reset - 50.0 * done
+        truncated = not done and self.steps >= self.horizon
+        vel = self.handle.velocity(self.data)
+        self.recorder.record_step(
+            (x, y),
+            torques=np.array(self.data.actuator_force),
+            joint_velocities=np.array(self.data.actuator_velocity),
+            body_speed=float(math.hypot(vel[0], vel[1])),
+            intervene=self.human,
+            reset=reset,
+            collision=collision and not self._last_collision,  # Collision Times counts contacts, not steps
+        )
+        self._last_collision = collision
+        obs = self._observation()
+        info = self._info(
+            obs, distance=d, waypoint=self.waypoint, attempts=self.attempts, collision=collision, success=done
+        )
+        if done or truncated:
+            self.recorder.finish()
+            info["metrics"] = {**M.traverse_metrics(self.recorder), "success_rate": 100.0 * done}
+        return obs, float(reward), bool(done), bool(truncated), info
+
+
+# --- locomotion ---------------------------------------------------------------------------
+
+
+class LocoEnv(_CitygenEnv):
+    """Velocity-command locomotion on an Urban-Loc grid (see the module docstring)."""
+
+    default_robot = "quadruped"
+    dt = LOCO_DT
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 50}
+
+    def __init__(self, task: str = "loco-flat", scene: Scene | str | Path | None = None, **kwargs: Any):
+        if not task.startswith("loco"):
+            raise SpecError(f"task: expected a locomotion task kind, got {task!r}")
+        super().__init__(task, scene, **kwargs)
+        n = len(self.robot.leg_joints)
+        if n == 0:
+            raise SpecError(f"robot: {self.robot.name} has no leg joints; locomotion needs a legged robot")
+        self.n_joints = n
+        self.action_space = spaces.Box(-1.0, 1.0, (n,), np.float32)
+        obs = {
+            "base_lin_vel": spaces.Box(-np.inf, np.inf, (3,), np.float32),
+            "base_ang_vel": spaces.Box(-np.inf, np.inf, (3,), np.float32),
+            "command": spaces.Box(-np.inf, np.inf, (3,), np.float32),
+            "joint_pos": spaces.Box(-np.inf, np.inf, (n,), np.float32),
+            "joint_vel": spaces.Box(-np.inf, np.inf, (n,), np.float32),
+            "last_action": spaces.Box(-1.0, 1.0, (n,), np.float32),
+            "height_map": self._height_space(),
+        }
+        obs.update(self._image_spaces())
+        self.observation_space = spaces.Dict(obs)
+        self.horizon = self.max_steps or LOCO_HORIZON
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        import mujoco
+
+        super().reset(seed=seed)
+        self._load(self._pick_index(options))
+        task = self.scene.task
+        if task is None or not task.kind.startswith("loco"):
+            raise SpecError(f"{self.source.name}: task: expected a locomotion task, got {task!r}")
+        self.command = np.asarray(task.command, dtype=np.float64)
+        x, y = task.start.position
+        yaw = task.start.yaw
+        self.handle.reset(self.data, (x, y, self._ground_z(x, y), yaw))
+        for mocap in self.prepared.agent_bodies.values():
+            self.data.mocap_pos[mocap] = (0.0, 0.0, -100.0)
+        mujoco.mj_forward(self.model, self.data)
+        self.steps = 0
+        self.last_action = np.zeros(self.n_joints)
+        heading = yaw + math.atan2(self.command[1], self.command[0])
+        self.recorder = M.LocoEpisode(start_xy=(float(x), float(y)), target_heading=heading, dt=self.dt)
+        obs = self._observation()
+        return obs, {"scene": self.source.name, "index": self._index}
+
+    def _ground_force(self) -> float:
+        """Largest normal force (N) of a contact between a non-foot robot part and the ground."""
+        import mujoco
+
+        g1, g2 = self._contacts()
+        if g1.size == 0:
+            return 0.0
+        body = self._robot_geoms & ~self._foot_geoms
+        ground = self.prepared.ground_geoms
+        hits = np.flatnonzero((body[g1] & ground[g2]) | (body[g2] & ground[g1]))
+        force = np.zeros(6)
+        worst = 0.0
+        for i in hits:
+            mujoco.mj_contactForce(self.model, self.data, int(i), force)
+            worst = max(worst, abs(force[0]))
+        return worst
+
+    def step(self, action):
+        a = np.clip(np.asarray(action, dtype=np.float64).reshape(self.n_joints), -1.0, 1.0)
+        self.handle.joint_action(self.data, a)
+        self._physics(lambda: None)
+        self.steps += 1
+        x, y, z, yaw = self.handle.pose(self.data)
+        vel = self.handle.velocity(self.data)
+        fallen = self._ground_force() > FALL_FORCE or self._out_of_bounds(x, y)
+        dv = (vel[0] - self.command[0]) ** 2 + (vel[1] - self.command[1]) ** 2
+        dz = (vel[3] - self.command[2]) ** 2
+        reward = math.exp(-dv / 0.25**2) + 0.5 * math.exp(-dz / 0.25**2)
+        reward += 2.0 * -(vel[2] ** 2)
+        reward += 0.01 * -float(np.sum((a - self.last_action) ** 2))
+        if fallen:
+            reward -= 100.0
+        self.last_action = a
+        self.recorder.record_step((x, y), np.array(self.data.actuator_force), fallen=fallen)
+        truncated = not fallen and self.steps >= self.horizon
+        obs = self._observation()
+        info = {"scene": self.source.name, "index": self._index, "fallen": fallen}
+        if fallen or truncated:
+            self.recorder.finish()
+            info["metrics"] = M.loco_metrics(self.recorder)
+        return obs, float(reward), bool(fallen), bool(truncated), info
+
+    def _out_of_bounds(self, x: float, y: float) -> bool:
+        (x0, y0), (x1, y1) = self.scene.bounds.min, self.scene.bounds.max
+        return not (x0 <= x <= x1 and y0 <= y <= y1)
+
+    def _observation(self) -> dict[str, np.ndarray]:
+        x, y, z, yaw = self.handle.pose(self.data)
+        vel = self.handle.velocity(self.data)
+        obs = {
+            "base_lin_vel": np.asarray(vel[:3], dtype=np.float32),
+            "base_ang_vel": np.asarray(
+                self.data.qvel[self.handle.dadr + 3 : self.handle.dadr + 6], dtype=np.float32
+            ),
+            "command": self.command.astype(np.float32),
+            "joint_pos": np.asarray(
+                self.handle.joint_positions(self.data) - self.handle.default, dtype=np.float32
+            ),
+            "joint_vel": np.asarray(self.handle.joint_velocities(self.data), dtype=np.float32),
+            "last_action": self.last_action.astype(np.float32),
+            "height_map": self._height_map(x, y, self._ground_z(x, y), yaw),
+        }
+        obs.update(self._images((x, y, z, yaw)))
+        return obs

@@ -1,0 +1,212 @@
+"""Baseline policies for the runner's environments, and the traverse control modes.
+
+A policy is ``reset(env)`` at the start of an episode (``env`` the unwrapped environment,
+so a baseline may read privileged state such as the occupancy map and the agents) and
+``act(obs) -> action`` every step. :func:`make_policy` builds one by name:
+
+- ``random``: uniform actions from the action space (seeded);
+- ``planner`` (navigation, traverse): A* on the occupancy grid inflated by the robot's
+  radius, pure pursuit along the path, reactive avoidance of moving agents
+  (:class:`citygen.runner.planning.Planner`);
+- ``stand``, ``trot`` (locomotion): the PD stand and trot controllers of
+  :mod:`citygen.runner.gaits`;
+- traverse control modes ``human``, ``ai``, ``shared-cautious``, ``shared-efficient``:
+  who drives is decided at *decision points* (every :data:`DECISION_INTERVAL` m along the
+  route) from the risk ahead (:func:`risk`); a person is a pluggable :class:`Driver`, with
+  :class:`ScriptedOracle` standing in for one in tests and benchmarks.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Protocol
+
+import numpy as np
+
+from citygen.errors import SpecError
+
+#: Metres of progress between two decisions of a shared-autonomy mode.
+DECISION_INTERVAL = 10.0
+#: Radius (m) around the robot in which agents count toward the risk.
+RISK_RADIUS = 6.0
+
+
+class Policy(Protocol):
+    def reset(self, env: Any) -> None: ...
+
+    def act(self, obs: Any) -> np.ndarray: ...
+
+
+class RandomPolicy:
+    """Uniform random actions (the lower bound of every table)."""
+
+    def __init__(self, seed: int = 0):
+        self.seed = seed
+        self._space = None
+        self._episode = 0
+
+    def reset(self, env: Any) -> None:
+        self._space = env.action_space
+        self._space.seed(self.seed + self._episode)
+        self._episode += 1
+
+    def act(self, obs: Any) -> np.ndarray:
+        return self._space.sample()
+
+
+class PlannerPolicy:
+    """A* + pure pursuit + reactive avoidance of agents, on the environment's maps.
+
+    ``caution`` scales the avoidance horizon and the speed near agents (1 the default; the
+    scripted oracle of the traverse uses a more cautious setting)."""
+
+    def __init__(self, caution: float = 1.0, avoid_agents: bool = True):
+        self.caution = caution
+        self.avoid_agents = avoid_agents
+        self.env = None
+        self.planner = None
+        self._goal = None
+
+    def reset(self, env: Any) -> None:
+        from citygen.runner.planning import Planner
+
+        self.env = env
+        robot = env.robot
+        self.planner = Planner(
+            env.prepared.occupancy, robot.radius, max_speed=robot.max_speed / self.caution,
+            max_yaw_rate=robot.max_yaw_rate, horizon=1.5 * self.caution,
+        )  # fmt: skip
+        self._goal = None
+
+    def act(self, obs: Any) -> np.ndarray:
+        env = self.env
+        x, y, _, yaw = env.handle.pose(env.data)
+        goal = tuple(env._goal())
+        if goal != self._goal:
+            self.planner.plan((x, y), goal)
+            self._goal = goal
+        if self.avoid_agents:
+            v, w = self.planner.command((x, y, yaw), *env.others())
+        else:
+            v, w = self.planner.command((x, y, yaw))
+        return np.array([v / env.robot.max_speed, w / env.robot.max_yaw_rate], dtype=np.float32).clip(-1, 1)
+
+
+class GaitPolicy:
+    """The PD stand or trot controller of :mod:`citygen.runner.gaits` as a policy."""
+
+    def __init__(self, gait: str):
+        self.gait = gait
+        self.controller = None
+        self.env = None
+
+    def reset(self, env: Any) -> None:
+        from citygen.runner import gaits
+
+        self.env = env
+        if self.gait == "stand":
+            self.controller = gaits.StandController(env.robot)
+        else:
+            self.controller = gaits.TrotController(env.robot, command=tuple(env.command))
+        self.t = 0.0
+
+    def act(self, obs: Any) -> np.ndarray:
+        a = self.controller.act(self.env.handle, self.env.data, self.t)
+        self.t += self.env.dt
+        return np.asarray(a, dtype=np.float32).clip(-1, 1)
+
+
+# --- traverse control modes ---------------------------------------------------------------
+
+
+class Driver(Protocol):
+    """A person at the controls: ``act(env, obs) -> action`` for the steps they drive."""
+
+    def reset(self, env: Any) -> None: ...
+
+    def act(self, env: Any, obs: Any) -> np.ndarray: ...
+
+
+class ScriptedOracle:
+    """Stands in for a person: the planner with privileged knowledge of every agent, a longer
+    avoidance horizon and a lower speed (a careful teleoperator)."""
+
+    def __init__(self):
+        self._policy = PlannerPolicy(caution=1.6)
+
+    def reset(self, env: Any) -> None:
+        self._policy.reset(env)
+
+    def act(self, env: Any, obs: Any) -> np.ndarray:
+        return self._policy.act(obs)
+
+
+def risk(env: Any) -> float:
+    """Risk of the stretch ahead, in [0, 1]: agents within :data:`RISK_RADIUS` m (vehicles
+    count double), uneven terrain under the next metres and non-walkable ground there."""
+    x, y, _, yaw = env.handle.pose(env.data)
+    xy, _, rad = env.others()
+    near = 0.0
+    if len(xy):
+        d = np.hypot(xy[:, 0] - x, xy[:, 1] - y)
+        near = float(np.sum((d < RISK_RADIUS) * np.where(rad > 1.0, 2.0, 1.0)))
+    ahead = np.linspace(0.5, 4.0, 8)
+    px, py = x + ahead * math.cos(yaw), y + ahead * math.sin(yaw)
+    occ = env.prepared.occupancy
+    terrain = occ.terrain[tuple(np.array([occ.cell(a, b) for a, b in zip(px, py, strict=True)]).T)]
+    uneven = float(np.mean(terrain != occ.terrain_classes.index("flat")))
+    off = float(np.mean([not env.prepared.walkable[occ.cell(a, b)] for a, b in zip(px, py, strict=True)]))
+    return min(1.0, 0.15 * near + 0.4 * uneven + 0.3 * off)
+
+
+class ControlMode:
+    """A traverse control mode: at each decision point the mode chooses who drives until the
+    next one. ``threshold`` is the risk at or above which a person takes over (0: always a
+    person, above 1: never)."""
+
+    def __init__(self, threshold: float, driver: Driver | None = None, interval: float = DECISION_INTERVAL):
+        self.threshold = threshold
+        self.driver = driver or ScriptedOracle()
+        self.interval = interval
+        self.ai = PlannerPolicy()
+        self.env = None
+
+    def reset(self, env: Any) -> None:
+        self.env = env
+        self.ai.reset(env)
+        self.driver.reset(env)
+        self._last = None
+        self._travelled = math.inf
+        self.human = False
+
+    def act(self, obs: Any) -> np.ndarray:
+        env = self.env
+        x, y, _, _ = env.handle.pose(env.data)
+        if self._last is not None:
+            self._travelled += math.hypot(x - self._last[0], y - self._last[1])
+        self._last = (x, y)
+        if self._travelled >= self.interval:
+            self._travelled = 0.0
+            self.human = risk(env) >= self.threshold
+        if hasattr(env, "set_operator"):
+            env.set_operator(self.human)
+        return self.driver.act(env, obs) if self.human else self.ai.act(obs)
+
+
+#: Traverse control modes: risk threshold for a person to take over.
+MODES = {"human": 0.0, "shared-cautious": 0.25, "shared-efficient": 0.55, "ai": math.inf}
+
+POLICIES = ("random", "planner", "stand", "trot", *MODES)
+
+
+def make_policy(name: str, *, seed: int = 0, driver: Driver | None = None) -> Policy:
+    """A baseline by name (see the module docstring)."""
+    if name == "random":
+        return RandomPolicy(seed)
+    if name == "planner":
+        return PlannerPolicy()
+    if name in ("stand", "trot"):
+        return GaitPolicy(name)
+    if name in MODES:
+        return ControlMode(MODES[name], driver)
+    raise SpecError(f"policy: expected one of {', '.join(POLICIES)}, got {name!r}")

@@ -1,0 +1,199 @@
+"""Where an environment's scenes come from, and the per-process cache of compiled scenes.
+
+An environment is built from one scene (a :class:`~citygen.spec.Scene` or a scene file) or
+from a split to sample from (``"urban-nav-2-test"``: a name of :func:`citygen.splits`, a
+manifest or a config file). A :class:`SceneSource` turns either into scenes by index; the
+:class:`Prepared` form of a scene (its MuJoCo model with the robot attached, occupancy map,
+free-space mask and distance fields) is built once per process and kept in a bounded LRU
+cache, so a vector environment whose sub-environments draw a new scene on every reset
+compiles each scene once (asynchronous scene sampling).
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+from collections import OrderedDict
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from citygen.errors import SpecError
+from citygen.io import load_scene
+from citygen.spec import Scene
+from citygen.spec.base import to_jsonable
+
+#: Occupancy-map cell side (m) for walkability, the planner and the route metrics.
+MAP_RESOLUTION = 0.05
+#: Largest occupancy map (cells) of a scene; bigger scenes get coarser cells.
+MAX_MAP_CELLS = 2**24
+#: Compiled scenes a process keeps (a 15 m scene with its model is a few MB).
+CACHE_SIZE = 64
+
+
+class SceneSource:
+    """Scenes by index: one fixed scene, or the scenes of a split (generated on demand)."""
+
+    def __init__(
+        self, scene: Scene | str | Path | None = None, split: str | None = None, seed: int | None = None
+    ):
+        if (scene is None) == (split is None):
+            raise SpecError(
+                "environment: expected exactly one of scene= (a Scene or file) and split= (a split name)"
+            )
+        self.split = split
+        self.seed = seed
+        self._scene: Scene | None = None
+        self._path: str | None = None
+        self.size = 1
+        if scene is not None:
+            if isinstance(scene, Scene):
+                self._scene = scene
+            else:
+                self._path = str(scene)
+                self._scene = load_scene(scene)
+        else:
+            from citygen.generate.splits import resolve
+
+            parts = resolve(split, seed=seed)
+            self._parts = parts
+            self.size = sum(p.scenes for p in parts)
+
+    @property
+    def name(self) -> str:
+        return self.split if self.split is not None else (self._path or "scene")
+
+    def key(self, index: int) -> tuple:
+        """A cache key that names the scene without generating it."""
+        if self._scene is not None:
+            return ("scene", _digest(self._scene))
+        return ("split", self.split, self.seed, index % self.size)
+
+    def scene(self, index: int) -> Scene:
+        if self._scene is not None:
+            return self._scene
+        from citygen.generate.splits import generate_scene
+
+        i = index % self.size
+        for part in self._parts:
+            if i < part.scenes:
+                return generate_scene(part, i)
+            i -= part.scenes
+        raise AssertionError("unreachable")  # pragma: no cover
+
+
+def _digest(scene: Scene) -> str:
+    import json
+
+    text = json.dumps(to_jsonable(scene), sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+@dataclass(eq=False)
+class Prepared:
+    """A scene ready to run: its model with the robot attached and the maps the task uses."""
+
+    scene: Scene
+    robot: Any  # citygen.runner.robots.Robot
+    model: Any  # mujoco.MjModel
+    occupancy: Any  # citygen.exporters.occupancy.OccupancyMap
+    free: np.ndarray
+    """Cells the robot's centre may occupy: walkable and at least its radius from anything
+    else (the occupancy map inflated by the robot's radius, negated)."""
+    walkable: np.ndarray
+    """Walkable cells of the occupancy map (no object on them)."""
+    obstacle_geoms: np.ndarray
+    """bool per geom: an object or an agent (a contact with one is a collision)."""
+    ground_geoms: np.ndarray
+    """bool per geom: the ground (zones, terrain, apron)."""
+    agent_bodies: dict[str, int] = field(default_factory=dict)
+    """agent id -> mocap id."""
+    _fields: dict = field(default_factory=dict)
+
+    def geodesic(self, xy: tuple[float, float] | np.ndarray, goal: tuple[float, float]) -> float:
+        """Walkable-route distance (m) from ``xy`` to ``goal`` over :attr:`free` (a point in the
+        inflated band takes its nearest reachable cell's distance plus the step to it; inf
+        when the goal is unreachable). Fields are cached per goal."""
+        from citygen.runner.planning import DistanceField
+
+        key = (round(float(goal[0]), 4), round(float(goal[1]), 4))
+        field_ = self._fields.get(key)
+        if field_ is None:
+            field_ = self._fields[key] = DistanceField.build(self.free, self.occupancy.grid, goal)
+        return field_.at(float(xy[0]), float(xy[1]))
+
+
+def map_resolution(scene: Scene) -> float:
+    """:data:`MAP_RESOLUTION`, doubled until the map has at most :data:`MAX_MAP_CELLS` cells
+    (a 1.2 km city is mapped at 0.4 m)."""
+    (x0, y0), (x1, y1) = scene.bounds.min, scene.bounds.max
+    res = MAP_RESOLUTION
+    while (x1 - x0) * (y1 - y0) / res**2 > MAX_MAP_CELLS:
+        res *= 2
+    return res
+
+
+def prepare(scene: Scene, robot: Any) -> Prepared:
+    """Compile ``scene`` with ``robot`` at the task's start and rasterise its maps."""
+    from citygen.exporters import mjcf
+    from citygen.exporters.occupancy import occupancy
+    from citygen.geometry.terrain import height_at
+    from citygen.runner.robots import compose
+
+    start = scene.task.start if scene.task is not None else None
+    x, y = start.position if start is not None else scene.bounds.min
+    yaw = start.yaw if start is not None else 0.0
+    z = float(height_at(scene, x, y))
+    model = compose(mjcf.to_mjcf(scene, apron=5.0), robot, (x, y, z, yaw))
+    occ = occupancy(scene, map_resolution(scene))
+    labels = mjcf.geom_labels(model)
+    obstacle = np.array([lab is not None and lab[0] in ("object", "agent") for lab in labels])
+    ground = np.array([lab is not None and lab[0] not in ("object", "agent") for lab in labels])
+    # Unnamed static geoms of the scene (none today) and the apron count as ground.
+    agents = {}
+    for a in scene.agents:
+        body = model.body(f"agent/{a.id}")
+        agents[a.id] = int(model.body_mocapid[body.id])
+    return Prepared(
+        scene=scene,
+        robot=robot,
+        model=model,
+        occupancy=occ,
+        free=~occ.inflated(robot.radius),
+        walkable=occ.walkable_mask(),
+        obstacle_geoms=obstacle,
+        ground_geoms=ground,
+        agent_bodies=agents,
+    )
+
+
+class SceneCache:
+    """A bounded LRU of :class:`Prepared` scenes keyed by (source key, robot)."""
+
+    def __init__(self, size: int = CACHE_SIZE):
+        self.size = size
+        self._items: OrderedDict[tuple, Prepared] = OrderedDict()
+        self.hits = 0
+        self.misses = 0
+
+    def get(self, source: SceneSource, index: int, robot: Any) -> Prepared:
+        key = (source.key(index), robot.name, hashlib.sha256(robot.xml.encode()).hexdigest())
+        item = self._items.get(key)
+        if item is not None:
+            self.hits += 1
+            self._items.move_to_end(key)
+            return item
+        self.misses += 1
+        item = prepare(source.scene(index), robot)
+        self._items[key] = item
+        while len(self._items) > self.size:
+            self._items.popitem(last=False)
+        return item
+
+
+@functools.cache
+def process_cache() -> SceneCache:
+    """The cache shared by every environment of this process."""
+    return SceneCache()
