@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import itertools
 import json
+import math
 import subprocess
 import sys
 
@@ -167,3 +169,136 @@ def test_urban_loc_manifests_are_the_papers_curriculum(kind, part):
     assert (rows, cols) == ((30, 30) if part == "train" else (16, 16))
     assert config.size == (cols * config.terrain.tile_size, rows * config.terrain.tile_size)
     assert config.task.kind == f"loco-{kind}"
+
+
+# --- urban-tra-standard: the six-unit track ----------------------------------------------
+
+
+def test_urban_tra_standard_is_the_papers_track(cli, tmp_path):
+    result = cli("generate", "--split", "urban-tra-standard", "--out", tmp_path)
+    assert result.code == 0, result.err
+    path = tmp_path / "urban-tra-standard/0000.json"
+    assert cli("validate", path).code == 0
+    scene = load_scene(path)
+    assert scene.bounds.max == (120.0, 10.0)
+    # Six 20 m x 10 m units along x, one zone each.
+    assert [z.id for z in scene.zones] == [f"unit-{u}" for u in range(1, 7)]
+    for u, zone in enumerate(scene.zones):
+        xs, ys = [p[0] for p in zone.polygon], [p[1] for p in zone.polygon]
+        assert (min(xs), max(xs), min(ys), max(ys)) == (20.0 * u, 20.0 * (u + 1), 0.0, 10.0)
+
+    def unit(x: float) -> int:
+        return min(5, int(x // 20.0))
+
+    # Units 1-3 even: every tile flat at street level; units 4-6 uneven: slopes, stairs, rough.
+    t = scene.terrain
+    kinds = {u: [] for u in range(6)}
+    for r in range(t.rows):
+        for c in range(t.cols):
+            tile = t.tile(r, c)
+            kinds[unit(t.origin[0] + (c + 0.5) * t.tile_size)].append((tile.kind, tile.height))
+    for u in range(3):
+        assert set(kinds[u]) == {("flat", 0.0)}, u
+    for u in range(3, 6):
+        assert "flat" not in {k for k, _ in kinds[u]}, u
+    assert {k for u in range(3, 6) for k, _ in kinds[u]} == {"slope", "stair", "rough"}
+    # Clear, static, dynamic on each surface: objects in units 2, 3, 5, 6; people in 3 and 6.
+    objects = [unit(p.position[0]) for p in scene.placements]
+    assert sorted(set(objects)) == [1, 2, 4, 5] and all(objects.count(u) == 8 for u in (1, 2, 4, 5))
+    for a in scene.agents:
+        assert unit(a.start[0]) == unit(a.goal[0]) in (2, 5)
+    assert sorted(unit(a.start[0]) for a in scene.agents) == [2] * 4 + [5] * 4
+    # The traverse route: laps of the track, 1,200 m in all, back where it started.
+    task = scene.task
+    points = [task.start.position, *task.route]
+    legs = [math.dist(a, b) for a, b in itertools.pairwise(points)]
+    assert task.kind == "traverse" and sum(legs) == pytest.approx(1200.0, abs=0.01)
+    assert max(legs) <= 25.0 and task.route[-1] == task.start.position
+    assert {p[1] for p in points} == {2.5, 7.5}
+    assert min(p[0] for p in points) == 2.5 and max(p[0] for p in points) == 117.5
+    assert sum(p == task.start.position for p in task.route) == 5  # five laps
+
+
+def test_a_track_of_your_own_from_a_config_file(cli, tmp_path):
+    config = tmp_path / "track.toml"
+    config.write_text(
+        'size = [45.0, 8.0]\nlayout = "track"\n[track]\nunit_length = 15.0\nroute_length = 500.0\n'
+        'units = [{ surface = "uneven", setting = "dynamic", zone = "trail" }, { setting = "static" },'
+        ' { surface = "uneven" }]\n[placement]\ncount = 3\n[agents]\npeople = 2\n[task]\nkind = "traverse"\n'
+    )
+    result = cli("generate", "--split", config, "--count", "2", "--out", tmp_path)
+    assert result.code == 0, result.err
+    for path in sorted((tmp_path / "track").glob("*.json")):
+        scene = load_scene(path)
+        assert citygen.validate(scene) == []
+        assert [z.kind for z in scene.zones] == ["trail", "plaza", "plaza"]
+        assert len(scene.placements) == 6 and len(scene.agents) == 2
+        points = [scene.task.start.position, *scene.task.route]
+        assert sum(math.dist(a, b) for a, b in itertools.pairwise(points)) >= 500.0
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        (
+            'size = [100.0, 10.0]\nlayout = "track"\n',
+            "$.track.units: expected units spanning the scene's width size[0] = 100 m, "
+            "got 6 units of 20 m = 120 m",
+        ),
+        (
+            'size = [20.0, 10.0]\nlayout = "track"\n[track]\nunits = [{ surface = "bumpy" }]\n',
+            "$.track.units[0].surface: expected one of 'even' or 'uneven', got \"bumpy\"",
+        ),
+        (
+            'size = [20.0, 1.0]\nlayout = "track"\n[track]\nunits = [{}]\n[task]\nkind = "traverse"\n',
+            "no room for two lanes of laps",
+        ),
+    ],
+)
+def test_a_bad_track_is_one_line(cli, tmp_path, text, message):
+    path = tmp_path / "track.toml"
+    path.write_text(text)
+    result = cli("generate", "--split", path, "--out", tmp_path)
+    assert result.code == 2
+    assert len(result.err.strip().splitlines()) == 1 and message in result.err
+    assert not list(tmp_path.rglob("*.json"))
+
+
+# --- placement.count = "density" in TOML -----------------------------------------------------
+
+
+def test_density_mode_is_count_density_in_toml_and_null_in_json(cli, tmp_path):
+    toml = tmp_path / "dense.toml"
+    toml.write_text('size = [30.0, 30.0]\n[placement]\ncount = "density"\ndensity_per_100m2 = 6.0\n')
+    data = GeneratorConfig(size=(30.0, 30.0)).model_dump(mode="json", by_alias=True)
+    data["placement"].update(count=None, density_per_100m2=6.0)
+    (tmp_path / "json").mkdir()
+    js = tmp_path / "json/dense.json"
+    js.write_text(json.dumps(data))
+    for path in (toml, js):
+        result = cli("generate", "--split", path, "--count", "3", "--out", path.parent / "out")
+        assert result.code == 0, result.err
+    counts = []
+    for i in range(3):
+        a = (tmp_path / f"out/dense/{i:04d}.json").read_bytes()
+        assert a == (tmp_path / f"json/out/dense/{i:04d}.json").read_bytes()
+        counts.append(len(load_scene(tmp_path / f"out/dense/{i:04d}.json").placements))
+    # Density mode, not the default count of 4: 6 per 100 m2 of the suitable ground.
+    assert max(counts) > 4
+    from citygen.io import parse, read_document
+
+    assert parse(GeneratorConfig, read_document(toml)).placement.count is None
+
+
+@pytest.mark.parametrize("value", ['"dens"', '"4"', "-1", "true"])
+def test_a_bad_count_is_one_line(cli, tmp_path, value):
+    path = tmp_path / "c.toml"
+    path.write_text(f"[placement]\ncount = {value}\n")
+    result = cli("generate", "--split", path, "--out", tmp_path)
+    assert result.code == 2 and len(result.err.strip().splitlines()) == 1
+    assert result.err.startswith(f"{path}: $.placement.count: expected ")
+
+
+def test_the_manifest_documents_density_mode():
+    text = (ROOT / "seeds/urban-tra.toml").read_text()
+    assert 'placement.count = "density"' in text

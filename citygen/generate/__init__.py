@@ -14,12 +14,16 @@ keeps the two the same object, whichever import happened first.
 >>> import citygen
 >>> citygen.generate("urban-nav-2-train", seed=7, index=3).meta.split
 'urban-nav-2-train'
+
+``rebuild(scene, from_stage, config=None)`` keeps a hand-edited scene's stages up to
+``from_stage`` (one of :data:`STAGES`) and makes every later one again
+(:mod:`citygen.generate.pipeline`).
 """
 
 import sys
 import types
 
-from citygen.generate.pipeline import generate, layout
+from citygen.generate.pipeline import STAGES, generate, layout, rebuild
 
 
 class _CallableModule(types.ModuleType):
@@ -37,4 +41,4 @@ class _CallableModule(types.ModuleType):
 
 sys.modules[__name__].__class__ = _CallableModule
 
-__all__ = ["generate", "layout"]
+__all__ = ["STAGES", "generate", "layout", "rebuild"]

@@ -144,6 +144,43 @@ def _from_file(path: Path) -> list[SplitConfig]:
     return [SplitConfig(name=name, scenes=1, seed=0, config=config)]
 
 
+def config_for(scene: Scene, config_file: str | Path | None = None) -> GeneratorConfig:
+    """The generator config a scene was made from, for :func:`~citygen.generate.pipeline.rebuild`.
+
+    Without ``config_file``: the config of the named split in the scene's ``meta.split``.
+    With one: a user's generator config (TOML or JSON), or a split manifest, whose split
+    named ``meta.split`` (or whose only split) is taken. Raises
+    :class:`~citygen.errors.SpecError` when neither says which config it is.
+
+    >>> import citygen
+    >>> config_for(citygen.generate("urban-nav-2-test", index=1)).placement.count
+    8
+    """
+    split = scene.meta.split
+    if config_file is not None:
+        found = _from_file(Path(config_file))
+        if len(found) == 1:
+            return found[0].config
+        named = [s for s in found if s.name == split]
+        if named:
+            return named[0].config
+        names = ", ".join(s.name for s in found)
+        raise SpecError(
+            [Problem("$.splits", f"a split named {split!r} (the scene's meta.split)", names)],
+            file=str(config_file),
+        )
+    if split is None:
+        raise SpecError(
+            [Problem("$.meta.split", "the named split the scene came from (or give --config FILE)", "none")]
+        )
+    table = splits()
+    if split not in table:
+        raise SpecError(
+            [Problem("$.meta.split", "a split of seeds/*.toml (or give --config FILE)", repr(split))]
+        )
+    return table[split].config
+
+
 def relative_path(split: str, index: int) -> PurePosixPath:
     """Where scene ``index`` of ``split`` goes under an output folder (see the module docstring)."""
     family, _, part = split.rpartition("-")

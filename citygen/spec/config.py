@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, BeforeValidator, Field, WithJsonSchema
 
 from citygen.errors import Problem
 from citygen.spec.base import Float, Identifier, Int, SpecModel, Vec2, bounded_float, bounded_int
@@ -155,13 +155,44 @@ class TerrainConfig(SpecModel):
     """WFC restarts after a contradiction before generation fails with a clear error."""
 
 
+MAX_COUNT = 1_000_000
+
+
+def _density_is_none(value: object) -> object:
+    """``"density"`` means what ``null`` means (TOML has no null); any other text is an error."""
+    if value == "density":
+        return None
+    if isinstance(value, str):
+        raise ValueError("an object count (a whole number >= 0), 'density' or null")
+    return value
+
+
+Count = Annotated[
+    bounded_int(0, MAX_COUNT) | None,
+    BeforeValidator(_density_is_none),
+    WithJsonSchema(
+        {
+            "anyOf": [
+                {"type": "integer", "minimum": 0, "maximum": MAX_COUNT},
+                {"const": "density"},
+                {"type": "null"},
+            ]
+        }
+    ),
+]
+"""A number of objects, or ``"density"`` / ``None`` for a density per area instead; loaded as an
+``int`` or ``None``."""
+
+
 class PlacementConfig(SpecModel):
     """Stage 4: static objects from the asset catalog."""
 
-    count: bounded_int(0, 1_000_000) | None = 4
-    """Exact number of objects (paper: 4 in train scenes, 8 in test); ``None`` uses the density."""
+    count: Count = 4
+    """Exact number of objects (paper: 4 in train scenes, 8 in test), or ``"density"`` (or
+    ``null`` in JSON) to place ``density_per_100m2`` instead. TOML has no null, so a manifest
+    writes ``count = "density"``; either way the loaded config holds ``None``."""
     density_per_100m2: bounded_float(0.0, 1_000.0) = 4.0
-    """Objects per 100 square metres of suitable zone area, when ``count`` is ``None``."""
+    """Objects per 100 square metres of suitable zone area, when ``count`` is ``"density"``."""
     density_levels: tuple[bounded_float(0.0, 10.0), ...] = Field(default=(1.0,), min_length=1, max_length=64)
     """Multipliers of the count or density; scene ``i`` of a split uses level
     ``i % len(levels)`` (paper, Urban-Nav-2: 0.5, 1.0, 1.5)."""
@@ -228,6 +259,42 @@ class TaskConfig(SpecModel):
     """Distance from the goal that counts as reached, in metres."""
 
 
+class TrackUnit(SpecModel):
+    """One unit of a track (``layout = "track"``): its ground and what stands or moves on it."""
+
+    surface: Literal["even", "uneven"] = "even"
+    """``even``: flat ground at street level; ``uneven``: terrain tiles drawn from ``terrain.mix``
+    (slopes, stairs, rough ground)."""
+    setting: Literal["clear", "static", "dynamic"] = "clear"
+    """As the Urban-Nav subsets: ``clear`` has nothing on it; ``static`` has ``placement.count``
+    objects (or the density); ``dynamic`` has ``agents.people`` moving people among as many
+    objects."""
+    zone: Literal["sidewalk", "plaza", "trail"] = "plaza"
+    """The kind of walkable zone the unit is (it decides the surface material)."""
+
+
+#: The URBAN-BENCH standard track: even ground clear, static, dynamic, then uneven ground alike.
+STANDARD_TRACK = tuple(
+    TrackUnit(surface=surface, setting=setting)
+    for surface in ("even", "uneven")
+    for setting in ("clear", "static", "dynamic")
+)
+
+
+class TrackConfig(SpecModel):
+    """A running track (``layout = "track"``, Urban-Tra-Standard): units side by side along +x,
+    each ``unit_length`` long and as deep as the scene; a traverse task runs laps of it."""
+
+    unit_length: bounded_float(1.0, 1_000.0) = 20.0
+    """Length of one unit along x, in metres; the units together span the scene's width."""
+    units: tuple[TrackUnit, ...] = Field(default=STANDARD_TRACK, min_length=1, max_length=100)
+    """The units from x = 0 onwards (paper: six units of 20 m x 10 m, even then uneven ground,
+    each clear, static and dynamic)."""
+    route_length: bounded_float(0.0, 100_000.0) = 1_200.0
+    """Least length of a traverse route, in metres (paper: 1,200 m): whole laps of the track,
+    out along one lane and back along the other."""
+
+
 class GeneratorConfig(SpecModel):
     """Everything the generator samples a scene from."""
 
@@ -244,6 +311,8 @@ class GeneratorConfig(SpecModel):
     placement: PlacementConfig = PlacementConfig()
     agents: AgentsConfig = AgentsConfig()
     task: TaskConfig = TaskConfig()
+    track: TrackConfig = TrackConfig()
+    """The units of a ``track`` layout (ignored by the other layouts)."""
 
 
 class SplitConfig(SpecModel):
@@ -272,7 +341,7 @@ class SplitManifest(SpecModel):
 
 def check_config(config: BaseModel, path: str = "$") -> list[Problem]:
     """Problems a JSON Schema cannot express: ranges with ``low > high``, all-zero weights,
-    duplicate split names.
+    track units that do not span the scene's width, duplicate split names.
 
     >>> check_config(TerrainConfig(step_height=(0.3, 0.1)))
     [Problem(path='$.step_height', expected='[low, high] with low <= high', found='[0.3, 0.1]')]
@@ -292,6 +361,16 @@ def check_config(config: BaseModel, path: str = "$") -> list[Problem]:
         getattr(config, name) > 0 for name in type(config).model_fields
     ):
         problems.append(Problem(path, "at least one weight above 0", "all weights 0"))
+    if isinstance(config, GeneratorConfig) and config.layout == "track":
+        span = len(config.track.units) * config.track.unit_length
+        if abs(span - config.size[0]) > 1e-4:
+            problems.append(
+                Problem(
+                    f"{path}.track.units",
+                    f"units spanning the scene's width size[0] = {config.size[0]:g} m",
+                    f"{len(config.track.units)} units of {config.track.unit_length:g} m = {span:g} m",
+                )
+            )
     if isinstance(config, SplitManifest):
         seen: set[str] = set()
         for i, split in enumerate(config.splits):
