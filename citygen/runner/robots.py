@@ -408,7 +408,8 @@ def _wheelchair() -> Robot:
     doc.geom(base, "battery", 14.0, type="box", size=_v(0.15, 0.15, 0.07), pos=_v(-0.15, 0, 0.0))
     doc.geom(base, "seat", 3.0, type="box", size=_v(0.22, 0.24, 0.03), pos=_v(-0.05, 0, 0.3))
     doc.geom(base, "backrest", 2.0, type="box", size=_v(0.03, 0.24, 0.25), pos=_v(-0.3, 0, 0.58))
-    doc.geom(base, "footrest", 1.0, type="box", size=_v(0.06, 0.2, 0.015), pos=_v(0.48, 0, -0.04))
+    doc.geom(base, "footrest", 1.0, type="box", size=_v(0.08, 0.2, 0.015), pos=_v(0.58, 0, -0.04))
+    doc.geom(base, "anti_tip", 1.0, type="box", size=_v(0.04, 0.2, 0.02), pos=_v(-0.42, 0, -0.05))
     skin = {**_COLLIDE}
     body = "0.85 0.6 0.45 1"
     doc.geom(
@@ -581,6 +582,7 @@ _ADAPTER_KEYS = (
     "nav",
     "loco",
     "feet",
+    "casters",
 )
 _NAV_KEYS = ("mode", "left", "right", "wheel_radius", "track_width", "wheel_kv", "wheel_torque")
 _LOCO_KEYS = ("joints", "default_pose", "action_scale", "kp", "kd", "torque")
@@ -655,7 +657,23 @@ def _read_adapter(adapter: str | Path | Mapping[str, Any] | None, robot_file: st
     return _Adapter(data, str(path))
 
 
-def _lowest(model: Any, data: Any, geom: int) -> float:
+def _floating_urdf(path: Path) -> str:
+    """A URDF's text with its root link floating (MuJoCo fuses a fixed root into the world):
+    a ``world`` link and a floating joint ``root`` to the root link are added."""
+    tree = ET.parse(path)
+    robot = tree.getroot()
+    links = [link.get("name") for link in robot.findall("link")]
+    children = {j.find("child").get("link") for j in robot.findall("joint") if j.find("child") is not None}
+    roots = [name for name in links if name not in children and name != "world"]
+    if len(roots) == 1 and "world" not in links:
+        ET.SubElement(robot, "link", name="world")
+        joint = ET.SubElement(robot, "joint", name="root", type="floating")
+        ET.SubElement(joint, "parent", link="world")
+        ET.SubElement(joint, "child", link=roots[0])
+    return ET.tostring(robot, encoding="unicode")
+
+
+def lowest_point(model: Any, data: Any, geom: int) -> float:
     """Lowest z (m) of a geom in the current pose (exact for spheres, capsules,
     cylinders and boxes; the oriented bounding box otherwise)."""
     R = data.geom_xmat[geom].reshape(3, 3)
@@ -677,9 +695,13 @@ def _custom(path: Path, adapter: str | Path | Mapping[str, Any] | None) -> Robot
     ad = _read_adapter(adapter, str(path))
     top = ad.table(ad.data, "$", _ADAPTER_KEYS)
     try:
-        spec = mujoco.MjSpec.from_file(str(path))
+        if path.suffix.lower() == ".urdf":
+            spec = mujoco.MjSpec.from_string(_floating_urdf(path))
+            spec.modelfiledir = str(path.parent)
+        else:
+            spec = mujoco.MjSpec.from_file(str(path))
         spec.compile()
-    except (ValueError, OSError) as exc:
+    except (ValueError, OSError, ET.ParseError) as exc:
         msg = str(exc).replace("\n", " ").strip()
         raise SpecError([Problem("$", "an MJCF or URDF file MuJoCo compiles", msg)], str(path)) from None
     tops = list(spec.worldbody.bodies)
@@ -701,9 +723,16 @@ def _custom(path: Path, adapter: str | Path | Mapping[str, Any] | None) -> Robot
     max_speed = ad.number(top, "$", "max_speed")
     max_yaw = ad.number(top, "$", "max_yaw_rate")
     accel = (ad.number(top, "$", "max_accel", 1.5), ad.number(top, "$", "max_yaw_accel", 3.0))
-    for geom in spec.geoms:  # the robot's collision bits, whatever the file said
+    for k, geom in enumerate(spec.geoms):  # the robot's collision bits, whatever the file said
         if geom.contype or geom.conaffinity:
             geom.contype, geom.conaffinity = ROBOT_BIT, ROBOT_CONAFFINITY
+        if not geom.name:
+            geom.name = f"geom{k}"
+    for k, name in enumerate(ad.names(top, "$", "casters") if "casters" in top else ()):
+        geom = spec.geom(name)
+        if geom is None:
+            raise ad.fail(f"$.casters[{k}]", f"a geom of {path.name}", name)
+        geom.priority, geom.condim = 2, 1  # frictionless: its priority beats the ground's
     kw: dict[str, Any] = {}
     nav = ad.table(top.get("nav", {}), "$.nav", _NAV_KEYS)
     mode = nav.get("mode")
@@ -783,7 +812,7 @@ def _custom(path: Path, adapter: str | Path | Mapping[str, Any] | None) -> Robot
     colliding = [g for g in range(model.ngeom) if model.geom_contype[g] or model.geom_conaffinity[g]]
     if not colliding:
         raise SpecError([Problem("$", "a robot with collision geoms", "none")], str(path))
-    bottoms = {g: _lowest(model, data, g) for g in colliding}
+    bottoms = {g: lowest_point(model, data, g) for g in colliding}
     low = min(bottoms.values())
     feet = top.get("feet")
     if feet is None:
@@ -851,8 +880,16 @@ def _builtin(name: str) -> Robot:
     mujoco = import_mujoco()
     robot = _BUILDERS[name]()
     model = mujoco.MjModel.from_xml_string(robot.xml)
-    mass = float(model.body_subtreemass[model.body(robot.base_body).id])
-    return Robot(**{**robot.__dict__, "mass": round(mass, 3)})
+    data = mujoco.MjData(model)
+    base = model.body(robot.base_body).id
+    data.qpos[:7] = (0, 0, 0, 1, 0, 0, 0)  # the base's free joint comes first
+    for joint, q in zip(robot.leg_joints, robot.default_pose, strict=True):
+        data.qpos[model.jnt_qposadr[model.joint(joint).id]] = q
+    mujoco.mj_kinematics(model, data)
+    # exact stand height: tilted wheels (splayed legs) reach lower than their radius
+    low = min(lowest_point(model, data, model.geom(g).id) for g in robot.foot_geoms)
+    mass = float(model.body_subtreemass[base])
+    return Robot(**{**robot.__dict__, "mass": round(mass, 3), "stand_height": round(-low, 6)})
 
 
 def load_robot(name_or_path: str | Path, adapter: str | Path | Mapping[str, Any] | None = None) -> Robot:
@@ -867,6 +904,7 @@ def load_robot(name_or_path: str | Path, adapter: str | Path | Mapping[str, Any]
         max_yaw_rate = 1.5        # rad/s
         max_accel = 1.5           # optional, m/s^2 (and max_yaw_accel, rad/s^2, default 3)
         feet = ["wheel_l", ...]   # geoms allowed on the ground (default: the lowest ones)
+        casters = ["caster"]      # optional: geoms made frictionless (ideal casters)
         [nav]
         mode = "wheels"           # or "base": ideal planar servo on the free base
         left = ["wheel_l"]        # velocity actuators, or hinge joints to get one
@@ -880,8 +918,9 @@ def load_robot(name_or_path: str | Path, adapter: str | Path | Mapping[str, Any]
         default_pose = [0.0, ...]
         action_scale = 0.25       # rad per unit of action, one number or one per joint
 
-    The base gets a free joint if it has none; every collision geom gets the robot's
-    contact bits. Raises :class:`~citygen.errors.SpecError` (one line naming the file and
+    The base gets a free joint if it has none (a URDF's root link is made floating);
+    unnamed geoms are named ``geom<k>`` by their order; every collision geom gets the
+    robot's contact bits. Raises :class:`~citygen.errors.SpecError` (one line naming the file and
     the key) for a bad adapter, :class:`~citygen.errors.CitygenError` for an unknown name.
     """
     if isinstance(name_or_path, str) and name_or_path in _BUILDERS:
