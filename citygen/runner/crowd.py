@@ -1,0 +1,848 @@
+"""Moving people and vehicles: ORCA for pedestrians, cyclists and scooter riders, IDM for vehicles.
+
+People (:class:`Crowd`) avoid each other and the robot by ORCA, *Optimal Reciprocal
+Collision Avoidance* (van den Berg, Guy, Lin and Manocha, 2011), as the reference RVO2
+library computes it: one half-plane of allowed velocities per neighbour, then the 2-D
+linear program of RVO2 (``linearProgram2``, and ``linearProgram3`` where the half-planes
+leave no feasible velocity). :func:`orca_velocities` does it for every agent at once with
+numpy: neighbour search, half-planes and the linear program are array operations over
+all agents (and over a leading batch of environments); the only Python loops run over
+the constraint index of the linear program (at most ``max_neighbors`` plus the static
+obstacles), never over agents or neighbours.
+
+Static obstacles are discs (a point of blocked ground grown by a radius) with zero
+velocity for which the agent takes full responsibility; RVO2 models walls as polygons
+instead, so with static obstacles the two differ (without them they agree to float
+precision: ``tests/test_crowd.py`` compares with RVO2 through ``pyrvo``). The robot is a
+*non-cooperative* agent: it does not avoid anyone, so every person takes full
+responsibility (1, not 1/2) for avoiding it.
+
+Each person walks from its ``start`` to its ``goal`` and back, for ever, along the
+shortest path on a coarse grid of the walkable ground (a geodesic distance field per
+person and target, precomputed once with :func:`scipy.sparse.csgraph.dijkstra`); its
+preferred velocity points at a waypoint a few cells ahead on that path. A person stays on
+walkable ground: its centre keeps ``need`` metres (its radius, plus half a cell's
+diagonal, less where its own start or goal is narrower) from the centre of every
+non-walkable cell of the occupancy map. ORCA sees the nearest blocked cells as static
+obstacles; a step that would still leave that ground slides along the boundary (the x or
+y part of the step alone) or stays. Last, a step that would make two people overlap more
+than they already did is taken back (both stay where they were, which never overlapped
+beyond the previous step's overlap), unless staying would put one of them inside the
+robot, which is pushed out of first. So people never overlap each other (beyond
+:data:`OVERLAP_SLACK`) and keep out of the robot's disc unless it pins them against a
+wall.
+
+Vehicles (:class:`Traffic`) follow their lane through their route of blocks (a polyline
+through the lane ends of each block, cubic curves inside it) by the *Intelligent Driver
+Model* (Treiber, Hennecke and Helbing, 2000), keeping their distance to the nearest
+vehicle, person or robot in a corridor ahead of them as wide as the vehicle; at the end
+of the route a vehicle starts again from its start when that is clear.
+
+>>> import numpy as np
+>>> pos = np.array([[-2.0, 0.0], [2.0, 0.0]])
+>>> pref = np.array([[1.0, 0.0], [-1.0, 0.0]])
+>>> v = orca_velocities(pos, np.zeros((2, 2)), pref, 0.3, 1.5, dt=0.1)
+>>> bool(np.all(np.abs(v[:, 0]) > 0.9)), bool(v[0, 1] * v[1, 1] < 0)  # both dodge, opposite sides
+(True, True)
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import scipy.ndimage
+import scipy.sparse
+import scipy.sparse.csgraph
+
+from citygen.exporters.occupancy import OccupancyMap
+from citygen.geometry.roads import block_geometry, road_graph
+from citygen.spec.agents import Person, Vehicle
+from citygen.spec.scene import Scene
+
+RVO_EPSILON = 1e-5
+"""RVO2's tolerance for parallel lines (its ``RVO_EPSILON``)."""
+OVERLAP_SLACK = 1e-3
+"""Overlap (m) of two people's discs the safety pass lets grow in one step (rounding)."""
+SPEED_FACTOR = 1.5
+"""A person's top speed (ORCA's ``maxSpeed``) over its preferred speed: room to dodge."""
+NAV_CELL = 0.2
+"""Side (m) of the cells of the grid people plan their path on."""
+LOOKAHEAD = 3
+"""Cells of the path ahead of a person its preferred velocity aims at."""
+ARRIVE = 0.4
+"""Distance (m) from a target at which a person has arrived and turns round."""
+ROBOT_MARGIN = 0.05
+"""Extra radius (m) people give the robot in ORCA: it does not avoid them."""
+_ANGLES = np.arange(16) * (np.pi / 8)
+_ESCAPES = np.concatenate(
+    [[[0.0, 0.0]], *(f * np.stack([np.cos(_ANGLES), np.sin(_ANGLES)], axis=-1) for f in (1 / 3, 2 / 3, 1.0))]
+)
+"""Steps a conflicted person may try, as fractions of its top speed times ``dt``."""
+JITTER = 0.01
+"""Size (m/s) of the random nudge added to preferred velocities to break symmetric deadlocks
+(RVO2's examples do the same)."""
+
+
+# --- ORCA --------------------------------------------------------------------------------
+
+
+def _det(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1]
+
+
+def _unit(w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``w / |w|`` and ``|w|``; a zero vector gives ``(1, 0)`` (RVO2 would divide by zero)."""
+    n = np.sqrt(_dot(w, w))
+    safe = n > 1e-12
+    u = np.where(safe[..., None], w / np.where(safe, n, 1.0)[..., None], np.array([1.0, 0.0]))
+    return u, n
+
+
+def _half_planes(
+    rel_pos: np.ndarray, rel_vel: np.ndarray, combined: np.ndarray, tau: float, dt: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """RVO2's ORCA line for a neighbour at ``rel_pos`` moving at ``-rel_vel`` relative to the agent:
+    ``(direction, u)``, the line's direction and the smallest change of relative velocity out of
+    the velocity obstacle (arrays ``(..., 2)``)."""
+    dist2 = _dot(rel_pos, rel_pos)
+    r2 = combined**2
+    w = rel_vel - rel_pos / tau
+    w_len2 = _dot(w, w)
+    dotp = _dot(w, rel_pos)
+    on_cutoff = (dotp < 0.0) & (dotp * dotp > r2 * w_len2)
+    unit_w, w_len = _unit(w)
+    dir_cut = np.stack([unit_w[..., 1], -unit_w[..., 0]], axis=-1)
+    u_cut = (combined / tau - w_len)[..., None] * unit_w
+    leg = np.sqrt(np.maximum(dist2 - r2, 0.0))
+    rx, ry = rel_pos[..., 0], rel_pos[..., 1]
+    inv = 1.0 / np.where(dist2 > 0, dist2, 1.0)
+    left = np.stack([rx * leg - ry * combined, rx * combined + ry * leg], axis=-1) * inv[..., None]
+    right = -np.stack([rx * leg + ry * combined, -rx * combined + ry * leg], axis=-1) * inv[..., None]
+    dir_leg = np.where((_det(rel_pos, w) > 0.0)[..., None], left, right)
+    u_leg = _dot(rel_vel, dir_leg)[..., None] * dir_leg - rel_vel
+    # Already overlapping: leave the velocity obstacle of one time step.
+    unit_c, c_len = _unit(rel_vel - rel_pos / dt)
+    dir_col = np.stack([unit_c[..., 1], -unit_c[..., 0]], axis=-1)
+    u_col = (combined / dt - c_len)[..., None] * unit_c
+    colliding = (dist2 <= r2)[..., None]
+    direction = np.where(colliding, dir_col, np.where(on_cutoff[..., None], dir_cut, dir_leg))
+    u = np.where(colliding, u_col, np.where(on_cutoff[..., None], u_cut, u_leg))
+    return direction, u
+
+
+def _lp1(
+    points: np.ndarray,
+    dirs: np.ndarray,
+    valid: np.ndarray,
+    radius: np.ndarray,
+    opt: np.ndarray,
+    direction_opt: bool,
+) -> tuple[np.ndarray, np.ndarray]:
+    """RVO2's ``linearProgram1`` on the last line of ``points``/``dirs`` ``(A, i+1, 2)``, bounded by
+    the earlier lines where ``valid`` ``(A, i)``: ``(feasible (A,), result (A, 2))``."""
+    p, d = points[:, -1], dirs[:, -1]
+    dotp = _dot(p, d)
+    disc = dotp * dotp + radius * radius - _dot(p, p)
+    ok = disc >= 0.0
+    root = np.sqrt(np.maximum(disc, 0.0))
+    t_left, t_right = -dotp - root, -dotp + root
+    if points.shape[1] > 1:
+        pj, dj = points[:, :-1], dirs[:, :-1]
+        den = _det(d[:, None], dj)
+        num = _det(dj, p[:, None] - pj)
+        parallel = np.abs(den) <= RVO_EPSILON
+        ok &= ~np.any(valid & parallel & (num < 0.0), axis=1)
+        use = valid & ~parallel
+        t = num / np.where(parallel, 1.0, den)
+        t_right = np.minimum(t_right, np.min(np.where(use & (den >= 0.0), t, np.inf), axis=1))
+        t_left = np.maximum(t_left, np.max(np.where(use & (den < 0.0), t, -np.inf), axis=1))
+        ok &= t_left <= t_right
+    if direction_opt:
+        t = np.where(_dot(opt, d) > 0.0, t_right, t_left)
+    else:
+        t = _dot(d, opt - p)
+        t = np.where(t < t_left, t_left, np.where(t > t_right, t_right, t))
+    return ok, p + t[:, None] * d
+
+
+def _lp2(
+    points: np.ndarray,
+    dirs: np.ndarray,
+    valid: np.ndarray,
+    radius: np.ndarray,
+    opt: np.ndarray,
+    direction_opt: bool,
+) -> tuple[np.ndarray, np.ndarray]:
+    """RVO2's ``linearProgram2`` for ``A`` agents at once: the velocity in the disc of ``radius``
+    closest to ``opt`` (or farthest along it when ``direction_opt``) on the left of every valid
+    line. Returns ``(result (A, 2), fail (A,))``; ``fail`` is the line count where it succeeded,
+    else the line that made it infeasible (``result`` then satisfies the lines before it)."""
+    n_agents, n_lines = valid.shape
+    if direction_opt:
+        result = opt * radius[:, None]
+    else:
+        n2 = _dot(opt, opt)
+        over = n2 > radius * radius
+        result = np.where(
+            over[:, None], opt / np.sqrt(np.where(over, n2, 1.0))[:, None] * radius[:, None], opt
+        )
+    fail = np.full(n_agents, n_lines, dtype=np.int64)
+    for i in range(n_lines):
+        act = (fail == n_lines) & valid[:, i] & (_det(dirs[:, i], points[:, i] - result) > 0.0)
+        if not act.any():
+            continue
+        a = np.flatnonzero(act)
+        ok, new = _lp1(points[a, : i + 1], dirs[a, : i + 1], valid[a, :i], radius[a], opt[a], direction_opt)
+        result[a[ok]] = new[ok]
+        fail[a[~ok]] = i
+    return result, fail
+
+
+def _lp3(
+    points: np.ndarray,
+    dirs: np.ndarray,
+    valid: np.ndarray,
+    n_static: int,
+    begin: np.ndarray,
+    radius: np.ndarray,
+    result: np.ndarray,
+) -> np.ndarray:
+    """RVO2's ``linearProgram3``: where the lines from ``begin`` on leave nothing feasible, the
+    velocity that violates the agent lines least (static lines stay hard)."""
+    n_lines = valid.shape[1]
+    distance = np.zeros(len(result))
+    for i in range(n_lines):
+        act = (begin <= i) & valid[:, i] & (_det(dirs[:, i], points[:, i] - result) > distance)
+        if not act.any():
+            continue
+        a = np.flatnonzero(act)
+        pi, di = points[a, i], dirs[a, i]
+        pj, dj, vj = points[a, n_static:i], dirs[a, n_static:i], valid[a, n_static:i]
+        det = _det(di[:, None], dj)
+        parallel = np.abs(det) <= RVO_EPSILON
+        same = parallel & (_dot(di[:, None], dj) > 0.0)
+        cross = (
+            pi[:, None] + (_det(dj, pi[:, None] - pj) / np.where(parallel, 1.0, det))[..., None] * di[:, None]
+        )
+        pt = np.where(parallel[..., None], 0.5 * (pi[:, None] + pj), cross)
+        dr, _ = _unit(dj - di[:, None])
+        proj_p = np.concatenate([points[a, :n_static], pt], axis=1)
+        proj_d = np.concatenate([dirs[a, :n_static], dr], axis=1)
+        proj_v = np.concatenate([valid[a, :n_static], vj & ~same], axis=1)
+        opt = np.stack([-di[:, 1], di[:, 0]], axis=-1)
+        new, fail = _lp2(proj_p, proj_d, proj_v, radius[a], opt, True)
+        # Failure "should in principle not happen" (RVO2): float error; the result is kept.
+        kept = np.where((fail < proj_p.shape[1])[:, None], result[a], new)
+        result[a] = kept
+        distance[a] = _det(di, pi - kept)
+    return result
+
+
+def _as_agents(x, shape: tuple[int, ...], name: str) -> np.ndarray:
+    try:
+        return np.broadcast_to(np.asarray(x, dtype=np.float64), shape)
+    except ValueError:
+        raise ValueError(
+            f"{name}: expected a scalar or an array of shape {shape}, got {np.shape(x)}"
+        ) from None
+
+
+def orca_velocities(
+    pos,
+    vel,
+    pref_vel,
+    radius,
+    max_speed,
+    *,
+    dt: float,
+    tau: float = 2.0,
+    neighbor_dist: float = 5.0,
+    max_neighbors: int = 10,
+    cooperative=None,
+    static=None,
+    tau_static: float = 1.0,
+) -> np.ndarray:
+    """New velocities (m/s) of agents by ORCA, as RVO2's ``computeNewVelocity``, for all at once.
+
+    ``pos``, ``vel``, ``pref_vel``: ``(..., N, 2)`` positions (m), current and preferred
+    velocities (m/s); any leading dimensions are a batch of independent environments (each
+    environment's agents only see each other). ``radius`` (m) and ``max_speed`` (m/s): scalars
+    or ``(..., N)``. ``dt`` (s) is the step (ORCA's horizon for agents that already overlap),
+    ``tau`` (s) the time horizon for agents, ``neighbor_dist`` (m) and ``max_neighbors`` pick
+    the nearest neighbours as RVO2 does. ``cooperative`` (bool ``(..., N)``, default all): a
+    non-cooperative agent (the robot) keeps its ``vel`` and others take full responsibility
+    for avoiding it. ``static``: ``(points (..., N, S, 2), radii (..., N, S))``, per agent
+    ``S`` discs standing still (m) it must not run into within ``tau_static`` (s); a negative
+    radius or a non-finite point is no obstacle.
+    """
+    pos = np.asarray(pos, dtype=np.float64)
+    if pos.ndim < 2 or pos.shape[-1] != 2:
+        raise ValueError(f"pos: expected an array of shape (..., N, 2), got {pos.shape}")
+    if not (dt > 0 and tau > 0 and tau_static > 0 and neighbor_dist >= 0 and max_neighbors >= 0):
+        raise ValueError(
+            f"orca_velocities: expected dt > 0, tau > 0, tau_static > 0 (s), neighbor_dist >= 0 (m) and "
+            f"max_neighbors >= 0, got {dt!r}, {tau!r}, {tau_static!r}, {neighbor_dist!r}, {max_neighbors!r}"
+        )
+    batch, n = pos.shape[:-2], pos.shape[-2]
+    vel = _as_agents(vel, pos.shape, "vel").reshape(-1, n, 2)
+    pref = _as_agents(pref_vel, pos.shape, "pref_vel").reshape(-1, n, 2)
+    rad = _as_agents(radius, (*batch, n), "radius").reshape(-1, n)
+    vmax = _as_agents(max_speed, (*batch, n), "max_speed").reshape(-1, n)
+    coop = np.ones((*batch, n), bool) if cooperative is None else np.asarray(cooperative, bool)
+    coop = np.broadcast_to(coop, (*batch, n)).reshape(-1, n)
+    p = pos.reshape(-1, n, 2)
+    b = p.shape[0]
+    lines_p, lines_d, lines_v = [], [], []
+    n_static = 0
+    if static is not None:
+        sp, sr = static
+        sp = np.asarray(sp, dtype=np.float64)
+        if sp.ndim < 3 or sp.shape[:-2] != (*batch, n) or sp.shape[-1] != 2:
+            raise ValueError(f"static points: expected shape {(*batch, n, 'S', 2)}, got {sp.shape}")
+        n_static = sp.shape[-2]
+        sr = _as_agents(sr, sp.shape[:-1], "static radii").reshape(b, n, n_static)
+        sp = sp.reshape(b, n, n_static, 2)
+        present = (sr >= 0) & np.all(np.isfinite(sp), axis=-1)
+        rel = np.where(present[..., None], sp - p[:, :, None], 1e6)
+        d, u = _half_planes(
+            rel, np.broadcast_to(vel[:, :, None], rel.shape), rad[..., None] + sr, tau_static, dt
+        )
+        lines_p.append(vel[:, :, None] + u)
+        lines_d.append(d)
+        lines_v.append(present)
+    k = min(max_neighbors, n - 1)
+    if k > 0:
+        diff = p[:, None, :, :] - p[:, :, None, :]  # [b, i, j] = p_j - p_i
+        d2 = _dot(diff, diff)
+        d2[:, np.arange(n), np.arange(n)] = np.inf
+        d2[d2 >= neighbor_dist * neighbor_dist] = np.inf
+        near = (
+            np.argpartition(d2, k - 1, axis=-1)[..., :k]
+            if k < n - 1
+            else np.broadcast_to(np.arange(n), d2.shape)
+        )
+        near = np.take_along_axis(
+            near, np.argsort(np.take_along_axis(d2, near, -1), axis=-1, kind="stable"), -1
+        )
+        near = near[..., :k]
+        present = np.isfinite(np.take_along_axis(d2, near, -1))
+        bi = np.arange(b)[:, None, None]
+        rel_pos = p[bi, near] - p[:, :, None]
+        rel_vel = vel[:, :, None] - vel[bi, near]
+        d, u = _half_planes(rel_pos, rel_vel, rad[:, :, None] + rad[bi, near], tau, dt)
+        share = np.where(coop[bi, near], 0.5, 1.0)
+        lines_p.append(vel[:, :, None] + share[..., None] * u)
+        lines_d.append(d)
+        lines_v.append(present)
+    if not lines_p:
+        out = np.where((_dot(pref, pref) > vmax**2)[..., None], _unit(pref)[0] * vmax[..., None], pref)
+        return np.where(coop[..., None], out, vel).reshape(pos.shape)
+    pts = np.concatenate(lines_p, axis=2).reshape(b * n, -1, 2)
+    dirs = np.concatenate(lines_d, axis=2).reshape(b * n, -1, 2)
+    valid = np.concatenate(lines_v, axis=2).reshape(b * n, -1)
+    r_max, opt = vmax.reshape(-1), pref.reshape(-1, 2)
+    result, fail = _lp2(pts, dirs, valid, r_max, opt, False)
+    stuck = fail < valid.shape[1]
+    if stuck.any():
+        a = np.flatnonzero(stuck)
+        result[a] = _lp3(pts[a], dirs[a], valid[a], n_static, fail[a], r_max[a], result[a])
+    out = np.where(coop.reshape(-1)[:, None], result, vel.reshape(-1, 2))
+    return out.reshape(pos.shape)
+
+
+# --- people ------------------------------------------------------------------------------
+
+
+class Crowd:
+    """The scene's pedestrians, cyclists and scooter riders, moved by ORCA on walkable ground.
+
+    ``scene``'s :class:`~citygen.spec.agents.Person` agents in spec order; ``occupancy`` the
+    scene's :class:`~citygen.exporters.occupancy.OccupancyMap` (its walkable cells are where
+    people may be); ``rng`` the generator of the small nudges that break symmetric deadlocks
+    (the same generator state gives the same motion); ``dt`` (s) one control step.
+    State after :meth:`reset` and each :meth:`step`: ``pos`` ``(N, 2)`` (m), ``vel`` ``(N, 2)``
+    (m/s), ``target`` ``(N,)`` (0: heading for the goal, 1: for the start) and ``arrivals``
+    ``(N,)`` (targets reached so far). Constant: ``ids``, ``radius`` (m), ``speed`` (preferred,
+    m/s), ``max_speed`` (m/s), ``need`` (m: the clearance kept from non-walkable cell centres).
+    """
+
+    def __init__(
+        self,
+        scene: Scene,
+        occupancy: OccupancyMap,
+        *,
+        rng: np.random.Generator,
+        dt: float,
+        tau: float = 2.0,
+        neighbor_dist: float = 5.0,
+        max_neighbors: int = 10,
+    ) -> None:
+        if not (isinstance(dt, int | float) and dt > 0):
+            raise ValueError(f"Crowd dt: expected a step > 0 in seconds, got {dt!r}")
+        people = [a for a in scene.agents if isinstance(a, Person)]
+        self.ids: list[str] = [a.id for a in people]
+        self.dt, self.tau = float(dt), float(tau)
+        self.neighbor_dist, self.max_neighbors = float(neighbor_dist), int(max_neighbors)
+        self.radius = np.array([a.radius for a in people], dtype=np.float64)
+        self.speed = np.array([a.speed for a in people], dtype=np.float64)
+        self.max_speed = SPEED_FACTOR * self.speed
+        self.start = np.array([a.start for a in people], dtype=np.float64).reshape(-1, 2)
+        self.goal = np.array([a.goal for a in people], dtype=np.float64).reshape(-1, 2)
+        self._grid = occupancy.grid
+        res = occupancy.resolution
+        walk = np.pad(occupancy.walkable_mask(), 1)  # off the map is not walkable
+        edt, idx = scipy.ndimage.distance_transform_edt(walk, return_indices=True)
+        #: Distance (m) from each cell centre to the nearest non-walkable cell centre.
+        self.clearance = edt[1:-1, 1:-1] * res
+        g = self._grid
+        self._blocked_xy = np.stack(
+            [g.x0 + (idx[1, 1:-1, 1:-1] - 0.5) * res, g.y0 + (idx[0, 1:-1, 1:-1] - 0.5) * res], axis=-1
+        )
+        half_diag = res * math.sqrt(0.5)
+        self.need = np.minimum(
+            self.radius + half_diag, np.minimum(self._clear_at(self.start), self._clear_at(self.goal))
+        )
+        self.need = np.maximum(self.need, 0.0)
+        self._static_radius = self.need + half_diag - self.radius
+        self._build_paths()
+        self.reset(rng)
+
+    # grid look-ups
+    def _cells(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        g = self._grid
+        col = np.clip(np.floor((xy[..., 0] - g.x0) / g.resolution), 0, g.cols - 1).astype(np.int64)
+        row = np.clip(np.floor((xy[..., 1] - g.y0) / g.resolution), 0, g.rows - 1).astype(np.int64)
+        return row, col
+
+    def _clear_at(self, xy: np.ndarray) -> np.ndarray:
+        """Clearance (m) of the cells under points ``xy`` ``(..., 2)``; 0 off the map."""
+        g = self._grid
+        inside = (
+            (xy[..., 0] >= g.x0)
+            & (xy[..., 0] < g.x0 + g.cols * g.resolution)
+            & (xy[..., 1] >= g.y0)
+            & (xy[..., 1] < g.y0 + g.rows * g.resolution)
+        )
+        return np.where(inside, self.clearance[self._cells(xy)], 0.0)
+
+    def allowed(self, xy: np.ndarray) -> np.ndarray:
+        """Whether each person ``i`` may stand at ``xy[i]`` (``(N, 2)`` m): its cell keeps ``need[i]``."""
+        return self._clear_at(xy) >= self.need
+
+    def _build_paths(self) -> None:
+        """Per person and target (goal, start) the next hop towards it on a coarse grid of
+        :data:`NAV_CELL` cells, whose nodes are each block's best-cleared fine cell."""
+        g, res = self._grid, self._grid.resolution
+        f = max(1, round(NAV_CELL / res))
+        rows, cols = -(-g.rows // f), -(-g.cols // f)
+        pad = np.full((rows * f, cols * f), -1.0)
+        pad[: g.rows, : g.cols] = self.clearance
+        blocks = pad.reshape(rows, f, cols, f).transpose(0, 2, 1, 3).reshape(rows, cols, f * f)
+        best = blocks.argmax(axis=-1)
+        self._node_clear = np.take_along_axis(blocks, best[..., None], -1)[..., 0]
+        r = np.arange(rows)[:, None] * f + best // f
+        c = np.arange(cols)[None, :] * f + best % f
+        self._node_xy = np.stack([g.x0 + (c + 0.5) * res, g.y0 + (r + 0.5) * res], axis=-1).reshape(-1, 2)
+        self._f, self._shape = f, (rows, cols)
+        n_nodes = rows * cols
+        n = len(self.ids)
+        self._hop = np.full((n, 2, n_nodes), -1, dtype=np.int64)
+        # One graph per clearance class (5 cm): people of like size share their Dijkstra run.
+        groups = np.floor(self.need / 0.05 + 1e-9) * 0.05
+        for need in np.unique(groups):
+            members = np.flatnonzero(groups == need)
+            graph = self._graph(need)
+            targets = np.concatenate([self.goal[members], self.start[members]])
+            src = self._node_of(targets)
+            _, pred = scipy.sparse.csgraph.dijkstra(
+                graph, directed=False, indices=src, return_predecessors=True
+            )
+            m = len(members)
+            self._hop[members, 0] = pred[:m]
+            self._hop[members, 1] = pred[m:]
+        self._hop[self._hop < 0] = -1
+
+    def _node_of(self, xy: np.ndarray) -> np.ndarray:
+        row, col = self._cells(xy)
+        return (row // self._f) * self._shape[1] + col // self._f
+
+    def _graph(self, need: float) -> scipy.sparse.csr_matrix:
+        rows, cols = self._shape
+        ok = self._node_clear >= need
+        ids = np.arange(rows * cols).reshape(rows, cols)
+        src, dst = [], []
+        for dr, dc in ((0, 1), (1, 0), (1, 1), (1, -1)):
+            a = ok[: rows - dr, max(0, -dc) : cols - max(0, dc)]
+            b = ok[dr:, max(0, dc) : cols + min(0, dc)]
+            both = a & b
+            if dr and dc:  # diagonal: only where both orthogonal cells are free too (no corner cutting)
+                both &= (
+                    ok[: rows - dr, max(0, dc) : cols + min(0, dc)] & ok[dr:, max(0, -dc) : cols - max(0, dc)]
+                )
+            src.append(ids[: rows - dr, max(0, -dc) : cols - max(0, dc)][both])
+            dst.append(ids[dr:, max(0, dc) : cols + min(0, dc)][both])
+        s, d = np.concatenate(src), np.concatenate(dst)
+        w = np.linalg.norm(self._node_xy[s] - self._node_xy[d], axis=1) + 1e-9
+        return scipy.sparse.csr_matrix((w, (s, d)), shape=(rows * cols, rows * cols))
+
+    # state
+    def reset(self, rng: np.random.Generator) -> None:
+        """Everyone back at its start, standing, heading for its goal; ``rng`` drives the nudges."""
+        self._rng = rng
+        self.pos = self.start.copy()
+        self.vel = np.zeros_like(self.pos)
+        self.target = np.zeros(len(self.ids), dtype=np.int64)
+        self.arrivals = np.zeros(len(self.ids), dtype=np.int64)
+        d = self.goal - self.start
+        self._heading = np.arctan2(d[:, 1], d[:, 0])
+
+    def targets(self) -> np.ndarray:
+        """Where each person is heading now ``(N, 2)`` (m)."""
+        return np.where((self.target == 0)[:, None], self.goal, self.start)
+
+    def preferred_velocities(self) -> np.ndarray:
+        """Velocities (m/s) towards a waypoint :data:`LOOKAHEAD` cells ahead on each person's path."""
+        n = len(self.ids)
+        tgt = self.targets()
+        node = self._node_of(self.pos)
+        rows = np.arange(n)
+        for _ in range(LOOKAHEAD):
+            nxt = self._hop[rows, self.target, node]
+            node = np.where(nxt >= 0, nxt, node)
+        src = self._node_of(tgt)
+        lost = self._hop[rows, self.target, self._node_of(self.pos)] < 0  # at the target's node, or cut off
+        aim = np.where(((node == src) | lost)[:, None], tgt, self._node_xy[node])
+        u, dist = _unit(aim - self.pos)
+        return u * np.minimum(self.speed, dist / self.dt)[:, None]
+
+    def _static(self) -> tuple[np.ndarray, np.ndarray]:
+        """The nearest blocked cell centres seen from each person and from 8 points around it."""
+        ang = np.arange(8) * (np.pi / 4)
+        probe = self.radius[:, None, None] + 0.3
+        around = self.pos[:, None] + probe * np.stack([np.cos(ang), np.sin(ang)], -1)[None]
+        pts = np.concatenate([self.pos[:, None], around], axis=1)
+        row, col = self._cells(pts)
+        near = self._blocked_xy[row, col]
+        reach = (self.radius + self.max_speed * 1.0 + self._static_radius + 0.5)[:, None]
+        far = np.linalg.norm(near - self.pos[:, None], axis=-1) > reach
+        radii = np.where(far, -1.0, self._static_radius[:, None])
+        return near, radii
+
+    def step(self, robot_xy, robot_vel, robot_radius: float) -> None:
+        """Move everyone by one step of ``dt``, avoiding each other and the robot at ``robot_xy``
+        (m) moving at ``robot_vel`` (m/s) with radius ``robot_radius`` (m)."""
+        n = len(self.ids)
+        if n == 0:
+            return
+        rxy = np.asarray(robot_xy, dtype=np.float64).reshape(2)
+        rvel = np.asarray(robot_vel, dtype=np.float64).reshape(2)
+        rrad = float(robot_radius)
+        arrived = np.linalg.norm(self.targets() - self.pos, axis=1) < np.maximum(ARRIVE, 0.5 * self.radius)
+        self.target = np.where(arrived, 1 - self.target, self.target)
+        self.arrivals += arrived
+        pref = self.preferred_velocities() + self._rng.normal(0.0, JITTER, (n, 2))
+        pts, radii = self._static()
+        pos = np.concatenate([self.pos, rxy[None]])
+        vel = np.concatenate([self.vel, rvel[None]])
+        coop = np.arange(n + 1) < n
+        static = (
+            np.concatenate([pts, np.full((1, pts.shape[1], 2), np.nan)]),
+            np.concatenate([radii, np.full((1, radii.shape[1]), -1.0)]),
+        )
+        v = orca_velocities(
+            pos,
+            vel,
+            np.concatenate([pref, rvel[None]]),
+            np.concatenate([self.radius, [rrad + ROBOT_MARGIN]]),
+            np.concatenate([self.max_speed, [max(1.0, float(np.hypot(*rvel)))]]),
+            dt=self.dt,
+            tau=self.tau,
+            neighbor_dist=self.neighbor_dist,
+            max_neighbors=self.max_neighbors,
+            cooperative=coop,
+            static=static,
+        )[:n]
+        new = self._safe(self.pos + v * self.dt, rxy, rvel, rrad)
+        self.vel = (new - self.pos) / self.dt
+        self.pos = new
+        moving = np.hypot(self.vel[:, 0], self.vel[:, 1]) > 0.05
+        self._heading = np.where(moving, np.arctan2(self.vel[:, 1], self.vel[:, 0]), self._heading)
+
+    def _safe(self, cand: np.ndarray, rxy: np.ndarray, rvel: np.ndarray, rrad: float) -> np.ndarray:
+        """``cand`` made safe: on allowed ground (slide along the boundary, else stay), out of the
+        robot's disc now and after its next step where the ground allows, and no overlap between
+        two people larger than before (take steps back)."""
+        old = self.pos
+        step = cand - old
+        for trial in (old + step * [1.0, 0.0], old + step * [0.0, 1.0], old):
+            bad = ~self.allowed(cand)
+            cand = np.where(bad[:, None], trial, cand)
+        # The robot sweeps the segment from where it is to where it will be after its next step.
+        a, b = rxy, rxy + rvel * self.dt
+        ab = b - a
+        reach = self.radius + rrad
+
+        def nearest(xy: np.ndarray) -> np.ndarray:
+            t = np.clip(_dot(xy - a, ab) / max(_dot(ab, ab), 1e-12), 0.0, 1.0)
+            return a + t[:, None] * ab
+
+        def depth(xy: np.ndarray) -> np.ndarray:
+            return reach - np.linalg.norm(xy - nearest(xy), axis=1)
+
+        def in_robot(xy: np.ndarray) -> np.ndarray:
+            return depth(xy) > 0.0
+
+        hit = in_robot(cand)
+        if hit.any():
+            q = nearest(cand)
+            away, _ = _unit(cand - q)
+            out = q + away * (reach + 1e-3)[:, None]
+            fine = hit & ~in_robot(out) & self.allowed(out)
+            cand = np.where(fine[:, None], out, cand)
+        # Rare conflicts ORCA left (a person squeezed between the robot, others and a wall): each
+        # conflicted person takes, of a few steps it could make, the one that overlaps least.
+        gap_old = self._gaps(old)
+        floor = np.minimum(np.min(gap_old, axis=1), 0.0)  # overlaps already there may stay
+        for _ in range(2):
+            gap = self._gaps(cand)
+            conflict = np.flatnonzero(
+                (np.min(gap, axis=1) < floor - OVERLAP_SLACK) | (depth(cand) > OVERLAP_SLACK)
+            )
+            if not len(conflict):
+                break
+            for i in conflict.tolist():
+                opts = np.concatenate([cand[i : i + 1], old[i] + _ESCAPES * self.max_speed[i] * self.dt])
+                others = np.delete(np.arange(len(cand)), i)
+                d = np.linalg.norm(opts[:, None] - cand[others][None], axis=-1)
+                over = np.max(self.radius[i] + self.radius[others] - d, axis=1, initial=0.0) + floor[i]
+                dep = reach[i] - np.linalg.norm(
+                    opts
+                    - (a + np.clip(_dot(opts - a, ab) / max(_dot(ab, ab), 1e-12), 0.0, 1.0)[:, None] * ab),
+                    axis=1,
+                )
+                score = np.maximum(np.maximum(over, dep), 0.0)
+                score[self._clear_at(opts) < self.need[i]] = np.inf
+                best = int(np.argmin(score + 1e-6 * np.linalg.norm(opts - cand[i], axis=1)))
+                if np.isfinite(score[best]):
+                    cand[i] = opts[best]
+        # Steps that still make two people overlap more than now are taken back (not into the robot).
+        pinned = depth(old) > OVERLAP_SLACK  # a step back would leave them inside the robot
+        back = np.zeros(len(cand), dtype=bool)
+        for _ in range(len(cand)):
+            gap = self._gaps(cand)
+            worse = (gap < -OVERLAP_SLACK) & (gap < gap_old - 1e-9)
+            i, j = np.nonzero(np.triu(worse, 1))
+            movers = np.unique(np.concatenate([i, j]))
+            movers = movers[~back[movers] & ~pinned[movers]]
+            if not len(movers):
+                break
+            back[movers] = True
+            cand[movers] = old[movers]
+        return cand
+
+    def _gaps(self, xy: np.ndarray) -> np.ndarray:
+        """Pairwise gaps (m) between people's discs at ``xy``; ``inf`` on the diagonal."""
+        d = np.linalg.norm(xy[:, None] - xy[None], axis=-1) - (self.radius[:, None] + self.radius[None])
+        np.fill_diagonal(d, np.inf)
+        return d
+
+    def headings(self) -> np.ndarray:
+        """Yaw (rad) each person faces: where it moves, or where it last moved when standing."""
+        return self._heading.copy()
+
+
+# --- vehicles ----------------------------------------------------------------------------
+
+IDM_ACCEL = 1.5
+"""IDM's maximum acceleration ``a`` (m/s^2)."""
+IDM_BRAKE = 2.0
+"""IDM's comfortable deceleration ``b`` (m/s^2)."""
+IDM_GAP = 2.0
+"""IDM's jam distance ``s0`` (m): the bumper gap kept when stopped behind something."""
+IDM_HEADWAY = 1.5
+"""IDM's safe time headway ``T`` (s)."""
+LOOK_AHEAD = 60.0
+"""How far ahead (m) a vehicle looks for something to keep its distance to."""
+
+
+def _lane_end(block, socket: str, inward: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The rightmost lane's point at a block's road end and the driving direction there."""
+    arm = next(a for a in block_geometry(block).arms if a.socket == socket)
+    heading = arm.yaw + math.pi if inward else arm.yaw
+    fwd = np.array([math.cos(heading), math.sin(heading)])
+    right = np.array([fwd[1], -fwd[0]])
+    return np.asarray(arm.position) + right * min(block.lane_width, arm.half_width) / 2, fwd
+
+
+def _nearest_arm(block, xy: np.ndarray) -> str:
+    arms = block_geometry(block).arms
+    return arms[int(np.argmin([np.hypot(*(np.asarray(a.position) - xy)) for a in arms]))].socket
+
+
+def _cubic(p0: np.ndarray, d0: np.ndarray, p1: np.ndarray, d1: np.ndarray, n: int = 12) -> np.ndarray:
+    """Points of the cubic from ``p0`` leaving along ``d0`` to ``p1`` arriving along ``d1``."""
+    k = np.linalg.norm(p1 - p0) / 3
+    c0, c1 = p0 + d0 * k, p1 - d1 * k
+    t = np.linspace(0.0, 1.0, n)[:, None]
+    return (1 - t) ** 3 * p0 + 3 * (1 - t) ** 2 * t * c0 + 3 * (1 - t) * t**2 * c1 + t**3 * p1
+
+
+def lane_path(vehicle: Vehicle, blocks) -> np.ndarray:
+    """The polyline ``(K, 2)`` (m) a vehicle drives: from its start through the right lane of
+    each block of its route (a cubic curve from the entry to the exit of each block) to its
+    goal; a straight line from start to goal when it has no route or the route is not a chain
+    of connected blocks."""
+    start, goal = np.asarray(vehicle.start, float), np.asarray(vehicle.goal, float)
+    by_id = {b.id: b for b in blocks}
+    route = [by_id[r] for r in vehicle.route if r in by_id]
+    if not route or len(route) != len(vehicle.route):
+        return np.stack([start, goal])
+    graph = road_graph(blocks)
+    sockets = []
+    for k, block in enumerate(route):
+        if k == 0:
+            entry = _nearest_arm(block, start)
+        else:
+            edge = graph.get_edge_data(route[k - 1].id, block.id)
+            if edge is None:
+                return np.stack([start, goal])
+            entry = edge["sockets"][block.id]
+        if k == len(route) - 1:
+            exit_ = _nearest_arm(block, goal)
+        else:
+            edge = graph.get_edge_data(block.id, route[k + 1].id)
+            if edge is None:
+                return np.stack([start, goal])
+            exit_ = edge["sockets"][block.id]
+        sockets.append((block, entry, exit_))
+    pts = []
+    for block, entry, exit_ in sockets:
+        p0, d0 = _lane_end(block, entry, inward=True)
+        p1, d1 = _lane_end(block, exit_, inward=False)
+        pts.append(_cubic(p0, d0, p1, d1) if entry != exit_ else np.stack([p0, p1]))
+    path = np.concatenate(pts)
+    # Cut the path at the points nearest to the start and the goal.
+    seg = np.linalg.norm(np.diff(path, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    s0, s1 = _project(path, s, start), _project(path, s, goal)
+    if s1 <= s0:
+        return np.stack([start, goal])
+    inner = path[(s > s0) & (s < s1)]
+    return np.concatenate([start[None], inner, goal[None]])
+
+
+def _project(path: np.ndarray, s: np.ndarray, xy: np.ndarray) -> float:
+    """Arc length (m) of the point of ``path`` nearest to ``xy``."""
+    a, b = path[:-1], path[1:]
+    ab = b - a
+    t = np.clip(_dot(xy - a, ab) / np.maximum(_dot(ab, ab), 1e-12), 0.0, 1.0)
+    d = np.linalg.norm(a + t[:, None] * ab - xy, axis=1)
+    k = int(np.argmin(d))
+    return float(s[k] + t[k] * (s[k + 1] - s[k]))
+
+
+class Traffic:
+    """The scene's vehicles, each driving its :func:`lane_path` by the Intelligent Driver Model.
+
+    ``dt`` (s) one control step. State: ``s`` ``(M,)`` (m along each path), ``v`` ``(M,)`` (m/s);
+    ``pos`` ``(M, 2)`` (m) and ``yaw`` ``(M,)`` (rad) follow from them. Constant: ``ids``,
+    ``length``, ``width`` (m), ``v0`` (desired speed, m/s), ``paths``.
+    """
+
+    def __init__(self, scene: Scene, *, dt: float) -> None:
+        if not (isinstance(dt, int | float) and dt > 0):
+            raise ValueError(f"Traffic dt: expected a step > 0 in seconds, got {dt!r}")
+        cars = [a for a in scene.agents if isinstance(a, Vehicle)]
+        self.dt = float(dt)
+        self.ids: list[str] = [c.id for c in cars]
+        self.length = np.array([c.length for c in cars], dtype=np.float64)
+        self.width = np.array([c.width for c in cars], dtype=np.float64)
+        self.v0 = np.array([c.speed for c in cars], dtype=np.float64)
+        self.paths = [lane_path(c, scene.blocks) for c in cars]
+        self._arc = [
+            np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))]) for p in self.paths
+        ]
+        self.total = np.array([a[-1] for a in self._arc], dtype=np.float64)
+        self.reset()
+
+    def reset(self) -> None:
+        """Every vehicle at the start of its path, standing."""
+        self.s = np.zeros(len(self.ids))
+        self.v = np.zeros(len(self.ids))
+        self._place()
+
+    def _place(self) -> None:
+        m = len(self.ids)
+        self.pos = np.zeros((m, 2))
+        self.yaw = np.zeros(m)
+        for k in range(m):
+            path, arc = self.paths[k], self._arc[k]
+            s = min(self.s[k], arc[-1])
+            self.pos[k] = [np.interp(s, arc, path[:, 0]), np.interp(s, arc, path[:, 1])]
+            j = min(int(np.searchsorted(arc, s, side="right")) - 1, len(path) - 2)
+            d = path[j + 1] - path[j]
+            self.yaw[k] = math.atan2(d[1], d[0])
+
+    def leaders(self, obstacles_xy, obstacles_radius, obstacles_vel=None) -> tuple[np.ndarray, np.ndarray]:
+        """Per vehicle the bumper gap (m) to the nearest thing ahead in a corridor as wide as
+        the vehicle along its heading, and that thing's speed along the heading (m/s);
+        ``inf`` and 0 where the road is clear for :data:`LOOK_AHEAD` metres. Other vehicles
+        and the discs ``obstacles_xy`` ``(K, 2)`` (m) of ``obstacles_radius`` ``(K,)`` (m)
+        moving at ``obstacles_vel`` ``(K, 2)`` (m/s, default standing) count."""
+        m = len(self.ids)
+        oxy = np.asarray(obstacles_xy, dtype=np.float64).reshape(-1, 2)
+        orad = np.broadcast_to(np.asarray(obstacles_radius, dtype=np.float64), (len(oxy),))
+        ovel = (
+            np.zeros_like(oxy) if obstacles_vel is None else np.asarray(obstacles_vel, float).reshape(-1, 2)
+        )
+        fwd = np.stack([np.cos(self.yaw), np.sin(self.yaw)], axis=-1)
+        cars_vel = fwd * self.v[:, None]
+        xy = np.concatenate([self.pos, oxy])
+        vel = np.concatenate([cars_vel, ovel])
+        half_long = np.concatenate([self.length / 2, orad])
+        half_lat = np.concatenate([self.width / 2, orad])
+        rel = xy[None] - self.pos[:, None]  # (M, M + K, 2)
+        along = _dot(rel, fwd[:, None])
+        side = np.abs(_det(fwd[:, None], rel))
+        gap = along - self.length[:, None] / 2 - half_long[None]
+        ahead = (along > 0) & (side < self.width[:, None] / 2 + half_lat[None]) & (gap < LOOK_AHEAD)
+        ahead[np.arange(m), np.arange(m)] = False
+        gap = np.where(ahead, gap, np.inf)
+        k = np.argmin(gap, axis=1) if gap.shape[1] else np.zeros(m, dtype=np.int64)
+        g = gap[np.arange(m), k] if gap.shape[1] else np.full(m, np.inf)
+        lead_v = np.where(np.isfinite(g), _dot(vel[k], fwd), 0.0)
+        return g, lead_v
+
+    def step(self, obstacles_xy=(), obstacles_radius=(), obstacles_vel=None) -> None:
+        """Advance every vehicle by ``dt`` by IDM, keeping its distance to the vehicles and the
+        discs (the robot, people: see :meth:`leaders`) ahead of it; a vehicle at the end of its
+        path starts again from its start when no vehicle is within its length of it."""
+        if not self.ids:
+            return
+        gap, lead_v = self.leaders(obstacles_xy, obstacles_radius, obstacles_vel)
+        v = self.v
+        dv = v - lead_v
+        s_star = IDM_GAP + np.maximum(0.0, v * IDM_HEADWAY + v * dv / (2 * math.sqrt(IDM_ACCEL * IDM_BRAKE)))
+        free = 1.0 - (v / np.maximum(self.v0, 1e-6)) ** 4
+        free = np.where(self.v0 > 0, free, -1.0)  # a vehicle meant to stand stays (brakes)
+        acc = IDM_ACCEL * (free - (s_star / np.maximum(gap, 1e-3)) ** 2)
+        acc = np.maximum(acc, -9.0)  # no more than an emergency stop
+        new_v = np.maximum(v + acc * self.dt, 0.0)
+        adv = 0.5 * (v + new_v) * self.dt
+        # Never closer than the jam distance to what is ahead (IDM only tends to it).
+        adv = np.minimum(adv, np.maximum(gap - IDM_GAP, 0.0))
+        self.v = np.where(adv <= 0, 0.0, new_v)
+        self.s = self.s + adv
+        done = self.s >= self.total
+        if done.any():
+            start = np.array([p[0] for p in self.paths])
+            for k in np.flatnonzero(done).tolist():
+                others = np.delete(np.arange(len(self.ids)), k)
+                clear = np.all(np.linalg.norm(self.pos[others] - start[k], axis=1) > self.length[k] + IDM_GAP)
+                self.s[k], self.v[k] = (0.0, 0.0) if clear else (self.total[k], 0.0)
+        self._place()
