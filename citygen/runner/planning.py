@@ -547,6 +547,7 @@ class Planner:
         """How many times :meth:`command` planned again."""
         self._held = 0
         self._progress = 0
+        self._components: dict[str, np.ndarray] = {}
 
     def free_at(self, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
         """Whether points (m, broadcastable arrays) lie on free cells (False off the grid)."""
@@ -558,12 +559,20 @@ class Planner:
         out[inside] = self.free[row[inside].astype(np.int64), col[inside].astype(np.int64)]
         return out
 
-    def _ends(self, free: np.ndarray, start_xy: np.ndarray, goal_xy: np.ndarray) -> tuple[Cell, Cell] | None:
-        """The free cells nearest start and goal, the goal's among those connected to the start's."""
+    def _ends(
+        self, free: np.ndarray, start_xy: np.ndarray, goal_xy: np.ndarray, cache: str | None = None
+    ) -> tuple[Cell, Cell] | None:
+        """The free cells nearest start and goal, the goal's among those connected to the
+        start's (the connected regions of the planner's own masks are computed once)."""
         start = snap_free(free, self.grid.cell(*start_xy))
         if start is None:
             return None
-        labels, _ = components(free)
+        if cache is None:
+            labels, _ = components(free)
+        else:
+            if cache not in self._components:
+                self._components[cache] = components(free)[0]
+            labels = self._components[cache]
         goal = snap_free(free, self.grid.cell(*goal_xy), within=labels == labels[start])
         return None if goal is None else (start, goal)
 
@@ -579,14 +588,15 @@ class Planner:
         start, goal = np.asarray(start_xy, dtype=np.float64)[:2], np.asarray(goal_xy, dtype=np.float64)[:2]
         self.goal = goal
         extra = np.zeros(self.free.shape, dtype=bool) if blocked is None else np.asarray(blocked, dtype=bool)
-        ends = self._ends(self.free & ~extra, start, goal)
+        cache = ("free", "roomy") if blocked is None else (None, None)
+        ends = self._ends(self.free & ~extra, start, goal, cache[0])
         if ends is None:
             self.path = None
             return None
         # The roomy grid's path when its ends are those of the tight grid (give or take the
         # margin) and it is at most `detour` longer.
         slack = (self.margin / self.grid.resolution + 1.5) ** 2
-        roomy = self._ends(self.roomy & ~extra, start, goal)
+        roomy = self._ends(self.roomy & ~extra, start, goal, cache[1])
         tight = self.free & ~extra
         cells = astar(tight, *ends)
         if cells is None:  # not reached: the goal was snapped within the start's component
