@@ -290,6 +290,24 @@ class _Path:
         return True
 
 
+class _Palettes:
+    """The variants of each category one scene draws from (:data:`PALETTE` of its 10,000),
+    drawn on first use: category ``k`` of the sorted catalog from ``child(rng, k)``, which
+    depends only on the stage's seed and ``k``, so the order of use changes nothing."""
+
+    def __init__(self, rng: np.random.Generator):
+        self.rng = rng
+        self.keys = {name: k for k, name in enumerate(sorted(CATEGORIES))}
+        self.drawn: dict[str, list[str]] = {}
+
+    def __getitem__(self, name: str) -> list[str]:
+        hit = self.drawn.get(name)
+        if hit is None:
+            picks = child(self.rng, self.keys[name]).choice(10_000, PALETTE, replace=False)
+            hit = self.drawn[name] = [f"{name}/{int(v):04d}" for v in picks]
+        return hit
+
+
 def target_count(cfg: PlacementConfig, level: float, area: float) -> int:
     """Objects to place: ``count`` or the density over ``area`` (m2), times ``level``."""
     base = cfg.count if cfg.count is not None else cfg.density_per_100m2 * area / 100.0
@@ -321,13 +339,10 @@ def place_objects(
             "placement", seed, f"unknown categories {unknown}: expected some of {', '.join(CATEGORIES)}"
         )
     ground = _Ground(zones)
-    palettes = {
-        name: [f"{name}/{int(v):04d}" for v in child(rng, k).choice(10_000, PALETTE, replace=False)]
-        for k, name in enumerate(sorted(CATEGORIES))
-    }
+    palettes = _Palettes(rng)
     placed: list[Placement] = []
     if "building" in names:
-        placed += _buildings(ground, palettes["building"], terrain)
+        placed += _buildings(ground, palettes, terrain)
     furniture = [n for n in sorted(set(names)) if CATEGORIES[n].anchor != "lot"]
     slots = {n: s for n in furniture if (s := ground.slot(n)) is not None}
     # The zones tile the ground, so the area they cover is the sum over distinct zones.
@@ -408,15 +423,16 @@ def _ground_height(terrain: Terrain | None, ring: np.ndarray, x: float, y: float
     return round(float(zs.min()), 3) + 0.0
 
 
-def _buildings(ground: _Ground, palette: list[str], terrain: Terrain | None) -> list[Placement]:
+def _buildings(ground: _Ground, palettes: _Palettes, terrain: Terrain | None) -> list[Placement]:
     """One building massing per building lot: of the palette's variants, the one that fits
     the lot nearest its real size, turned to the lot's long side with its front toward the
     nearest road, scaled to fill the lot's rectangle and shrunk until it fits inside."""
     out = []
-    variants = [resolve(v) for v in palette]
+    variants: list[Asset] = []  # resolved at the first lot: most small scenes have none
     for poly, zone in zip(ground.polys, ground.zones, strict=True):
         if zone.kind != "building" or poly.area < 4.0:
             continue
+        variants = variants or [resolve(v) for v in palettes["building"]]
         fits = [(f, a) for a in variants if (f := _fit(a, poly, ground)) is not None]
         if not fits:
             continue
