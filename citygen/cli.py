@@ -14,7 +14,7 @@ import typer
 
 import citygen
 from citygen.cli_runner import register as register_runner
-from citygen.errors import CitygenError, SpecError
+from citygen.errors import CitygenError, Problem, SpecError
 
 app = typer.Typer(
     name="citygen",
@@ -214,6 +214,16 @@ JobsOption = Annotated[
     typer.Option("--jobs", "-j", callback=_jobs_option, help="Worker processes.  [default: every core]"),
 ]
 
+ExecutorOption = Annotated[
+    str,
+    typer.Option(
+        "--executor",
+        help="`local`: a process pool here. `ray`: Ray tasks (many scenes each) on the cluster at "
+        "RAY_ADDRESS (`auto`: the one `ray start` began on this machine), else on a Ray started here "
+        "with --jobs CPUs; this process writes the files. Needs `pip install 'citygen[scale]'`.",
+    ),
+]
+
 
 @app.command()
 def generate(
@@ -247,20 +257,29 @@ def generate(
     resume: Annotated[
         bool, typer.Option("--resume", help="Keep scene files already written and valid.")
     ] = False,
+    executor: ExecutorOption = "local",
 ) -> None:
     """Generate scenes of a named split (or of your own config) as JSON scene files.
 
     Scene `i` of split `S` gets the seed derived from (master seed, `S`, `i`), written into its
     `meta`; files go to `OUT/<family>/<part>/<index:04d>.json`, e.g. `out/urban-nav-2/train/0000.json`.
     """
-    from citygen.generate.dataset import progress_bar, write_scenes
+    from citygen.generate.dataset import check_executor, progress_bar, write_scenes
     from citygen.generate.splits import indices, resolve
 
+    check_executor(executor)
     chosen = resolve(split, seed=seed)
     total = sum(len(indices(s, index, count)) for s in chosen)
     with progress_bar(total, "generating", enabled=sys.stderr.isatty() and total > 1) as advance:
         written = write_scenes(
-            chosen, out, index=index, count=count, jobs=jobs, resume=resume, on_progress=advance
+            chosen,
+            out,
+            index=index,
+            count=count,
+            jobs=jobs,
+            resume=resume,
+            on_progress=advance,
+            executor=executor,
         )
     _report_written(written, out)
 
@@ -299,16 +318,26 @@ def dataset(
         bool, typer.Option("--resume", help="Keep scene files already written whose digest matches.")
     ] = False,
     manifest: ManifestOption = None,
+    executor: ExecutorOption = "local",
 ) -> None:
     """Write every scene of the Urban-Nav splits (`OUT/urban-nav-1/train/0000.json` ...) and
     `OUT/index.json`. Subcommands: `verify DIR`, `lock`."""
     if ctx.invoked_subcommand is not None:
         return
-    from citygen.generate.dataset import INDEX_NAME, dataset_size, progress_bar, write_dataset
+    from citygen.generate.dataset import (
+        INDEX_NAME,
+        check_executor,
+        dataset_size,
+        progress_bar,
+        write_dataset,
+    )
 
+    check_executor(executor)
     total = dataset_size(manifest)
     with progress_bar(total, "dataset", enabled=sys.stderr.isatty()) as advance:
-        written = write_dataset(out, manifest=manifest, jobs=jobs, resume=resume, on_progress=advance)
+        written = write_dataset(
+            out, manifest=manifest, jobs=jobs, resume=resume, on_progress=advance, executor=executor
+        )
     _report_written(written, out)
     typer.echo(f"wrote {out / INDEX_NAME} ({len(written)} scenes)")
 
@@ -363,6 +392,65 @@ def dataset_lock(
             raise typer.Exit(2)
     path = write_lock(written, manifest=manifest, path=out)
     typer.echo(f"wrote {path} ({len(written)} scenes)")
+
+
+@app.command()
+def rebuild(
+    scene: Annotated[Path, typer.Argument(help="A scene file (.json), edited by hand.", show_default=False)],
+    stage: Annotated[
+        str,
+        typer.Option(
+            "--from",
+            help="The last stage to keep as it is in the file: layout, terrain, placement, agents "
+            "or task. Every stage after it is made again.",
+            show_default=False,
+        ),
+    ],
+    out: Annotated[
+        Path | None, typer.Option("--out", "-o", help="File to write.  [default: SCENE itself]")
+    ] = None,
+    config: Annotated[
+        Path | None,
+        typer.Option(
+            "--config",
+            help="The generator config (.toml, .json) or split manifest the scene came from.  "
+            "[default: the named split in the scene's meta.split]",
+        ),
+    ] = None,
+    seed: Annotated[
+        int | None,
+        typer.Option("--seed", min=0, max=2**64 - 1, help="The scene's seed.  [default: its meta.seed]"),
+    ] = None,
+) -> None:
+    """Re-run the generator stages after `--from` on a hand-edited scene, keeping the rest.
+
+    `citygen rebuild scene.json --from placement` keeps the layout (blocks, zones), terrain
+    and objects as they are in the file and makes the agents and the task again, with the
+    scene's own seed and config: an unedited scene comes back byte for byte. The task's start,
+    goal and route belong to the layout: rebuilding from `layout` chooses them again, from any
+    later stage keeps them. The result is checked as `citygen validate` does; nothing is
+    written unless it is valid.
+    """
+    from citygen.generate import rebuild as rebuild_scene
+    from citygen.generate.pipeline import STAGES
+    from citygen.generate.splits import config_for
+
+    if stage not in STAGES:
+        raise SpecError([Problem("--from", f"one of {', '.join(STAGES)}", repr(stage))])
+    edited = citygen.load_scene(scene)
+    target = out if out is not None else scene
+    try:
+        generator_config = config_for(edited, config)
+        result = rebuild_scene(edited, stage, generator_config, seed=seed)
+    except SpecError as exc:
+        raise SpecError(exc.problems, file=exc.file or str(scene)) from None
+    problems = citygen.validate(result, base_dir=target.parent)
+    if problems:
+        raise SpecError(problems, file=f"{scene} rebuilt from {stage}")
+    citygen.save_scene(result, target)
+    kept = ", ".join(STAGES[: STAGES.index(stage) + 1])
+    remade = ", ".join(STAGES[STAGES.index(stage) + 1 :]) or "nothing"
+    typer.echo(f"wrote {target} (kept {kept}; made again: {remade})")
 
 
 assets_app = typer.Typer(

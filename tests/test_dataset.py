@@ -195,3 +195,41 @@ def test_dataset_command_counts_and_index(small, tmp_path, cli):
     assert f"wrote {out}/index.json (26 scenes)" in result.out
     result = cli("dataset", "verify", out, "--manifest", small)
     assert result.code == 2 and "tiny.lock.json" in result.err  # no lock file yet
+
+
+# --- executors ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("command", [["generate", "--split", "urban-nav-2", "-n", "1"], ["dataset"]])
+def test_ray_without_ray_installed_is_one_line_naming_the_extra(cli, tmp_path, monkeypatch, command):
+    monkeypatch.setitem(sys.modules, "ray", None)  # `import ray` fails as if not installed
+    result = cli(*command, "--out", tmp_path / "out", "--executor", "ray")
+    assert result.code == 2
+    assert result.err.strip() == (
+        "--executor ray needs the package 'ray', which is not installed: pip install 'citygen[scale]'"
+    )
+    assert not (tmp_path / "out").exists()
+
+
+def test_an_unknown_executor_is_one_line(cli, tmp_path):
+    result = cli("generate", "--split", "urban-nav-2", "--out", tmp_path, "--executor", "dask")
+    assert result.code == 2
+    assert result.err.strip() == "--executor: expected one of local, ray, got 'dask'"
+    assert not list(tmp_path.rglob("*.json"))
+
+
+def test_chunks_hold_many_consecutive_scenes_of_one_split(small):
+    from citygen.generate.dataset import MAX_CHUNK, chunks
+    from citygen.io import load_manifest
+
+    parts = load_manifest(small).splits
+    work = [(s, i) for s in parts for i in range(s.scenes)]
+    plan = list(chunks(work, 2))
+    assert [(s.name, c) for s, c in plan][:2] == [
+        ("tiny-1-train", [0, 1, 2, 3]),
+        ("tiny-1-train", [4, 5, 6, 7]),
+    ]
+    assert sorted((s.name, i) for s, c in plan for i in c) == sorted((s.name, i) for s, i in work)
+    big = [(parts[0], i) for i in range(10_000)]
+    sizes = [len(c) for _, c in chunks(big, 8)]
+    assert set(sizes[:-1]) == {MAX_CHUNK} and sum(sizes) == 10_000

@@ -9,6 +9,12 @@ index, seed and generator. A killed run leaves only whole files (and at worst hi
 ``.*.tmp`` files, which the next run removes), so running again with ``resume=True``
 finishes the job.
 
+Two executors run the same chunks: ``local`` (a process pool on this machine, each worker
+writing its own files) and ``ray`` (:func:`ray_scenes`: one Ray task per chunk on the cluster
+``RAY_ADDRESS`` names, or on a Ray started here with ``jobs`` CPUs; the tasks return the
+scene bytes and this process writes them, so the output folder need not be shared with the
+cluster). Either way a scene's bytes depend only on its split and index.
+
 The canonical dataset is every split of ``seeds/urban-nav.toml`` (1,536 scenes) with its
 manifest's master seeds. Its digests live in ``seeds/urban-nav.lock.json``; after a
 deliberate change to the generator regenerate them with ``citygen dataset lock`` and say
@@ -29,7 +35,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
-from citygen.errors import CitygenError, Problem, SpecError
+from citygen.errors import CitygenError, DependencyMissing, Problem, SpecError
 from citygen.generate.pipeline import GENERATOR
 from citygen.generate.splits import generate_scene, indices, relative_path, seeds_dir
 from citygen.io import dumps, load_manifest, load_scene, write_atomic
@@ -43,6 +49,8 @@ INDEX_NAME = "index.json"
 DATASET_MANIFEST = "urban-nav.toml"
 #: Most scenes one pool task makes (fewer when there are few scenes per worker).
 MAX_CHUNK = 32
+#: Where scenes can be made: a process pool here, or a Ray cluster.
+EXECUTORS = ("local", "ray")
 
 
 @dataclass(frozen=True)
@@ -107,14 +115,24 @@ def _make_chunk(
             if digest is not None:
                 done.append(Written(rel, split.name, i, seed, digest, skipped=True))
                 continue
-        try:
-            data = dumps(generate_scene(split, i)).encode("utf-8")
-        except CitygenError as exc:
-            # Exceptions with custom constructors do not survive pickling: send the text.
-            raise CitygenError(f"{rel}: {exc}") from None
+        data = _scene_bytes(split, i)
         write_atomic(path, data)
         done.append(Written(rel, split.name, i, seed, sha256(data)))
     return done
+
+
+def _scene_bytes(split: SplitConfig, index: int) -> bytes:
+    """The file of scene ``index`` of ``split``; a failure as a plain, picklable CitygenError."""
+    try:
+        return dumps(generate_scene(split, index)).encode("utf-8")
+    except CitygenError as exc:
+        # Exceptions with custom constructors do not survive pickling: send the text.
+        raise CitygenError(f"{relative_path(split.name, index).as_posix()}: {exc}") from None
+
+
+def _ray_chunk(split: SplitConfig, chunk: Sequence[int]) -> list[tuple[int, bytes]]:
+    """One Ray task: the files of scenes ``chunk`` of ``split``, by index."""
+    return [(i, _scene_bytes(split, i)) for i in chunk]
 
 
 def _die_with_parent() -> None:
@@ -127,7 +145,9 @@ def _die_with_parent() -> None:
             ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
 
 
-def _chunks(work: list[tuple[SplitConfig, int]], jobs: int) -> Iterator[tuple[SplitConfig, list[int]]]:
+def chunks(work: list[tuple[SplitConfig, int]], jobs: int) -> Iterator[tuple[SplitConfig, list[int]]]:
+    """The tasks of a run, for the process pool and for Ray alike: runs of consecutive scenes of
+    one split, about four per worker (``jobs``), each at most :data:`MAX_CHUNK` scenes."""
     size = max(1, min(MAX_CHUNK, -(-len(work) // (jobs * 4))))
     current: list[int] = []
     owner: SplitConfig | None = None
@@ -158,26 +178,32 @@ def write_scenes(
     resume: bool = False,
     expected: dict[str, str] | None = None,
     on_progress: Callable[[int], None] | None = None,
+    executor: str = "local",
 ) -> list[Written]:
     """Make scenes ``index .. index + count`` of every split (see
     :func:`~citygen.generate.splits.indices`) and write each to ``out`` atomically.
 
-    ``jobs``: worker processes (default :func:`default_jobs`; 1 works in this process).
-    ``resume``: keep files already there and valid (``expected`` maps relative paths to
-    the digests they must have). ``on_progress(n)`` is called as ``n`` more scenes are done.
-    Returns one :class:`Written` per scene, in split and index order.
+    ``jobs``: worker processes (default :func:`default_jobs`; 1 works in this process), or
+    the CPUs of a Ray started here. ``resume``: keep files already there and valid
+    (``expected`` maps relative paths to the digests they must have). ``on_progress(n)`` is
+    called as ``n`` more scenes are done. ``executor``: ``local`` or ``ray`` (see the module
+    docstring; ``ray`` needs the ``scale`` extra). Returns one :class:`Written` per scene, in
+    split and index order.
     """
     out = Path(out)
     expected = expected or {}
+    check_executor(executor)
+    if jobs is not None and jobs < 1:
+        raise SpecError([Problem("--jobs", "at least 1 worker", str(jobs))])
     work = [(s, i) for s in splits for i in indices(s, index, count)]
+    if executor == "ray":
+        return ray_scenes(work, out, jobs=jobs, resume=resume, expected=expected, on_progress=on_progress)
     rels = {relative_path(s.name, i).as_posix() for s, i in work}
     _clean_temporaries(out, rels)
     jobs = default_jobs() if jobs is None else jobs
-    if jobs < 1:
-        raise SpecError([Problem("--jobs", "at least 1 worker", str(jobs))])
     results: list[Written] = []
     if jobs == 1 or len(work) <= 1:
-        for split, chunk in _chunks(work, 1):
+        for split, chunk in chunks(work, 1):
             for w in _make_chunk(split, chunk, str(out), resume, expected):
                 results.append(w)
                 if on_progress:
@@ -198,7 +224,7 @@ def write_scenes(
                     resume,
                     {r: expected[r] for r in _rels(split, chunk) if r in expected},
                 )
-                for split, chunk in _chunks(work, jobs)
+                for split, chunk in chunks(work, jobs)
             ]
             try:
                 for future in as_completed(futures):
@@ -216,6 +242,118 @@ def write_scenes(
 
 def _rels(split: SplitConfig, chunk: Sequence[int]) -> list[str]:
     return [relative_path(split.name, i).as_posix() for i in chunk]
+
+
+def check_executor(executor: str) -> None:
+    """Raise a one-line error, before anything is written, for an unknown executor or for
+    ``ray`` without the ``ray`` package (:class:`~citygen.errors.DependencyMissing`)."""
+    if executor not in EXECUTORS:
+        raise SpecError([Problem("--executor", f"one of {', '.join(EXECUTORS)}", repr(executor))])
+    if executor == "ray":
+        _import_ray()
+
+
+def _import_ray():
+    try:
+        import ray
+    except ImportError:
+        raise DependencyMissing("ray", "--executor ray", extra="scale") from None
+    return ray
+
+
+def ray_scenes(
+    work: Sequence[tuple[SplitConfig, int]],
+    out: str | Path,
+    *,
+    jobs: int | None = None,
+    resume: bool = False,
+    expected: dict[str, str] | None = None,
+    on_progress: Callable[[int], None] | None = None,
+) -> list[Written]:
+    """Make the ``(split, index)`` scenes of ``work`` on Ray and write them under ``out``.
+
+    Scenes already there and valid are kept when resuming (checked here, before any task is
+    sent). The rest go out in :func:`chunks` of consecutive scenes, one Ray task each; this
+    process writes every file a task returns, atomically. Uses the Ray already initialised in
+    this process, or connects to the cluster at ``RAY_ADDRESS`` (``auto`` finds the one
+    ``ray start`` began on this machine), or starts Ray here with ``jobs`` CPUs (default
+    :func:`default_jobs`); a Ray it connected to or started is shut down at the end.
+    Raises :class:`~citygen.errors.DependencyMissing` without the ``ray`` package.
+    """
+    ray = _import_ray()
+    out = Path(out)
+    expected = expected or {}
+    _clean_temporaries(out, {relative_path(s.name, i).as_posix() for s, i in work})
+    results: list[Written] = []
+    todo: list[tuple[SplitConfig, int]] = []
+    for split, i in work:
+        rel = relative_path(split.name, i).as_posix()
+        seed = scene_seed(split.seed, split.name, i)
+        digest = _valid_existing(out / rel, split, i, seed, expected.get(rel)) if resume else None
+        if digest is None:
+            todo.append((split, i))
+            continue
+        results.append(Written(rel, split.name, i, seed, digest, skipped=True))
+        if on_progress:
+            on_progress(1)
+    started = bool(todo) and not ray.is_initialized()
+    if started:
+        _start_ray(ray, jobs)
+    try:
+        if todo:
+            results += _run_on_ray(ray, todo, out, on_progress)
+    finally:
+        if started:
+            ray.shutdown()
+    order = {(s.name, i): k for k, (s, i) in enumerate(work)}
+    return sorted(results, key=lambda w: order[(w.split, w.index)])
+
+
+def _start_ray(ray, jobs: int | None) -> None:
+    """Connect to the cluster at ``RAY_ADDRESS`` (``auto``: the one ``ray start`` began on this
+    machine), else start Ray here with ``jobs`` CPUs."""
+    import logging
+
+    quiet = {"include_dashboard": False, "logging_level": logging.WARNING, "log_to_driver": False}
+    address = os.environ.get("RAY_ADDRESS")
+    try:
+        if address:
+            ray.init(**quiet)
+        else:
+            ray.init(address="local", num_cpus=jobs or default_jobs(), **quiet)
+    except (ConnectionError, ValueError, RuntimeError) as exc:
+        where = f"the Ray cluster at RAY_ADDRESS={address}" if address else "a local Ray"
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise CitygenError(f"--executor ray: could not start or reach {where}: {first}") from None
+
+
+def _run_on_ray(ray, todo, out: Path, on_progress) -> list[Written]:
+    workers = max(1, int(ray.cluster_resources().get("CPU", 1)))
+    task = ray.remote(num_cpus=1, max_retries=0)(_ray_chunk)
+    pending = {task.remote(split, chunk): split for split, chunk in chunks(todo, workers)}
+    done: list[Written] = []
+    try:
+        while pending:
+            ready, _ = ray.wait(list(pending), num_returns=1)
+            split = pending.pop(ready[0])
+            try:
+                files = ray.get(ready[0])
+            except ray.exceptions.RayTaskError as exc:
+                cause = getattr(exc, "cause", None)
+                if isinstance(cause, CitygenError):
+                    raise CitygenError(str(cause.args[0]) if cause.args else str(cause)) from None
+                raise
+            for i, data in files:
+                rel = relative_path(split.name, i).as_posix()
+                write_atomic(out / rel, data)
+                done.append(Written(rel, split.name, i, scene_seed(split.seed, split.name, i), sha256(data)))
+            if on_progress:
+                on_progress(len(files))
+    except BaseException:
+        for ref in pending:
+            ray.cancel(ref, force=True)
+        raise
+    return done
 
 
 @contextmanager
@@ -307,15 +445,23 @@ def write_dataset(
     jobs: int | None = None,
     resume: bool = False,
     on_progress: Callable[[int], None] | None = None,
+    executor: str = "local",
 ) -> list[Written]:
     """Write every scene of a manifest's splits (default: the 1,536 Urban-Nav scenes) with
     its canonical seeds under ``out``, then ``out/index.json`` listing each file, its split,
     index, seed and digest. Resuming checks existing files against the lock file's digests.
+    ``executor``: ``local`` or ``ray`` (:func:`write_scenes`).
     """
     m = dataset_manifest(manifest)
     splits = list(load_manifest(m).splits)
     written = write_scenes(
-        splits, out, jobs=jobs, resume=resume, expected=read_lock(lock_path(m)), on_progress=on_progress
+        splits,
+        out,
+        jobs=jobs,
+        resume=resume,
+        expected=read_lock(lock_path(m)),
+        on_progress=on_progress,
+        executor=executor,
     )
     index = {
         "format": INDEX_FORMAT,
