@@ -28,7 +28,7 @@ import scipy.sparse
 import scipy.sparse.csgraph
 
 from citygen.exporters.occupancy import OccupancyMap
-from citygen.geometry.raster import Grid, components
+from citygen.geometry.raster import erode, Grid, components
 
 Cell = tuple[int, int]
 
@@ -307,6 +307,7 @@ def pure_pursuit(
     turn_in_place: float = math.pi / 4,
     sharp_turn: float = math.pi / 6,
     corner_radius: float = 0.1,
+    yaw_gain: float = 2.5,
 ) -> tuple[float, float]:
     """Forward speed ``v`` (m/s) and yaw rate ``w`` (rad/s) that steer a unicycle at
     ``pose = (x, y, yaw)`` (m, m, rad) along ``path_xy`` (``(K, 2)``, m).
@@ -318,7 +319,9 @@ def pure_pursuit(
     ``max_speed`` scaled by ``cos(alpha)`` on turns, linearly down to zero within
     ``slow_radius`` of the path's end, and slower still when the arc would need more than
     ``max_yaw_rate``; when the target lies more than ``turn_in_place`` off the heading the
-    robot turns on the spot. Returns ``(0, 0)`` at the end of the path.
+    robot turns on the spot. The yaw rate never exceeds ``yaw_gain`` (1/s) times the heading
+    error, so a robot whose turning lags one control step does not overshoot and weave.
+    Returns ``(0, 0)`` at the end of the path.
     """
     x, y, yaw = (float(v) for v in pose)
     path = np.asarray(path_xy, dtype=np.float64).reshape(-1, 2)
@@ -351,15 +354,16 @@ def pure_pursuit(
     if d < 1e-6 or to_goal < 1e-3:
         return 0.0, 0.0
     alpha = _wrap(math.atan2(target[1] - y, target[0] - x) - yaw)
+    turn_cap = min(max_yaw_rate, yaw_gain * abs(alpha))
     if abs(alpha) > turn_in_place:
-        return 0.0, math.copysign(max_yaw_rate, alpha)
+        return 0.0, math.copysign(turn_cap, alpha)
     remaining = total - s0 + float(np.hypot(*(path[0] - xy))) * (len(path) == 1)
     v = max_speed * math.cos(alpha) * min(1.0, max(remaining, to_goal) / slow_radius)
     v = min(v, to_goal / 0.1 * max_speed) if to_goal < 0.1 else v
     curvature = 2.0 * math.sin(alpha) / d
     w = v * curvature
-    if abs(w) > max_yaw_rate:
-        v, w = max_yaw_rate / abs(curvature), math.copysign(max_yaw_rate, w)
+    if abs(w) > turn_cap:
+        v, w = turn_cap / abs(curvature), math.copysign(turn_cap, w)
     return float(v), float(w)
 
 
@@ -537,7 +541,11 @@ class Planner:
         if self.free.shape != occupancy.shape:
             raise ValueError(f"Planner: free has shape {self.free.shape}, the map {occupancy.shape}")
         self.margin, self.detour = float(margin), float(detour)
-        self.roomy = ~occupancy.inflated(robot_radius + margin) if margin > 0 else self.free
+        # The free cells at least `margin` further from anything blocked (including whatever
+        # a caller's `free` leaves out beyond the map's own obstacles).
+        self.roomy = self.free & ~occupancy.inflated(robot_radius + margin) if margin > 0 else self.free
+        if margin > 0 and free is not None:
+            self.roomy &= erode(self.free, margin / self.grid.resolution)
         self.lookahead, self.max_speed, self.max_yaw_rate = lookahead, max_speed, max_yaw_rate
         self.horizon, self.replan_distance, self.patience = horizon, replan_distance, patience
         self.path: np.ndarray | None = None

@@ -27,6 +27,8 @@ from citygen.errors import SpecError
 
 #: Metres of progress between two decisions of a shared-autonomy mode.
 DECISION_INTERVAL = 10.0
+#: Pure-pursuit lookahead (m) of the planner baseline.
+LOOKAHEAD = 1.0
 #: Radius (m) around the robot in which agents count toward the risk.
 RISK_RADIUS = 6.0
 
@@ -73,8 +75,8 @@ class PlannerPolicy:
         self.env = env
         robot = env.robot
         self.planner = Planner(
-            env.prepared.occupancy, robot.radius, max_speed=robot.max_speed / self.caution,
-            max_yaw_rate=robot.max_yaw_rate, horizon=1.5 * self.caution,
+            env.prepared.occupancy, robot.radius, free=env.prepared.free, lookahead=LOOKAHEAD,
+            max_speed=robot.max_speed / self.caution, max_yaw_rate=robot.max_yaw_rate, horizon=1.5 * self.caution,
         )  # fmt: skip
         self._goal = None
 

@@ -146,6 +146,9 @@ class Robot:
     """Largest yaw acceleration (rad/s^2) :meth:`RobotHandle.drive` asks for."""
     stand_height: float
     """Height (m) of the base origin above flat ground when standing in the default pose."""
+    max_step: float = 0.04
+    """Highest step (m) the robot drives or walks over in navigation: the environments keep
+    its centre a radius away from steeper edges of the ground (stair risers, curbs)."""
     base_body: str = "base"
     nav_mode: str = "wheels"
     """``"wheels"`` (differential drive on wheel actuators) or ``"base"`` (ideal locomotion)."""
@@ -190,6 +193,18 @@ def _v(*values: float) -> str:
 _COLLIDE = {"contype": str(ROBOT_BIT), "conaffinity": str(ROBOT_CONAFFINITY)}
 # A frictionless caster: its priority beats the ground's (1), so its condim 1 is used.
 _CASTER = {**_COLLIDE, "priority": "2", "condim": "1"}
+
+
+def _caster(doc: _Doc, name: str, pos: tuple, radius: float, mass: float) -> None:
+    """A frictionless caster ball on a sprung vertical slide: it follows bumps (up to 5 cm
+    up) while the driven wheels keep most of the weight, so the robot is not lifted off its
+    wheels on rough ground."""
+    body = ET.SubElement(doc.base, "body", name=name, pos=_v(*pos))
+    ET.SubElement(
+        body, "joint", name=name, type="slide", axis="0 0 1", range="-0.01 0.05", stiffness="3000",
+        springref="0.017", damping="60", armature="0.01",
+    )  # fmt: skip
+    doc.geom(body, name, mass, _CASTER, type="sphere", size=_n(radius))
 
 
 class _Doc:
@@ -371,14 +386,14 @@ def _stand(legs: tuple[Leg, ...], pose: tuple[float, ...]) -> float:
 
 
 def _wheeled() -> Robot:
-    r, track, h = 0.1, 0.49, 0.1
+    r, track, h = 0.12, 0.49, 0.12
     doc = _Doc("wheeled", h, "0.95 0.95 0.92 1")
-    doc.geom(doc.base, "chassis", 36.0, type="box", size=_v(0.35, 0.215, 0.2), pos=_v(0, 0, 0.2))
+    doc.geom(doc.base, "chassis", 36.0, type="box", size=_v(0.35, 0.215, 0.19), pos=_v(0, 0, 0.22))
     doc.geom(
-        doc.base, "lid", 4.0, type="box", size=_v(0.3, 0.19, 0.02), pos=_v(0, 0, 0.42), rgba="0.2 0.5 0.9 1"
+        doc.base, "lid", 4.0, type="box", size=_v(0.3, 0.19, 0.02), pos=_v(0, 0, 0.43), rgba="0.2 0.5 0.9 1"
     )
     for name, x in (("front_caster", 0.27), ("rear_caster", -0.27)):
-        doc.geom(doc.base, name, 0.5, _CASTER, type="sphere", size=_n(0.05), pos=_v(x, 0, 0.05 - h))
+        _caster(doc, name, (x, 0, 0.05 - h), 0.05, 0.5)
     for name, y in (("left_wheel", track / 2), ("right_wheel", -track / 2)):
         doc.wheel(doc.base, name, (0, y, 0), r, 0.06, 2.0, kv=8.0, torque=30.0)
     return Robot(
@@ -391,6 +406,7 @@ def _wheeled() -> Robot:
         max_accel=1.5,
         max_yaw_accel=3.0,
         stand_height=h,
+        max_step=0.05,
         left_wheels=("left_wheel",),
         right_wheels=("right_wheel",),
         wheel_radius=r,
@@ -457,6 +473,7 @@ def _wheelchair() -> Robot:
         max_accel=1.0,
         max_yaw_accel=2.0,
         stand_height=h,
+        max_step=0.05,
         left_wheels=("left_wheel",),
         right_wheels=("right_wheel",),
         wheel_radius=r,
@@ -496,6 +513,7 @@ def _quadruped() -> Robot:
         max_accel=2.0,
         max_yaw_accel=4.0,
         stand_height=h,
+        max_step=0.18,
         nav_mode="base",
         leg_joints=tuple(joints),
         leg_actuators=tuple(acts),
@@ -549,6 +567,7 @@ def _wheeled_legged() -> Robot:
         max_accel=1.5,
         max_yaw_accel=3.0,
         stand_height=h,
+        max_step=0.08,
         left_wheels=("FL_wheel", "RL_wheel"),
         right_wheels=("FR_wheel", "RR_wheel"),
         wheel_radius=r,

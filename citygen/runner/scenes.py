@@ -125,6 +125,28 @@ class Prepared:
         return field_.at(float(xy[0]), float(xy[1]))
 
 
+def step_edges(heights: np.ndarray, max_step: float) -> np.ndarray:
+    """Cells next to a rise of more than ``max_step`` (m) to a 4-neighbour: stair risers,
+    curbs, terrain a robot cannot drive or walk over."""
+    out = np.zeros(heights.shape, dtype=bool)
+    dy = np.abs(np.diff(heights, axis=0)) > max_step
+    dx = np.abs(np.diff(heights, axis=1)) > max_step
+    out[1:] |= dy
+    out[:-1] |= dy
+    out[:, 1:] |= dx
+    out[:, :-1] |= dx
+    return out
+
+
+def free_cells(occ: Any, robot: Any) -> np.ndarray:
+    """Where the robot's centre may be: walkable ground at least its radius from anything
+    else and from every edge higher than its :attr:`~citygen.runner.robots.Robot.max_step`."""
+    from citygen.geometry.raster import erode
+
+    ok = occ.walkable_mask() & ~step_edges(occ.heights, robot.max_step)
+    return erode(ok, robot.radius / occ.resolution)
+
+
 def map_resolution(scene: Scene) -> float:
     """:data:`MAP_RESOLUTION`, doubled until the map has at most :data:`MAX_MAP_CELLS` cells
     (a 1.2 km city is mapped at 0.4 m)."""
@@ -161,7 +183,7 @@ def prepare(scene: Scene, robot: Any) -> Prepared:
         robot=robot,
         model=model,
         occupancy=occ,
-        free=~occ.inflated(robot.radius),
+        free=free_cells(occ, robot),
         walkable=occ.walkable_mask(),
         obstacle_geoms=obstacle,
         ground_geoms=ground,
