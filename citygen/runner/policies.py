@@ -107,9 +107,9 @@ class GaitPolicy:
 
         self.env = env
         if self.gait == "stand":
-            self.controller = gaits.StandController(env.robot)
+            self.controller = gaits.StandController()
         else:
-            self.controller = gaits.TrotController(env.robot, command=tuple(env.command))
+            self.controller = gaits.TrotController(command=tuple(env.command))
         self.t = 0.0
 
     def act(self, obs: Any) -> np.ndarray:
