@@ -66,7 +66,10 @@ OVERLAP_SLACK = 1e-3
 SPEED_FACTOR = 1.5
 """A person's top speed (ORCA's ``maxSpeed``) over its preferred speed: room to dodge."""
 NAV_CELL = 0.2
-"""Side (m) of the cells of the grid people plan their path on."""
+"""Side (m) of the cells of the grid people plan their path on (coarser in large scenes)."""
+MAX_NAV_NODES = 2**18
+"""Most cells of that grid: a 1.2 km city plans on 2.4 m cells, so the path tables of 200
+people take 0.4 GB instead of tens of GB."""
 LOOKAHEAD = 3
 """Cells of the path ahead of a person its preferred velocity aims at."""
 ARRIVE = 0.4
@@ -437,7 +440,8 @@ class Crowd:
         """Per person and target (goal, start) the next hop towards it on a coarse grid of
         :data:`NAV_CELL` cells, whose nodes are each block's best-cleared fine cell."""
         g, res = self._grid, self._grid.resolution
-        f = max(1, round(NAV_CELL / res))
+        cell = max(NAV_CELL, math.sqrt(g.rows * g.cols * res * res / MAX_NAV_NODES))
+        f = max(1, math.ceil(cell / res - 1e-9))
         rows, cols = -(-g.rows // f), -(-g.cols // f)
         pad = np.full((rows * f, cols * f), -1.0)
         pad[: g.rows, : g.cols] = self.clearance
@@ -450,7 +454,7 @@ class Crowd:
         self._f, self._shape = f, (rows, cols)
         n_nodes = rows * cols
         n = len(self.ids)
-        self._hop = np.full((n, 2, n_nodes), -1, dtype=np.int64)
+        self._hop = np.full((n, 2, n_nodes), -1, dtype=np.int32)
         # One graph per clearance class (5 cm): people of like size share their Dijkstra run.
         groups = np.floor(self.need / 0.05 + 1e-9) * 0.05
         for need in np.unique(groups):

@@ -423,9 +423,10 @@ class NavEnv(_CitygenEnv):
             vel.append(self.crowd.vel)
             rad.append(self.crowd.radius)
         if self.traffic is not None:
-            xy.append(self.traffic.pos)
-            vel.append(self.traffic.vel)
-            rad.append(self.traffic.radius)
+            t = self.traffic
+            xy.append(t.pos)
+            vel.append(np.stack([t.v * np.cos(t.yaw), t.v * np.sin(t.yaw)], axis=1))
+            rad.append(np.asarray(t.length, dtype=np.float64) / 2)
         return np.concatenate(xy), np.concatenate(vel), np.concatenate(rad)
 
     # --- stepping ------------------------------------------------------------------------

@@ -1001,6 +1001,10 @@ def compose(scene_mjcf: MJCF, robot: Robot, pose: tuple[float, float, float, flo
         spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
         spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
         spec.option.impratio = IMPRATIO
+    # A city holds ~10^4 static bodies: MuJoCo's default arena is too small for its broadphase.
+    n = len(scene.geoms)
+    if n > 2000:
+        scene.memory = max(scene.memory, n * 16 * 1024)
     frame = scene.worldbody.add_frame(pos=[x, y, z], quat=[math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])
     scene.attach(child, prefix=PREFIX, frame=frame)
     try:

@@ -157,6 +157,22 @@ def map_resolution(scene: Scene) -> float:
     return res
 
 
+def _scene_mjcf(scene: Scene) -> Any:
+    """The scene's MJCF, its heightfields sampled every 0.1 m, or coarser where a city's
+    terrain would exceed the exporter's sample budget."""
+    from citygen.errors import ExportError
+    from citygen.exporters import mjcf
+
+    resolution = mjcf.DEFAULT_RESOLUTION
+    while True:
+        try:
+            return mjcf.to_mjcf(scene, apron=5.0, resolution=resolution)
+        except ExportError as exc:
+            if "coarser resolution" not in str(exc) or resolution >= 1.0:
+                raise
+            resolution *= 2
+
+
 def prepare(scene: Scene, robot: Any) -> Prepared:
     """Compile ``scene`` with ``robot`` at the task's start and rasterise its maps."""
     from citygen.exporters import mjcf
@@ -168,7 +184,7 @@ def prepare(scene: Scene, robot: Any) -> Prepared:
     x, y = start.position if start is not None else scene.bounds.min
     yaw = start.yaw if start is not None else 0.0
     z = float(height_at(scene, x, y))
-    model = compose(mjcf.to_mjcf(scene, apron=5.0), robot, (x, y, z, yaw))
+    model = compose(_scene_mjcf(scene), robot, (x, y, z, yaw))
     occ = occupancy(scene, map_resolution(scene))
     labels = mjcf.geom_labels(model)
     obstacle = np.array([lab is not None and lab[0] in ("object", "agent") for lab in labels])
