@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import warnings
 from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -161,12 +162,16 @@ def _scene_mjcf(scene: Scene) -> Any:
     """The scene's MJCF, its heightfields sampled every 0.1 m, or coarser where a city's
     terrain would exceed the exporter's sample budget."""
     from citygen.errors import ExportError
-    from citygen.exporters import mjcf
+    from citygen.exporters import ExportWarning, mjcf
 
     resolution = mjcf.DEFAULT_RESOLUTION
     while True:
         try:
-            return mjcf.to_mjcf(scene, apron=5.0, resolution=resolution)
+            with warnings.catch_warnings():
+                # Per-tile friction approximations and the like: the exporter's notes to a
+                # user writing files, not news to an environment on every scene it samples.
+                warnings.simplefilter("ignore", ExportWarning)
+                return mjcf.to_mjcf(scene, apron=5.0, resolution=resolution)
         except ExportError as exc:
             if "coarser resolution" not in str(exc) or resolution >= 1.0:
                 raise
