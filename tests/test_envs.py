@@ -192,3 +192,26 @@ def test_cli_bad_policy_is_one_line_exit_2(cli, tmp_path):
     assert r.code == 2
     assert "telepathy" in r.err
     assert "Traceback" not in r.err
+
+
+def test_cli_run_with_a_users_own_robot_and_adapter(cli, tmp_path):
+    from tests.test_robots import MJCF_ROBOT
+
+    robot = tmp_path / "cart.xml"
+    robot.write_text(MJCF_ROBOT)
+    adapter = tmp_path / "cart.toml"
+    adapter.write_text(
+        'radius = 0.35\nmax_speed = 1.2\nmax_yaw_rate = 1.5\ncasters = ["caster"]\n'
+        '[nav]\nmode = "wheels"\nleft = ["left_axle"]\nright = ["right_axle"]\n'
+        "wheel_radius = 0.08\ntrack_width = 0.42\n"
+    )
+    scene = tmp_path / "s.json"
+    citygen.save_scene(citygen.generate("urban-nav-2-train", index=3), scene)
+    r = cli("run", scene, "--robot", robot, "--adapter", adapter, "--policy", "planner")
+    assert r.code == 0, r.err
+    moved = float(r.out.split("route_completion: ")[1].split()[0])
+    assert moved > 10.0  # the cart drove toward the goal (percent of the route)
+    bad = tmp_path / "bad.toml"
+    bad.write_text('radius = "wide"\n')
+    r = cli("run", scene, "--robot", robot, "--adapter", bad)
+    assert r.code == 2 and len(r.err.strip().splitlines()) == 1 and "bad.toml" in r.err
