@@ -258,3 +258,75 @@ def test_impossible_requests_fail_with_the_stage_named() -> None:
     config = TRAIN.model_copy(update={"placement": PlacementConfig(categories=("benchh",))})
     with pytest.raises(GenerationError, match=r"stage 'placement'.*benchh"):
         generate(config, 1)
+
+
+# --- the caches behind the speed of a scene (issue 9): same answers, bounded --------------
+
+
+def test_shrunk_ground_is_the_buffer_and_is_kept_for_a_few_grounds_only() -> None:
+    from citygen.generate import space
+
+    grounds = [shapely.box(0, 0, 10 + k, 5).union(shapely.box(3, 0, 5, 9)) for k in range(12)]
+    first = space.shrunk(grounds[0], 0.45)
+    assert first.equals_exact(grounds[0].buffer(-0.45, quad_segs=4), 0.0)
+    assert space.shrunk(grounds[0], 0.45) is first  # kept
+    assert space.shrunk(grounds[0], 0.5) is not first  # another radius, another answer
+    assert space.shrunk(grounds[0], 0.0) is grounds[0]
+    for g in grounds[1:]:
+        space.shrunk(g, 0.45)
+    assert len(space._SHRUNK) <= space._SHRUNK_KEEP
+    assert all(entry[0] in grounds[-space._SHRUNK_KEEP :] for entry in space._SHRUNK.values())
+
+
+def test_free_space_equals_the_ground_shrunk_minus_each_obstacle_grown() -> None:
+    from citygen.generate.space import free_space
+
+    ground = shapely.box(0, 0, 12, 6).difference(shapely.box(5, 2, 7, 4))
+    obstacles = [shapely.box(1, 1, 2, 2), shapely.Point(9, 3).buffer(0.4), shapely.box(1.5, 1.5, 3, 2.2)]
+    found = free_space(ground, obstacles, 0.35)
+    grown = shapely.union_all([o.buffer(0.35, quad_segs=4) for o in obstacles])
+    expected = shapely.difference(ground.buffer(-0.35, quad_segs=4), grown)
+    assert found.equals_exact(expected, 0.0)
+    assert free_space(ground, [], 0.35).equals_exact(ground.buffer(-0.35, quad_segs=4), 0.0)
+    assert free_space(ground, obstacles, 0.0).equals_exact(
+        shapely.difference(ground, shapely.union_all(obstacles)), 0.0
+    )
+
+
+def test_palettes_drawn_on_first_use_do_not_depend_on_the_order_of_use() -> None:
+    from citygen.generate.placement import PALETTE, _Palettes
+    from citygen.seeding import child, stage_rng
+
+    names = sorted(CATEGORIES)
+    eager = {
+        n: [
+            f"{n}/{int(v):04d}"
+            for v in child(stage_rng(5, "placement"), k).choice(10_000, PALETTE, replace=False)
+        ]
+        for k, n in enumerate(names)
+    }
+    lazy = _Palettes(stage_rng(5, "placement"))
+    for n in reversed(names):
+        assert lazy[n] == eager[n]
+        assert lazy[n] is lazy[n]
+    assert len(set(eager["bench"])) == PALETTE
+
+
+def test_a_scene_without_building_lots_resolves_no_building(monkeypatch: pytest.MonkeyPatch) -> None:
+    from citygen.generate import placement
+
+    asked: list[str] = []
+
+    def recording(asset_id: str):
+        asked.append(asset_id)
+        return resolve(asset_id)
+
+    monkeypatch.setattr(placement, "resolve", recording)
+    scene = generate(TRAIN, 3, index=2)
+    assert scene.placements and asked
+    assert not any(a.startswith("building/") for a in asked)
+    assert {p.asset for p in scene.placements} <= set(asked)
+    asked.clear()
+    streets = generate(STREETS, 9, index=1)
+    lots = [z for z in streets.zones if z.kind == "building"]
+    assert lots and any(a.startswith("building/") for a in asked)

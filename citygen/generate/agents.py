@@ -19,7 +19,7 @@ from collections.abc import Sequence
 
 import numpy as np
 import shapely
-from shapely.geometry import Point
+from shapely.geometry import Point, Polygon
 from shapely.geometry.base import BaseGeometry
 
 from citygen.errors import GenerationError
@@ -114,8 +114,7 @@ def _people(bounds, zones, placements, cfg, rng, level, ends, robot_radius, seed
         # others in the mix are tried, the slimmest first.
         for kind in [drawn, *sorted((k for k in live if k != drawn), key=lambda k: radius[k][1])]:
             if kind not in spaces:
-                free = free_space(ground, bases, radius[kind][1])
-                spaces[kind] = [(p, Sampler(p)) for p in pieces(free)[:64]]
+                spaces[kind] = _Pieces(pieces(free_space(ground, bases, radius[kind][1]))[:64])
             r = round(truncated_normal(rng, radius[kind]), 3)
             pair = _trip(spaces[kind], rng, trip, r, taken) if spaces[kind] else None
             if pair is not None:
@@ -131,12 +130,30 @@ def _people(bounds, zones, placements, cfg, rng, level, ends, robot_radius, seed
     return out
 
 
-def _trip(spaces, rng, trip, r, taken):
+class _Pieces:
+    """The connected pieces of one kind's free space, their areas, and a sampler of each,
+    triangulated when the piece is first drawn (a city's largest pieces draw most people)."""
+
+    def __init__(self, polygons: list[Polygon]):
+        self.polygons = polygons
+        areas = np.array([p.area for p in polygons])
+        self.p = areas / areas.sum() if polygons else areas
+        self.samplers: dict[int, Sampler] = {}
+
+    def __len__(self) -> int:
+        return len(self.polygons)
+
+    def __getitem__(self, k: int) -> tuple[Polygon, Sampler]:
+        if k not in self.samplers:
+            self.samplers[k] = Sampler(self.polygons[k])
+        return self.polygons[k], self.samplers[k]
+
+
+def _trip(spaces: _Pieces, rng, trip, r, taken):
     """A start clear of every disc in ``taken`` and a goal in the same piece, as far as
     ``trip`` when the piece allows, else the farthest of a few draws."""
-    areas = np.array([p.area for p, _ in spaces])
     for _ in range(64):
-        k = int(rng.choice(len(spaces), p=areas / areas.sum()))
+        k = int(rng.choice(len(spaces), p=spaces.p))
         piece, sampler = spaces[k]
         start = sampler.point(rng)
         if not piece.covers(Point(start)):

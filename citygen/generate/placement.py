@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 from collections import defaultdict
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import shapely
@@ -90,14 +90,14 @@ class _Region:
 
 @dataclass
 class _Slot:
-    """Where one category's objects may stand: pieces of ground to draw from (with each
-    piece's principal direction) and the region their bases must stay inside."""
+    """Where one category's objects may stand: pieces of ground to draw from (each with the
+    zone whose principal direction it takes) and the region their bases must stay inside."""
 
-    pieces: list[tuple[Polygon, float]]
+    pieces: list[tuple[Polygon, Polygon]]
     region: _Region
     faces_road: bool
+    ground: _Ground
     area: float = 0.0
-    _samplers: dict[int, Sampler] = field(default_factory=dict)
     _weights: np.ndarray | None = None
 
     def __post_init__(self) -> None:
@@ -108,9 +108,8 @@ class _Slot:
     def draw(self, rng: np.random.Generator) -> tuple[tuple[float, float], float]:
         """A uniform point of the slot and the principal direction of its piece (rad)."""
         k = min(int(np.searchsorted(self._weights, rng.random(), side="right")), len(self.pieces) - 1)
-        if k not in self._samplers:
-            self._samplers[k] = Sampler(self.pieces[k][0])
-        return self._samplers[k].point(rng), self.pieces[k][1]
+        piece, zone = self.pieces[k]
+        return self.ground.sampler(piece).point(rng), self.ground.axis(zone)
 
 
 def _axis(polygon: Polygon) -> float:
@@ -141,6 +140,23 @@ class _Ground:
         )
         self._slots: dict[str, _Slot | None] = {}
         self._regions: dict[frozenset[int], _Region] = {}
+        # By polygon identity; each entry holds its polygon, so no identity is reused.
+        self._axes: dict[int, tuple[Polygon, float]] = {}
+        self._samplers: dict[int, tuple[Polygon, Sampler]] = {}
+
+    def axis(self, polygon: Polygon) -> float:
+        """:func:`_axis` of a polygon, computed once per scene (many slots share a zone)."""
+        hit = self._axes.get(id(polygon))
+        if hit is None:
+            hit = self._axes[id(polygon)] = (polygon, _axis(polygon))
+        return hit[1]
+
+    def sampler(self, polygon: Polygon) -> Sampler:
+        """A :class:`Sampler` of a polygon, triangulated once per scene, when first drawn from."""
+        hit = self._samplers.get(id(polygon))
+        if hit is None:
+            hit = self._samplers[id(polygon)] = (polygon, Sampler(polygon))
+        return hit[1]
 
     def usable(self, zone: Zone, kinds: frozenset[str]) -> bool:
         """A zone of one of ``kinds``, and not a sidewalk's clear strip."""
@@ -172,19 +188,17 @@ class _Ground:
             draw = [(p, z) for p, z in chosen if z.strip == "frontage" or z.kind == "plaza"]
         else:
             draw = chosen
-        pieces = [(p, _axis(p)) for p, _ in draw]
+        pieces = [(p, p) for p, _ in draw]
         if anchor == "crossing" and self.near_crossings is not None:
             pieces = [
-                (g, axis)
-                for p, axis in pieces
+                (g, p)
+                for p, _ in pieces
                 for g in shapely.get_parts(p.intersection(self.near_crossings))
                 if isinstance(g, Polygon) and g.area > 1e-3
             ]
         if not pieces:
             return None
-        return _Slot(
-            pieces, region, faces_road=anchor in ("curb", "crossing", "frontage") and bool(self.roads)
-        )
+        return _Slot(pieces, region, anchor in ("curb", "crossing", "frontage") and bool(self.roads), self)
 
     def toward_road(self, x: float, y: float) -> float | None:
         """Heading (rad) from the point to the nearest roadway, or None without roads."""

@@ -39,12 +39,38 @@ def walkable_ground(zones: Sequence[Zone], bounds: Sequence[float]) -> BaseGeome
     return shapely.union_all(walk, grid_size=GRID) if walk else Polygon()
 
 
+_SHRUNK: dict[tuple[int, float], tuple[BaseGeometry, BaseGeometry]] = {}
+_SHRUNK_KEEP = 8
+
+
+def shrunk(ground: BaseGeometry, radius: float) -> BaseGeometry:
+    """``ground`` shrunk by ``radius`` (m): where the centre of a disc of that radius stays on it.
+
+    The task and placement stages ask this of the same walkable ground with the robot's
+    clearance, so the last few answers are kept, by the ground's identity (geometries are
+    immutable, and each entry holds its ground, so an identity is never reused while kept).
+    """
+    if radius <= 0:
+        return ground
+    key = (id(ground), radius)
+    hit = _SHRUNK.get(key)
+    if hit is not None and hit[0] is ground:
+        return hit[1]
+    out = ground.buffer(-radius, quad_segs=4)
+    _SHRUNK[key] = (ground, out)
+    for old in list(_SHRUNK)[:-_SHRUNK_KEEP]:  # oldest first
+        _SHRUNK.pop(old, None)
+    return out
+
+
 def free_space(ground: BaseGeometry, obstacles: Iterable[BaseGeometry], radius: float) -> BaseGeometry:
     """Where the centre of a disc of ``radius`` can be: ``ground`` shrunk by ``radius``
     minus every obstacle grown by ``radius``."""
-    free = ground.buffer(-radius, quad_segs=4) if radius > 0 else ground
-    grown = [o.buffer(radius, quad_segs=4) if radius > 0 else o for o in obstacles]
-    if grown:
+    free = shrunk(ground, radius)
+    grown = np.asarray(list(obstacles), dtype=object)
+    if radius > 0:
+        grown = shapely.buffer(grown, radius, quad_segs=4)
+    if len(grown):
         free = shapely.difference(free, shapely.union_all(grown))
     return free
 
