@@ -12,17 +12,9 @@ from typing import Annotated
 import typer
 
 from citygen.errors import SpecError
+from citygen.spec.task import TASK_KINDS
 
-TASKS = (
-    "nav-clear",
-    "nav-static",
-    "nav-dynamic",
-    "loco-flat",
-    "loco-slope",
-    "loco-stair",
-    "loco-rough",
-    "traverse",
-)
+TASKS = TASK_KINDS
 
 
 def _check(value: str, allowed: tuple[str, ...], what: str) -> str:
