@@ -68,7 +68,10 @@ def wrapped(hook: Callable[[str, Callable, tuple, dict], object]):
     """Replace each stage function in the pipeline module by ``hook(stage, fn, args, kwargs)``."""
     saved = {}
     for stage, name in STAGES.items():
-        fn = saved[name] = getattr(pipeline, name)
+        fn = getattr(pipeline, name, None)
+        if fn is None:  # the pipeline no longer calls it by this name
+            continue
+        saved[name] = fn
 
         def call(*args, _stage=stage, _fn=fn, **kwargs):
             return hook(_stage, _fn, args, kwargs)
@@ -147,9 +150,9 @@ def _short(func: tuple[str, int, str]) -> str:
     return f"{path}:{line}({name})"
 
 
-def hotspots(prof: cProfile.Profile, pipeline_s: float, key: int, top: int) -> list[tuple[str, float, float]]:
-    """``(function, seconds, share of the pipeline)`` of the ``top`` functions by ``key``
-    (2: own time, 3: cumulative time), the profiler's own overhead scaled out."""
+def hotspots(prof: cProfile.Profile, key: int, top: int) -> list[tuple[str, float, float]]:
+    """``(function, seconds, share of the stage)`` of the ``top`` functions by ``key`` (2: own
+    time, 3: cumulative time); shares of the profiled stage, so the profiler's overhead cancels."""
     stats = pstats.Stats(prof).stats  # func -> (cc, nc, tt, ct, callers)
     stage_s = max((v[3] for v in stats.values()), default=0.0)
     rows = sorted(stats.items(), key=lambda kv: kv[1][key], reverse=True)[:top]
@@ -187,8 +190,8 @@ def report(
             continue
         share = spent[stage] / total
         # Within-stage shares of the profile, scaled to the stage's share of the pipeline.
-        cum = hotspots(profiles[stage], total, 3, top)
-        own = hotspots(profiles[stage], total, 2, top)
+        cum = hotspots(profiles[stage], 3, top)
+        own = hotspots(profiles[stage], 2, top)
         lines += [
             "",
             f"## {stage}: {share:.1%} of the pipeline",
