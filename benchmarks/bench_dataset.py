@@ -117,11 +117,10 @@ def rss_worker(worker: int, workers: int, scenes: int, warmup: int) -> dict:
     before = rss_mb()
 
     def make(k: int) -> str:
-        # Scene k of this worker is scene g of the run: the splits in turn, each scene once.
-        g = k * workers + worker
-        return sha256(
-            dumps(generate_scene(order[g % len(order)], RSS_FIRST_INDEX + g // len(order))).encode()
-        )
+        # Every worker takes the splits in turn; the indices of a split interleave between
+        # workers, so no scene is made twice.
+        split, turn = order[k % len(order)], k // len(order)
+        return sha256(dumps(generate_scene(split, RSS_FIRST_INDEX + turn * workers + worker)).encode())
 
     # The warm-up uses indices after the measured ones, so the measured scenes stay new.
     warmed = 0
