@@ -4,6 +4,7 @@ sub-environments each run a different scene (:func:`make_vector_env`)."""
 
 from __future__ import annotations
 
+import functools
 import os
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -154,17 +155,10 @@ def make_vector_env(
     import gymnasium
 
     n = num_envs or os.cpu_count() or 1
-    fns = [_factory(task, split, kwargs) for _ in range(n)]
+    fns = [functools.partial(make_env, task, split=split, **kwargs) for _ in range(n)]
     if asynchronous:
         return gymnasium.vector.AsyncVectorEnv(fns, shared_memory=False)
     return gymnasium.vector.SyncVectorEnv(fns)
-
-
-def _factory(task: str, split: str | None, kwargs: dict[str, Any]) -> Callable[[], Any]:
-    def make():
-        return make_env(task, split=split, **kwargs)
-
-    return make
 
 
 def summary_json(rows: Sequence[dict[str, Any]], **header: Any) -> dict[str, Any]:

@@ -137,7 +137,6 @@ class _CitygenEnv(gymnasium.Env):
         self.data = None
         self.handle = None
         self._renderer = None
-        self._viewer = None
         self._index = -1
         hx, hy, step = HEIGHT_MAP
         nx, ny = round(hx / step) + 1, round(hy / step) + 1
@@ -195,6 +194,11 @@ class _CitygenEnv(gymnasium.Env):
 
     def _ground_z(self, x: float, y: float) -> float:
         return float(height_at(self.scene, x, y))
+
+    def _out_of_bounds(self, x: float, y: float) -> bool:
+        """Outside the scene's bounds."""
+        (x0, y0), (x1, y1) = self.scene.bounds.min, self.scene.bounds.max
+        return not (x0 <= x <= x1 and y0 <= y <= y1)
 
     def _physics(self, command: Any) -> None:
         import mujoco
@@ -292,7 +296,7 @@ class _CitygenEnv(gymnasium.Env):
         cam.type = mujoco.mjtCamera.mjCAMERA_FREE
         cam.lookat[:] = (x, y, z)
         cam.distance = 6.0
-        cam.azimuth = math.degrees(yaw) + 180.0 - 180.0
+        cam.azimuth = math.degrees(yaw)
         cam.elevation = -35.0
         return cam
 
@@ -374,7 +378,7 @@ class NavEnv(_CitygenEnv):
         self._last_collision = False
         self.recorder = self._new_record()
         obs = self._observation()
-        return obs, self._info(obs, distance=self._distance())
+        return obs, self._info(distance=self._distance())
 
     def _new_record(self):
         best = self.prepared.geodesic(self._start, self.goal)
@@ -472,10 +476,6 @@ class NavEnv(_CitygenEnv):
         up = self.data.xmat[self.handle.base_id][8]
         return bool(up < 0.5 or z < self._ground_z(x, y) - 0.5)
 
-    def _out_of_bounds(self, x: float, y: float) -> bool:
-        (x0, y0), (x1, y1) = self.scene.bounds.min, self.scene.bounds.max
-        return not (x0 <= x <= x1 and y0 <= y <= y1)
-
     def _after_step(self):
         x, y, z, _yaw = self.handle.pose(self.data)
         d = self._distance()
@@ -496,7 +496,7 @@ class NavEnv(_CitygenEnv):
         truncated = not terminated and self.steps >= self.horizon
         self.recorder.record_step((x, y), walkable=walkable, collision=collision)
         obs = self._observation()
-        info = self._info(obs, distance=d, walkable=walkable, collision=collision, success=success, lost=lost)
+        info = self._info(distance=d, walkable=walkable, collision=collision, success=success, lost=lost)
         if terminated or truncated:
             left = 0.0 if success else self.prepared.geodesic((x, y), self.goal)
             self.recorder.finish(success=success, distance_left=left if math.isfinite(left) else d)
@@ -517,7 +517,7 @@ class NavEnv(_CitygenEnv):
         obs.update(self._images((x, y, z, yaw)))
         return obs
 
-    def _info(self, obs: dict, **extra: Any) -> dict[str, Any]:
+    def _info(self, **extra: Any) -> dict[str, Any]:
         x, y, _, yaw = self.handle.pose(self.data)
         return {"scene": self.source.name, "index": self._index, "pose": (x, y, yaw), **extra}
 
@@ -610,7 +610,7 @@ class TraverseEnv(NavEnv):
         self._last_collision = collision
         obs = self._observation()
         info = self._info(
-            obs, distance=d, waypoint=self.waypoint, attempts=self.attempts, collision=collision, success=done
+            distance=d, waypoint=self.waypoint, attempts=self.attempts, collision=collision, success=done
         )
         if done or truncated:
             self.recorder.finish()
@@ -713,10 +713,6 @@ class LocoEnv(_CitygenEnv):
             self.recorder.finish()
             info["metrics"] = M.loco_metrics(self.recorder)
         return obs, float(reward), bool(fallen), bool(truncated), info
-
-    def _out_of_bounds(self, x: float, y: float) -> bool:
-        (x0, y0), (x1, y1) = self.scene.bounds.min, self.scene.bounds.max
-        return not (x0 <= x <= x1 and y0 <= y <= y1)
 
     def _observation(self) -> dict[str, np.ndarray]:
         x, y, z, yaw = self.handle.pose(self.data)

@@ -22,9 +22,8 @@ from typing import Any
 import numpy as np
 
 from citygen.errors import SpecError
-from citygen.io import load_scene
+from citygen.io import dumps, load_scene
 from citygen.spec import Scene
-from citygen.spec.base import to_jsonable
 
 #: Occupancy-map cell side (m) for walkability, the planner and the route metrics.
 MAP_RESOLUTION = 0.05
@@ -86,10 +85,8 @@ class SceneSource:
 
 
 def _digest(scene: Scene) -> str:
-    import json
-
-    text = json.dumps(to_jsonable(scene), sort_keys=True, separators=(",", ":"))
-    return hashlib.sha256(text.encode()).hexdigest()
+    """The digest of the scene's canonical JSON (:func:`citygen.io.dumps`)."""
+    return hashlib.sha256(dumps(scene).encode()).hexdigest()
 
 
 @dataclass(eq=False)
