@@ -143,22 +143,27 @@ def resolve(asset_id: str) -> Asset:
     parts = tuple(category.build(rng))
     if not parts or not all(isinstance(p, _PART_TYPES) for p in parts):
         raise TypeError(f"the {name!r} builder must return a non-empty list of parts, got {parts!r}")
+    # Each part's hull and footprint once, shared by the footprint, the base and the height.
+    heights = [p.hull_points()[:, 2] for p in parts]
+    prints = [p.footprint() for p in parts]
+    low = [f for f, z in zip(prints, heights, strict=True) if z.min() < BASE_HEIGHT]
+    footprint = _outline(prints)
     return Asset(
         id=asset_id,
         category=name,
         semantic_class=category.semantic_class,
         parts=parts,
-        footprint=_footprint(parts),
-        base=_footprint(tuple(p for p in parts if p.hull_points()[:, 2].min() < BASE_HEIGHT)),
-        height=max(float(p.hull_points()[:, 2].max()) for p in parts),
+        footprint=footprint,
+        base=footprint if len(low) == len(prints) else _outline(low),
+        height=max(float(z.max()) for z in heights),
         zones=category.zones,
         clearance=category.clearance,
     )
 
 
-def _footprint(parts: tuple[Part, ...]) -> Polygon:
-    """The union of the parts' footprints as one polygon without holes (its hull if disjoint)."""
-    union = shapely.union_all([p.footprint() for p in parts])
+def _outline(prints: list[Polygon]) -> Polygon:
+    """The union of part footprints as one polygon without holes (its hull if disjoint)."""
+    union = shapely.union_all(prints)
     if not isinstance(union, Polygon):
         union = union.convex_hull
     return shapely.normalize(Polygon(union.exterior))

@@ -26,7 +26,7 @@ import manifold3d
 import numpy as np
 import shapely
 import trimesh
-from shapely.geometry import MultiPoint, Polygon
+from shapely.geometry import Polygon
 
 #: Sides of the polygon that stands for a circle in meshes and footprints.
 SEGMENTS = 24
@@ -35,6 +35,18 @@ DECIMALS = 6
 
 Vec3 = tuple[float, float, float]
 RGBA = tuple[float, float, float, float]
+
+
+def _round_rows(points: np.ndarray) -> list[list[float]]:
+    """``round(v, DECIMALS) + 0.0`` of every element of a float array, bit for bit, vectorised:
+    ``rint(v * 10**6) / 10**6`` is the float nearest ``k / 10**6`` (as ``round`` gives) unless
+    the product rounded across a half; those few elements are rounded one by one."""
+    scaled = points * 10.0**DECIMALS
+    out = np.rint(scaled) / 10.0**DECIMALS + 0.0
+    near_half = np.abs(np.abs(scaled - np.floor(scaled)) - 0.5) < 1e-6
+    for index in zip(*np.nonzero(near_half), strict=True):
+        out[index] = round(float(points[index]), DECIMALS) + 0.0
+    return out.tolist()
 
 
 def _floats(field: str, value: Iterable[float], n: int, positive: bool = False) -> tuple[float, ...]:
@@ -98,7 +110,7 @@ class _Convex:
 
     def footprint(self) -> Polygon:
         """The part's projection on the ground plane (m), in the asset frame."""
-        hull = MultiPoint(self._outline()).convex_hull
+        hull = shapely.convex_hull(shapely.multipoints(self._outline()))
         if not isinstance(hull, Polygon):  # a part seen exactly edge-on from above
             hull = hull.buffer(1e-6, quad_segs=1)
         return shapely.normalize(hull)
@@ -228,9 +240,16 @@ class ConvexMesh(_Convex):
 
     def __post_init__(self) -> None:
         try:
-            points = tuple(_floats("ConvexMesh.vertices[]", v, 3) for v in self.vertices)
-        except TypeError:
-            points = ()
+            raw = np.asarray(self.vertices, dtype=np.float64)
+        except (TypeError, ValueError):
+            raw = np.zeros((0, 0))
+        if raw.ndim == 2 and raw.shape[1] == 3 and np.isfinite(raw).all():
+            points = tuple(map(tuple, _round_rows(raw)))
+        else:
+            try:
+                points = tuple(_floats("ConvexMesh.vertices[]", v, 3) for v in self.vertices)
+            except TypeError:
+                points = ()
         spread = np.asarray(points) - np.mean(points, axis=0) if len(points) >= 4 else None
         if spread is None or np.linalg.svd(spread, compute_uv=False)[-1] < 1e-7:
             raise ValueError(
