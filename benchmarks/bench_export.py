@@ -1,18 +1,18 @@
-"""Export speed and size: a 15 m scene into MuJoCo, and a 1.2 km city to USD.
+"""Export speed and size: a 15 m scene into MuJoCo, and 1.2 km cities to USD.
 
 1. A 15 m x 15 m region scene (the Urban-Nav test size) with its terrain and 8 objects
    (the paper's test count), exported with :mod:`citygen.exporters.mjcf` and compiled with
    ``mujoco.MjModel.from_xml_path``; the same scene to USD for comparison. Medians over
-   seeds (scene generation not timed). Target: MJCF export + compile <= 100 ms.
-2. The 1,200 m city of ``bench_layout.py`` (300 blocks) with about 10,000 objects, to USD
-   (usdc, then usda) in a fresh process: export time, peak memory, files on disk (the
-   stage plus its asset layers), and usd-core's validators over the usdc stage. The
-   generator's own objects are used; when it places fewer than 10,000 (by default it fills
-   the building lots and adds a handful), synthetic street furniture is added on sidewalk
-   zones (catalog ids cycling through the sidewalk categories, 8 variants each), and the
-   output says how many. Rough tiles are sampled every 0.625 m (4 cells a tile; the
-   exporter refuses the default, 1/8 of the wavelength, at city scale). Targets: <= 60 s
-   and < 200 MB, the latter thanks to instancing.
+   seeds (scene generation not timed). Target (issue 7): MJCF export + compile <= 100 ms.
+   Baseline: MuJoCo's own compile of the exported file (export over compile).
+2. ``urban-tra-city`` scene 0 (1,200 m, 25 blocks, about 3,000 objects, people, traffic)
+   to USD (usdc, then usda) in a fresh process: export time, peak memory, files on disk
+   (the stage plus its asset layers), and usd-core's validators over the usdc stage.
+   Targets (issue 7): <= 60 s and < 200 MB, the latter thanks to instancing. Baseline:
+   writing the same scene's JSON spec (export over serialisation).
+3. The 300-block 1,200 m city of ``bench_layout.py`` with 10,000 objects, all placed by
+   the generator, to usdc: the stress case. Rough tiles are sampled every 0.625 m (4 cells
+   a tile; the exporter refuses the default, 1/8 of the wavelength, at city scale).
 
 Run: ``python benchmarks/bench_export.py``. Last line: JSON figures.
 """
@@ -29,55 +29,20 @@ import time
 import warnings
 from pathlib import Path
 
-import numpy as np
-import shapely
-
-from citygen.assets import CATEGORIES
 from citygen.exporters import ExportWarning, usd
 from citygen.generate import generate
-from citygen.geometry.terrain import height_at
 from citygen.spec.config import BlocksConfig, GeneratorConfig, PlacementConfig
-from citygen.spec.placements import Placement
 from citygen.spec.scene import Scene
 
 SMALL = GeneratorConfig(size=(15.0, 15.0), placement=PlacementConfig(count=8))
 SMALL_SEEDS = range(10)
-CITY = GeneratorConfig(size=(1200.0, 1200.0), layout="blocks", blocks=BlocksConfig(count=300))
-CITY_OBJECTS = 10_000
+STRESS = GeneratorConfig(
+    size=(1200.0, 1200.0),
+    layout="blocks",
+    blocks=BlocksConfig(count=300),
+    placement=PlacementConfig(count=10_000),
+)
 CITY_RESOLUTION = 0.625  # m between rough-tile samples
-VARIANTS = 8
-
-
-def synthetic_placements(scene: Scene, count: int, seed: int = 0) -> list[Placement]:
-    """``count`` catalog objects at random spots of the sidewalk zones (area-weighted),
-    categories that belong on sidewalks in turn, on the ground, turned at random."""
-    rng = np.random.default_rng(seed)
-    kinds = [name for name, c in CATEGORIES.items() if "sidewalk" in c.zones and name != "building"]
-    walks = [shapely.Polygon(z.polygon, z.holes) for z in scene.zones if z.kind == "sidewalk"]
-    if not walks:
-        raise SystemExit("the city has no sidewalk zones to put synthetic objects on")
-    area = shapely.area(walks)
-    bounds = shapely.bounds(walks)
-    polys = np.asarray(walks, dtype=object)
-    xy = np.zeros((0, 2))
-    while len(xy) < count:
-        pick = rng.choice(len(walks), size=2 * count, p=area / area.sum())
-        lo, hi = bounds[pick, :2], bounds[pick, 2:]
-        pts = lo + rng.random((len(pick), 2)) * (hi - lo)
-        inside = shapely.contains_xy(polys[pick], pts[:, 0], pts[:, 1])
-        xy = np.concatenate([xy, pts[inside]])
-    xy = xy[:count]
-    z = height_at(scene, xy[:, 0], xy[:, 1])
-    yaw = rng.uniform(-np.pi, np.pi, size=count)
-    return [
-        Placement(
-            id=f"synthetic-{k:05d}",
-            asset=f"{kinds[k % len(kinds)]}/{(k // len(kinds)) % VARIANTS:04d}",
-            position=(round(float(xy[k, 0]), 4), round(float(xy[k, 1]), 4), round(float(z[k]), 4)),
-            yaw=round(float(yaw[k]), 4),
-        )
-        for k in range(count)
-    ]
 
 
 # --- 1. a 15 m scene into MuJoCo ---------------------------------------------------------
@@ -85,10 +50,8 @@ def synthetic_placements(scene: Scene, count: int, seed: int = 0) -> list[Placem
 
 def small_scene(seed: int) -> Scene:
     scene = generate(SMALL, seed)
-    missing = 8 - len(scene.placements)
-    if missing > 0:  # not expected: the generator places the count it is given
-        extra = synthetic_placements(scene, missing, seed)
-        scene = scene.model_copy(update={"placements": (*scene.placements, *extra)})
+    if len(scene.placements) != 8:
+        raise SystemExit(f"seed {seed}: the generator placed {len(scene.placements)} objects, not 8")
     return scene
 
 
@@ -149,20 +112,27 @@ def _flat_objects_bytes(stage_path: Path) -> int:
     return total
 
 
-def city_child() -> None:
-    """In a fresh process: the city, topped up with objects, to usdc and usda."""
+def city_child(which: str) -> None:
+    """In a fresh process: ``which`` city (``split``: urban-tra-city scene 0; ``stress``: the
+    300-block city with 10,000 objects) to usdc (and usda for the split); prints one JSON line."""
+    import citygen
+    from citygen.io import dumps
+
     t = time.perf_counter()
-    scene = generate(CITY, 0)
+    scene = citygen.generate("urban-tra-city") if which == "split" else generate(STRESS, 0)
     generate_s = time.perf_counter() - t
-    own = len(scene.placements)
-    extra = synthetic_placements(scene, max(0, CITY_OBJECTS - own))
-    scene = scene.model_copy(update={"placements": (*scene.placements, *extra)})
-    result: dict = {"generate_s": generate_s, "own": own, "synthetic": len(extra), "zones": len(scene.zones)}
+    result: dict = {"generate_s": generate_s, "objects": len(scene.placements), "zones": len(scene.zones)}
+    result["agents"] = len(scene.agents)
     result["tiles"] = len(scene.terrain.tiles) if scene.terrain else 0
     result["rough"] = sum(t.kind == "rough" for t in scene.terrain.tiles) if scene.terrain else 0
     result["assets"] = len({p.asset for p in scene.placements})
     with tempfile.TemporaryDirectory() as tmp:
-        for fmt in ("usdc", "usda"):
+        # The floor: serialising the same scene as its JSON spec and writing it.
+        w = time.perf_counter()
+        (Path(tmp) / "scene.json").write_text(dumps(scene))
+        result["json_s"] = time.perf_counter() - w
+        result["json_bytes"] = (Path(tmp) / "scene.json").stat().st_size
+        for fmt in ("usdc", "usda") if which == "split" else ("usdc",):
             out = Path(tmp) / fmt
             c, w = time.process_time(), time.perf_counter()
             files = usd.export(scene, out, format=fmt, terrain_resolution=CITY_RESOLUTION)
@@ -190,7 +160,7 @@ def city_child() -> None:
                 result["validator_errors"] = len(usd.check(files[0]))
                 result["validate_s"] = time.perf_counter() - w
         # The objects alone (no ground): what instancing saves.
-        bare = scene.model_copy(update={"zones": (), "terrain": None, "blocks": ()})
+        bare = scene.model_copy(update={"zones": (), "terrain": None, "blocks": (), "agents": ()})
         files = usd.export(bare, Path(tmp) / "objects", format="usdc")
         result["objects_stage_bytes"] = files[0].stat().st_size
         result["objects_flat_bytes"] = _flat_objects_bytes(files[0])
@@ -198,11 +168,70 @@ def city_child() -> None:
     print(json.dumps(result))
 
 
-def time_city() -> dict:
+def time_city(which: str) -> dict:
     proc = subprocess.run(
-        [sys.executable, __file__, "--city"], capture_output=True, text=True, check=True, timeout=900
+        [sys.executable, __file__, "--city", which], capture_output=True, text=True, check=True, timeout=900
     )
     return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def print_city(r: dict) -> None:
+    print(
+        f"  generated in {r['generate_s']:.1f} s: {r['zones']} zones, {r['tiles']} tiles "
+        f"({r['rough']} rough, sampled every {CITY_RESOLUTION} m), {r['objects']} objects of "
+        f"{r['assets']} distinct assets (all from the generator), {r['agents']} agents"
+    )
+    print(
+        f"  {'format':8}{'wall s':>9}{'cpu s':>9}{'MB on disk':>12}{'stage MB':>10}{'assets MB':>11}"
+        f"{'files':>7}{'objects uninstanced MB':>24}"
+    )
+    for fmt in ("usdc", "usda"):
+        if fmt in r:
+            f = r[fmt]
+            print(
+                f"  {fmt:8}{f['wall_s']:>9.1f}{f['cpu_s']:>9.1f}{f['bytes'] / 1e6:>12.1f}"
+                f"{f['stage_bytes'] / 1e6:>10.1f}{f['asset_bytes'] / 1e6:>11.2f}{f['files']:>7}"
+                f"{f['flat_objects_bytes'] / 1e6:>24.1f}"
+            )
+    print(
+        f"  JSON spec: {r['json_bytes'] / 1e6:.1f} MB written in {r['json_s']:.2f} s; "
+        f"usdc export takes {r['usdc']['wall_s'] / r['json_s']:.1f}x that"
+    )
+    saving = r["objects_flat_bytes"] / r["objects_stage_bytes"]
+    print(
+        f"  objects alone (usdc, no ground): {r['objects_stage_bytes'] / 1e6:.2f} MB instanced, "
+        f"{r['objects_flat_bytes'] / 1e6:.1f} MB uninstanced ({saving:.0f}x)"
+    )
+    print(
+        f"  usdc: opens in {r['open_s']:.1f} s, {r['instances']} instances of {r['prototypes']} prototypes;"
+        f" validators: {r['validator_errors']} errors in {r['validate_s']:.1f} s;"
+        f" peak {r['peak'] / 2**20:.0f} MiB"
+    )
+
+
+def city_figures(prefix: str, r: dict) -> dict:
+    usdc = r["usdc"]
+    out = {
+        f"{prefix}_objects": r["objects"],
+        f"{prefix}_usdc_export_s": round(usdc["wall_s"], 2),
+        f"{prefix}_usdc_export_cpu_s": round(usdc["cpu_s"], 2),
+        f"{prefix}_usdc_mb": round(usdc["bytes"] / 1e6, 2),
+        f"{prefix}_usdc_assets_mb": round(usdc["asset_bytes"] / 1e6, 3),
+        f"{prefix}_json_s": round(r["json_s"], 3),
+        f"{prefix}_json_mb": round(r["json_bytes"] / 1e6, 2),
+        f"{prefix}_usdc_over_json": round(usdc["wall_s"] / r["json_s"], 2),
+        f"{prefix}_objects_only_usdc_mb": round(r["objects_stage_bytes"] / 1e6, 3),
+        f"{prefix}_objects_uninstanced_usdc_mb": round(r["objects_flat_bytes"] / 1e6, 1),
+        f"{prefix}_instancing_size_ratio": round(r["objects_flat_bytes"] / r["objects_stage_bytes"], 1),
+        f"{prefix}_prototypes": r["prototypes"],
+        f"{prefix}_validator_errors": r["validator_errors"],
+        f"{prefix}_generate_s": round(r["generate_s"], 2),
+        f"{prefix}_peak_mib": round(r["peak"] / 2**20, 1),
+    }
+    if "usda" in r:
+        out[f"{prefix}_usda_export_s"] = round(r["usda"]["wall_s"], 2)
+        out[f"{prefix}_usda_mb"] = round(r["usda"]["bytes"] / 1e6, 2)
+    return out
 
 
 def main() -> None:
@@ -227,63 +256,26 @@ def main() -> None:
             mjcf15_compile_ms=round(small["compile_ms"], 2),
             mjcf15_total_ms=round(small["total_ms"], 2),
             mjcf15_total_cpu_ms=round(small["cpu_ms"], 2),
+            mjcf15_export_over_compile=round(small["export_ms"] / small["compile_ms"], 3),
             usd15_export_ms=round(small["usd_ms"], 2),
         )
 
-    print("\n2. 1,200 m x 1,200 m city to USD (fresh process)")
-    r = time_city()
-    print(
-        f"  generated in {r['generate_s']:.1f} s: {r['zones']} zones, {r['tiles']} tiles "
-        f"({r['rough']} rough, sampled every {CITY_RESOLUTION} m), {r['own']} objects from the generator"
-    )
-    if r["synthetic"]:
-        print(f"  + {r['synthetic']} synthetic objects on sidewalks (the generator placed < {CITY_OBJECTS})")
-    print(f"  {r['own'] + r['synthetic']} objects of {r['assets']} distinct assets")
-    print(
-        f"  {'format':8}{'wall s':>9}{'cpu s':>9}{'MB on disk':>12}{'stage MB':>10}{'assets MB':>11}"
-        f"{'files':>7}{'objects uninstanced MB':>24}"
-    )
-    for fmt in ("usdc", "usda"):
-        f = r[fmt]
-        print(
-            f"  {fmt:8}{f['wall_s']:>9.1f}{f['cpu_s']:>9.1f}{f['bytes'] / 1e6:>12.1f}"
-            f"{f['stage_bytes'] / 1e6:>10.1f}{f['asset_bytes'] / 1e6:>11.2f}{f['files']:>7}"
-            f"{f['flat_objects_bytes'] / 1e6:>24.1f}"
-        )
-    print("  (uninstanced: every object's asset layer copied into the stage, an estimate)")
-    saving = r["objects_flat_bytes"] / r["objects_stage_bytes"]
-    print(
-        f"  objects alone (usdc, no ground): {r['objects_stage_bytes'] / 1e6:.2f} MB instanced, "
-        f"{r['objects_flat_bytes'] / 1e6:.1f} MB uninstanced ({saving:.0f}x)"
-    )
-    print(
-        f"  usdc: opens in {r['open_s']:.1f} s, {r['instances']} instances of {r['prototypes']} prototypes;"
-        f" validators: {r['validator_errors']} errors in {r['validate_s']:.1f} s;"
-        f" peak {r['peak'] / 2**20:.0f} MiB"
-    )
+    print("\n2. urban-tra-city scene 0 to USD (fresh process)")
+    r = time_city("split")
+    print_city(r)
     print("  targets: export <= 60 s, size < 200 MB")
-    figures.update(
-        city1200_usdc_export_s=round(r["usdc"]["wall_s"], 2),
-        city1200_usdc_mb=round(r["usdc"]["bytes"] / 1e6, 2),
-        city1200_usda_export_s=round(r["usda"]["wall_s"], 2),
-        city1200_usda_mb=round(r["usda"]["bytes"] / 1e6, 2),
-        city1200_usdc_assets_mb=round(r["usdc"]["asset_bytes"] / 1e6, 3),
-        city1200_objects_only_usdc_mb=round(r["objects_stage_bytes"] / 1e6, 3),
-        city1200_objects_uninstanced_usdc_mb=round(r["objects_flat_bytes"] / 1e6, 1),
-        city1200_instancing_size_ratio=round(saving, 1),
-        city1200_objects=r["own"] + r["synthetic"],
-        city1200_synthetic_objects=r["synthetic"],
-        city1200_prototypes=r["prototypes"],
-        city1200_validator_errors=r["validator_errors"],
-        city1200_validate_s=round(r["validate_s"], 2),
-        city1200_peak_mib=round(r["peak"] / 2**20, 1),
-    )
+    figures.update(city_figures("tra_city", r))
+
+    print("\n3. 300-block 1,200 m city with 10,000 generator objects to usdc (fresh process)")
+    r = time_city("stress")
+    print_city(r)
+    figures.update(city_figures("city1200", r))
     print(json.dumps(figures))
 
 
 if __name__ == "__main__":
     warnings.simplefilter("ignore", ExportWarning)  # per-tile friction notes; not what is measured here
-    if sys.argv[1:] == ["--city"]:
-        city_child()
+    if sys.argv[1:2] == ["--city"]:
+        city_child(sys.argv[2])
     else:
         main()

@@ -136,6 +136,9 @@ def main() -> None:
         city1200_blocks=big["blocks"],
         city1200_zones=big["zones"],
         city_time_area_exponent=round(exponent, 3),
+        city_sides_m=[side for side, _ in rows],
+        city_cpu_s=[round(r["cpu"], 3) for _, r in rows],
+        city_peak_mib=[round(r["peak"] / 2**20, 1) for _, r in rows],
     )
     print(json.dumps(figures))
 
