@@ -321,9 +321,16 @@ def _format(value: Any, indent: str) -> str:
     return json.dumps(value, allow_nan=False)
 
 
-def write_atomic(path: str | Path, data: bytes) -> None:
+def write_atomic(path: str | Path, data: bytes, *, durable: bool = False) -> None:
     """Write ``data`` to ``path`` through a temporary file in the same folder and a rename,
-    so a reader (or a killed writer) never sees half a file."""
+    so a reader (or a killed writer) never sees half a file.
+
+    The rename is atomic for every process on the machine whether or not the bytes have
+    reached the disk, so a Ctrl-C or a kill never leaves a partial file. Only a power cut
+    could; ``durable=True`` guards against that too by ``fsync``-ing before the rename, at
+    3 ms or so a file (it was 60 % of exporting a 15 m scene to MJCF, 28 files). Nothing
+    citygen writes needs it: every file can be made again, and ``citygen dataset --resume``
+    re-checks the files it keeps."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
@@ -331,8 +338,9 @@ def write_atomic(path: str | Path, data: bytes) -> None:
         with os.fdopen(fd, "wb") as f:
             os.fchmod(f.fileno(), 0o666 & ~_UMASK)
             f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
+            if durable:
+                f.flush()
+                os.fsync(f.fileno())
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

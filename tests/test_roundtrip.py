@@ -244,7 +244,10 @@ def test_failed_save_leaves_existing_file_and_no_temporary(
     module = citygen.io if where[0] == "citygen.io" else citygen.io.os
     monkeypatch.setattr(module, where[1], _boom)
     with pytest.raises(OSError, match="simulated"):
-        save_scene(rich_scene, target)
+        if where[1] == "fsync":  # only a durable write syncs
+            citygen.io.write_atomic(target, citygen.io.dumps(rich_scene).encode(), durable=True)
+        else:
+            save_scene(rich_scene, target)
     monkeypatch.undo()
     assert target.read_bytes() == old
     assert _files(tmp_path) == ["scene.json"], "a temporary file was left behind"
@@ -272,9 +275,19 @@ def test_interrupted_write_leaves_existing_file(
     def interrupted(*args: Any, **kwargs: Any) -> Any:
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(citygen.io.os, "fsync", interrupted)
+    monkeypatch.setattr(citygen.io.os, "replace", interrupted)  # the bytes are written, not renamed
     with pytest.raises(KeyboardInterrupt):
         save_scene(other, target)
     monkeypatch.undo()
     assert target.read_bytes() == before
     assert _files(tmp_path) == ["scene.json"]
+
+
+@pytest.mark.parametrize("durable", [False, True])
+def test_only_durable_writes_sync_to_disk(durable: bool, tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
+    """A rename is atomic without fsync (kill-safe); fsync (3 ms a file) is for power cuts only."""
+    synced: list[int] = []
+    monkeypatch.setattr(citygen.io.os, "fsync", synced.append)
+    citygen.io.write_atomic(tmp_path / "a.json", b"{}\n", durable=durable)
+    assert (tmp_path / "a.json").read_bytes() == b"{}\n"
+    assert len(synced) == (1 if durable else 0)
