@@ -51,7 +51,6 @@ def child(side: float) -> None:
     """In a fresh process: one scene of ``side`` m, timed; prints one JSON line."""
     from citygen.generate import generate
     from citygen.io import dumps
-
     from citygen.spec.config import GeneratorConfig
 
     cfg = config(side)

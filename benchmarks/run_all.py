@@ -54,8 +54,8 @@ ARGS: dict[str, list[str]] = {
     "profile_generate": ["--scenes", "40"],
 }
 """Arguments per script (by file stem); scripts not listed run with none."""
-EXTRA = ("profile_generate",)
-"""Scripts besides ``bench_*.py`` that the suite runs (by file stem)."""
+EXTRA = ("profile_generate", "profile_export")
+"""Scripts besides ``bench_*.py`` that the suite runs (by file stem), last."""
 TIMEOUT_S = 900
 """A script running longer than this is stopped and reported as failed."""
 PACKAGES = (
@@ -579,19 +579,21 @@ def write_report(results: dict, out: Path) -> Path:
             lines += [f"- *{name}*: not drawn ({skipped[name]})", ""]
         else:
             lines += [f"![{name}](plots/{name}.png)", "", caption, ""]
-    prof = figures_of(results, "profile_generate")
-    pipelines = sorted({k.split("_")[0] for k in prof if k.endswith("_cpu_ms_per_scene")})
-    if pipelines:
+    profiles = [(name, figures_of(results, name)) for name in results.get("benches", {})]
+    profiles = [(name, prof) for name, prof in profiles if name.startswith("profile_") and prof]
+    if profiles:
         lines += [
-            "## Where generation spends its time",
+            "## Where the time goes",
             "",
-            "`profile_generate.py`: CPU per scene and each stage's share (cold asset cache); the slowest",
-            "stage's top function by cumulative time.",
+            "`profile_generate.py` and `profile_export.py`: CPU per scene and each stage's share (no",
+            "profiler), and the hotspot: the deepest citygen function costing at least 20 % of the",
+            "pipeline (by cumulative time under cProfile), else the costliest one.",
             "",
-            "| pipeline | CPU ms / scene | stage shares | slowest stage | its top function | share |",
+            "| pipeline | CPU ms / scene | stage shares | slowest stage | hotspot | share of pipeline |",
             "|---|---|---|---|---|---|",
         ]
-        for p in pipelines:
+    for _, prof in profiles:
+        for p in sorted(g[0] for g in keyed(prof, r"(.+)_cpu_ms_per_scene")):
             shares = sorted(
                 ((k[len(p) + 1 : -len("_share")], v) for k, v in prof.items()
                  if k.startswith(p + "_") and k.endswith("_share") and not k.endswith("function_share")),
@@ -603,8 +605,7 @@ def write_report(results: dict, out: Path) -> Path:
                 f"{prof.get(f'{p}_slowest_stage')} | `{prof.get(f'{p}_top_function')}` | "
                 f"{fmt(100 * (prof.get(f'{p}_top_function_share') or 0))} % |"
             )
-        lines.append("")
-    lines += ["## Every figure", ""]
+    lines += ["", "## Every figure", ""]
     for name, entry in results.get("benches", {}).items():
         if name == "run_all":
             continue

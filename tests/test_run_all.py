@@ -72,6 +72,14 @@ def fake_results() -> dict:
             "runner_obs_physics_floor_ratio": [4.5, 4.7, 8.3, None],
             "metadrive_steps_per_s": 1463.0,
         },
+        "profile_generate": {
+            "nav-train_cpu_ms_per_scene": 20.4,
+            "nav-train_placement_share": 0.731,
+            "nav-train_agents_share": 0.102,
+            "nav-train_slowest_stage": "placement",
+            "nav-train_top_function": "citygen/assets/catalog.py:124(resolve)",
+            "nav-train_top_function_share": 0.531,
+        },
         "bench_orca": {
             f"orca_{scene}_{n}_{who}_us_per_agent_step": value
             for scene in ("circle", "random")
@@ -106,6 +114,10 @@ def test_report_only_draws_every_plot_and_marks_missed_targets(tmp_path: Path) -
     assert rows["terrain over 10,000 seeds: unresolved contradictions"].rstrip().endswith("yes |")
     assert "not measured" in rows["terrain mix, largest deviation from the weights"]
     assert "`bench_export`: exit code 1: boom" in report
+    assert (
+        "| nav-train | 20.4 | placement 73 %, agents 10 % | placement | "
+        "`citygen/assets/catalog.py:124(resolve)` | 53.1 % |" in report
+    )
     assert "MISS issue 4: WFC 64 x 64" in proc.stdout
 
 
