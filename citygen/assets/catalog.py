@@ -16,7 +16,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
@@ -28,7 +28,7 @@ from shapely.geometry import Polygon
 
 from citygen.assets import furniture, outdoor, street
 from citygen.assets.category import Category
-from citygen.assets.parts import Box, Capsule, ConvexMesh, Cylinder, Part
+from citygen.assets.parts import Box, Capsule, ConvexMesh, Cylinder, Part, footprints, release
 from citygen.spec.placements import CATALOG_ID
 
 _ID = re.compile(f"^{CATALOG_ID}$")
@@ -143,10 +143,12 @@ def resolve(asset_id: str) -> Asset:
     parts = tuple(category.build(rng))
     if not parts or not all(isinstance(p, _PART_TYPES) for p in parts):
         raise TypeError(f"the {name!r} builder must return a non-empty list of parts, got {parts!r}")
-    # Each part's hull and footprint once, shared by the footprint, the base and the height.
-    heights = [p.hull_points()[:, 2] for p in parts]
-    prints = [p.footprint() for p in parts]
-    low = [f for f, z in zip(prints, heights, strict=True) if z.min() < BASE_HEIGHT]
+    # Each part's height range and footprint once, shared by the footprint, the base and the
+    # height; the footprints in one vectorised pass over all parts.
+    extents = [p.extent() for p in parts]
+    release(parts)
+    prints = footprints([xy for _, _, xy in extents])
+    low = [f for f, (z_low, _, _) in zip(prints, extents, strict=True) if z_low < BASE_HEIGHT]
     footprint = _outline(prints)
     return Asset(
         id=asset_id,
@@ -155,13 +157,13 @@ def resolve(asset_id: str) -> Asset:
         parts=parts,
         footprint=footprint,
         base=footprint if len(low) == len(prints) else _outline(low),
-        height=max(float(z.max()) for z in heights),
+        height=max(z_high for _, z_high, _ in extents),
         zones=category.zones,
         clearance=category.clearance,
     )
 
 
-def _outline(prints: list[Polygon]) -> Polygon:
+def _outline(prints: Sequence[Polygon]) -> Polygon:
     """The union of part footprints as one polygon without holes (its hull if disjoint)."""
     union = shapely.union_all(prints)
     if not isinstance(union, Polygon):

@@ -18,6 +18,7 @@ primitive an engine simulates and its mesh.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -37,16 +38,48 @@ Vec3 = tuple[float, float, float]
 RGBA = tuple[float, float, float, float]
 
 
-def _round_rows(points: np.ndarray) -> list[list[float]]:
+def _round_array(points: np.ndarray) -> np.ndarray:
     """``round(v, DECIMALS) + 0.0`` of every element of a float array, bit for bit, vectorised:
     ``rint(v * 10**6) / 10**6`` is the float nearest ``k / 10**6`` (as ``round`` gives) unless
     the product rounded across a half; those few elements are rounded one by one."""
     scaled = points * 10.0**DECIMALS
     out = np.rint(scaled) / 10.0**DECIMALS + 0.0
     near_half = np.abs(np.abs(scaled - np.floor(scaled)) - 0.5) < 1e-6
-    for index in zip(*np.nonzero(near_half), strict=True):
-        out[index] = round(float(points[index]), DECIMALS) + 0.0
-    return out.tolist()
+    if near_half.any():
+        for index in zip(*np.nonzero(near_half), strict=True):
+            out[index] = round(float(points[index]), DECIMALS) + 0.0
+    return out
+
+
+def _round_rows(points: np.ndarray) -> list[list[float]]:
+    """:func:`_round_array` as nested lists of Python floats."""
+    return _round_array(points).tolist()
+
+
+#: Smallest singular value (m) of a convex mesh's vertices about their mean: below it they span no volume.
+MIN_SPREAD = 1e-7
+
+
+def _spans_volume(points: np.ndarray) -> bool:
+    """Whether ``(n, 3)`` finite points (m) span a volume: the smallest singular value of the
+    points about their mean is at least :data:`MIN_SPREAD` (``numpy.linalg.svd`` decides).
+
+    The SVD is skipped when a cheap bound already settles it: the smallest eigenvalue of the
+    3 x 3 Gram matrix ``G`` of the centred points is at least ``4 det(G) / trace(G)**2``;
+    when that bound clears ``MIN_SPREAD**2`` by far more than the rounding of ``G`` and its
+    determinant (below ``1e-14 * n * trace`` m2), the SVD would have said yes too.
+    """
+    n = len(points)
+    if n < 4:
+        return False
+    centred = points - np.add.reduce(points, axis=0) / n
+    (a, b, c), (d, e, f), (g, h, i) = (centred.T @ centred).tolist()
+    trace = a + e + i
+    det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+    if trace > 0 and 4 * det / (trace * trace) > 100 * MIN_SPREAD**2 + 1e-13 * n * trace:
+        return True
+    spread = points - np.mean(points, axis=0)
+    return bool(np.linalg.svd(spread, compute_uv=False)[-1] >= MIN_SPREAD)
 
 
 def _floats(field: str, value: Iterable[float], n: int, positive: bool = False) -> tuple[float, ...]:
@@ -97,7 +130,9 @@ DEFAULT_LOOK = Look("metal", (0.5, 0.5, 0.5, 1.0))
 class _Convex:
     """Shared behaviour: a part is the convex hull of :meth:`hull_points`."""
 
-    __slots__ = ()
+    # The vertex array a convex mesh was built from, until :func:`release` drops it; not a
+    # dataclass field, so it takes no part in repr, equality, hashing or pickling.
+    __slots__ = ("_points",)
     material: Look
 
     def hull_points(self) -> np.ndarray:
@@ -108,12 +143,16 @@ class _Convex:
         """``(n, 2)`` points (m) whose convex hull is the part's footprint."""
         return self.hull_points()[:, :2]
 
+    def extent(self) -> tuple[float, float, np.ndarray]:
+        """The part's lowest and highest z (m) and the ``(n, 2)`` points (m) whose convex hull
+        is its footprint: what :func:`footprints` and the catalog need, computed once."""
+        points = self.hull_points()
+        z = points[:, 2]
+        return float(z.min()), float(z.max()), points[:, :2]
+
     def footprint(self) -> Polygon:
         """The part's projection on the ground plane (m), in the asset frame."""
-        hull = shapely.convex_hull(shapely.multipoints(self._outline()))
-        if not isinstance(hull, Polygon):  # a part seen exactly edge-on from above
-            hull = hull.buffer(1e-6, quad_segs=1)
-        return shapely.normalize(hull)
+        return footprints([self._outline()])[0]
 
     def to_manifold(self) -> manifold3d.Manifold:
         """The part as a watertight manifold3d solid."""
@@ -122,6 +161,27 @@ class _Convex:
     def to_trimesh(self) -> trimesh.Trimesh:
         """The part as a watertight trimesh, faces coloured by its material."""
         return manifold_to_trimesh(self.to_manifold(), self.material.rgba)
+
+
+def footprints(outlines: Sequence[np.ndarray]) -> np.ndarray:
+    """The normalised convex hull (m) of each ``(n, 2)`` array of points, as an array of
+    polygons; a hull seen exactly edge-on (a segment or a point) is grown by 1 micrometre.
+
+    One vectorised shapely call per step for all of them, the same polygons as one by one.
+    """
+    counts = [len(o) for o in outlines]
+    points = shapely.multipoints(np.concatenate(outlines), indices=np.repeat(np.arange(len(counts)), counts))
+    hulls = shapely.convex_hull(points)
+    flat = shapely.get_type_id(hulls) != shapely.GeometryType.POLYGON
+    if flat.any():  # a part seen exactly edge-on from above
+        hulls[flat] = shapely.buffer(hulls[flat], 1e-6, quad_segs=1)
+    return shapely.normalize(hulls)
+
+
+def release(parts: Iterable[_Convex]) -> None:
+    """Drop the vertex arrays the parts keep from their construction (memory; results unchanged)."""
+    for part in parts:
+        object.__setattr__(part, "_points", None)
 
 
 def manifold_to_trimesh(solid: manifold3d.Manifold, rgba: RGBA | None = None) -> trimesh.Trimesh:
@@ -135,21 +195,32 @@ def manifold_to_trimesh(solid: manifold3d.Manifold, rgba: RGBA | None = None) ->
     return out
 
 
+@functools.lru_cache(maxsize=16)
+def _unit_circle(sides: int) -> tuple[np.ndarray, np.ndarray]:
+    """Cosines and sines of ``sides`` angles evenly spaced from 0 (read-only arrays)."""
+    angles = np.arange(sides) * (2 * np.pi / sides)
+    cos, sin = np.cos(angles), np.sin(angles)
+    cos.flags.writeable = sin.flags.writeable = False
+    return cos, sin
+
+
 def _ring(radius: float, z: float, center: Sequence[float], sides: int = SEGMENTS) -> np.ndarray:
     """``sides`` points on a horizontal circle, the first one on +x."""
-    angles = np.arange(sides) * (2 * np.pi / sides)
-    return np.column_stack(
-        [
-            center[0] + radius * np.cos(angles),
-            center[1] + radius * np.sin(angles),
-            np.full(sides, z),
-        ]
-    )
+    cos, sin = _unit_circle(sides)
+    out = np.empty((sides, 3))
+    out[:, 0] = center[0] + radius * cos
+    out[:, 1] = center[1] + radius * sin
+    out[:, 2] = z
+    return out
 
 
 def _circumscribed(radius: float, center: Sequence[float]) -> np.ndarray:
     """The polygon with :data:`SEGMENTS` sides around a circle, in phase with :func:`_ring`."""
     return _ring(radius / math.cos(math.pi / SEGMENTS), 0.0, center)[:, :2]
+
+
+_CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+_CORNERS.flags.writeable = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -167,11 +238,15 @@ class Box(_Convex):
         object.__setattr__(self, "yaw", _floats("Box.yaw", (self.yaw,), 1)[0])
 
     def hull_points(self) -> np.ndarray:
-        signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
-        local = signs * np.asarray(self.size) / 2
+        local = _CORNERS * np.asarray(self.size) / 2
         c, s = math.cos(self.yaw), math.sin(self.yaw)
         turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
         return local @ turn.T + np.asarray(self.pos)
+
+    def extent(self) -> tuple[float, float, np.ndarray]:
+        # The turn about +Z leaves each corner's z exactly pos.z -+ size.z / 2.
+        half, z = self.size[2] / 2, self.pos[2]
+        return z - half, z + half, self.hull_points()[:, :2]
 
 
 @dataclass(frozen=True, slots=True)
@@ -195,6 +270,10 @@ class Cylinder(_Convex):
 
     def _outline(self) -> np.ndarray:
         return _circumscribed(self.radius, self.pos)
+
+    def extent(self) -> tuple[float, float, np.ndarray]:
+        z, half = self.pos[2], self.height / 2
+        return z - half, z + half, self._outline()
 
 
 @dataclass(frozen=True, slots=True)
@@ -230,6 +309,10 @@ class Capsule(_Convex):
     def _outline(self) -> np.ndarray:
         return _circumscribed(self.radius, self.pos)
 
+    def extent(self) -> tuple[float, float, np.ndarray]:
+        z = self.hull_points()[:, 2]
+        return float(z.min()), float(z.max()), self._outline()
+
 
 @dataclass(frozen=True, slots=True)
 class ConvexMesh(_Convex):
@@ -244,22 +327,44 @@ class ConvexMesh(_Convex):
         except (TypeError, ValueError):
             raw = np.zeros((0, 0))
         if raw.ndim == 2 and raw.shape[1] == 3 and np.isfinite(raw).all():
-            points = tuple(map(tuple, _round_rows(raw)))
-        else:
-            try:
-                points = tuple(_floats("ConvexMesh.vertices[]", v, 3) for v in self.vertices)
-            except TypeError:
-                points = ()
-        spread = np.asarray(points) - np.mean(points, axis=0) if len(points) >= 4 else None
-        if spread is None or np.linalg.svd(spread, compute_uv=False)[-1] < 1e-7:
-            raise ValueError(
-                f"ConvexMesh.vertices: expected >= 4 points (m) spanning a volume, "
-                f"got {len(points)} points that do not"
-            )
+            _set_vertices(self, _round_array(raw))
+            return
+        try:
+            points = tuple(_floats("ConvexMesh.vertices[]", v, 3) for v in self.vertices)
+        except TypeError:
+            points = ()
+        if not (len(points) >= 4 and _spans_volume(np.asarray(points))):
+            _flat(len(points))
         object.__setattr__(self, "vertices", points)
+        object.__setattr__(self, "_points", None)
 
     def hull_points(self) -> np.ndarray:
+        kept = getattr(self, "_points", None)
+        if kept is not None:
+            return kept.copy()
         return np.asarray(self.vertices, dtype=np.float64)
+
+    def extent(self) -> tuple[float, float, np.ndarray]:
+        points = getattr(self, "_points", None)
+        if points is None:
+            points = np.asarray(self.vertices, dtype=np.float64)
+        z = points[:, 2]
+        return float(z.min()), float(z.max()), points[:, :2]
+
+
+def _flat(count: int) -> None:
+    raise ValueError(
+        f"ConvexMesh.vertices: expected >= 4 points (m) spanning a volume, got {count} points that do not"
+    )
+
+
+def _set_vertices(mesh: ConvexMesh, rounded: np.ndarray) -> None:
+    """Give ``mesh`` the rounded ``(n, 3)`` vertex array, or the ValueError of a flat one."""
+    if not _spans_volume(rounded):
+        _flat(len(rounded))
+    rounded.flags.writeable = False
+    object.__setattr__(mesh, "vertices", tuple(map(tuple, rounded.tolist())))
+    object.__setattr__(mesh, "_points", rounded)
 
 
 Part = Box | Cylinder | Capsule | ConvexMesh
@@ -267,7 +372,22 @@ Part = Box | Cylinder | Capsule | ConvexMesh
 
 
 def _as_mesh(points: np.ndarray, material: Look) -> ConvexMesh:
-    return ConvexMesh(tuple(map(tuple, points.tolist())), material)
+    """``ConvexMesh(points, material)`` for an ``(n, 3)`` array (m), without going through
+    nested tuples: the same vertices, the same errors."""
+    points = np.asarray(points, dtype=np.float64)
+    if not (points.ndim == 2 and points.shape[1] == 3 and np.isfinite(points).all()):
+        return ConvexMesh(tuple(map(tuple, points.tolist())), material)
+    mesh = object.__new__(ConvexMesh)
+    object.__setattr__(mesh, "material", material)
+    _set_vertices(mesh, _round_array(points))
+    return mesh
+
+
+def _unit(x: float, y: float, z: float) -> np.ndarray:
+    """``(x, y, z)`` divided by its length, as ``v / np.linalg.norm(v)`` gives it."""
+    v = np.array([x, y, z])
+    v /= math.sqrt(v.dot(v))
+    return v
 
 
 def rod(
@@ -280,15 +400,20 @@ def rod(
     """
     a, b = np.asarray(start, float), np.asarray(end, float)
     axis = b - a
-    if not np.linalg.norm(axis) > 0:
+    length = math.sqrt(axis.dot(axis))  # np.linalg.norm
+    if not length > 0:
         raise ValueError(f"rod: start and end must differ, got {tuple(start)} and {tuple(end)}")
-    axis /= np.linalg.norm(axis)
-    helper = np.array([0.0, 0.0, 1.0]) if abs(axis[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
-    u = np.cross(axis, helper)
-    u /= np.linalg.norm(u)
-    v = np.cross(axis, u)
-    angles = np.arange(SEGMENTS) * (2 * np.pi / SEGMENTS)
-    circle = radius * (np.outer(np.cos(angles), u) + np.outer(np.sin(angles), v))
+    axis /= length
+    # u = axis x helper and v = axis x u, each term as np.cross computes it.
+    ax, ay, az = axis.tolist()
+    if abs(az) < 0.9:  # helper +Z
+        u = _unit(ay * 1.0 - az * 0.0, az * 0.0 - ax * 1.0, ax * 0.0 - ay * 0.0)
+    else:  # helper +X
+        u = _unit(ay * 0.0 - az * 0.0, az * 1.0 - ax * 0.0, ax * 0.0 - ay * 1.0)
+    ux, uy, uz = u.tolist()
+    v = np.array([ay * uz - az * uy, az * ux - ax * uz, ax * uy - ay * ux])
+    cos, sin = _unit_circle(SEGMENTS)
+    circle = radius * (cos[:, None] * u + sin[:, None] * v)  # np.outer, term by term
     return _as_mesh(np.vstack([a + circle, b + circle]), material)
 
 
@@ -319,8 +444,7 @@ def tilted_box(
     size: Sequence[float], pos: Sequence[float], lean: float, material: Look = DEFAULT_LOOK
 ) -> ConvexMesh:
     """A box of ``size`` (m) centred at ``pos`` (m), its top leaning to +x by ``lean`` (rad)."""
-    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
-    local = signs * np.asarray(size, float) / 2
+    local = _CORNERS * np.asarray(size, float) / 2
     c, s = math.cos(lean), math.sin(lean)
     turn = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
     return _as_mesh(local @ turn.T + np.asarray(pos, float), material)
