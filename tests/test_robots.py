@@ -204,6 +204,32 @@ def test_drive_tracks_speed_and_yaw_rate(name):
     assert handle.body_contacts(data).size == 0  # drove on its feet or wheels only
 
 
+@pytest.mark.parametrize("name", [n for n in BUILTIN if load_robot(n).nav_mode == "wheels"])
+def test_drive_tracks_at_the_environments_drive_rate(name):
+    """The environments call a wheel drive once per DRIVE_DT and hold its targets between."""
+    model, data, handle = on_flat(name)
+    k = handle.drive_substeps
+    assert k * model.opt.timestep == pytest.approx(robots.DRIVE_DT) and k > 1
+    for v, w in ((1.0, 0.0), (0.0, 1.0)):
+        handle.reset(data, (0.0, 0.0, 0.0, 0.0))
+        tail = []
+        steps = int(3.0 / model.opt.timestep)
+        for i in range(0, steps, k):
+            handle.drive(data, v, w, k * model.opt.timestep)
+            mujoco.mj_step(model, data, nstep=k)
+            if i >= steps - int(1.0 / model.opt.timestep):
+                tail.append(handle.velocity(data))
+        vel = np.mean(tail, axis=0)
+        assert vel[0] == pytest.approx(v, rel=0.15, abs=0.05)
+        assert vel[3] == pytest.approx(w, rel=0.2, abs=0.05)
+        assert handle.body_contacts(data).size == 0
+
+
+def test_ideal_locomotion_servo_runs_every_physics_step():
+    _, _, handle = on_flat("quadruped")
+    assert handle.robot.nav_mode == "base" and handle.drive_substeps == 1
+
+
 MJCF_ROBOT = """<mujoco model="cart">
   <worldbody>
     <body name="chassis" pos="0 0 0.2">

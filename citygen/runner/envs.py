@@ -45,6 +45,7 @@ metrics of its task (:mod:`citygen.runner.metrics`).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -138,6 +139,7 @@ class _CitygenEnv(gymnasium.Env):
         self.handle = None
         self._renderer = None
         self._index = -1
+        self._around: tuple | None = None  # the last _terrain_around: scene, x, y, yaw, ground, grid
         hx, hy, step = HEIGHT_MAP
         nx, ny = round(hx / step) + 1, round(hy / step) + 1
         u, v = np.meshgrid(np.linspace(-hx / 2, hx / 2, nx), np.linspace(-hy / 2, hy / 2, ny), indexing="ij")
@@ -193,27 +195,56 @@ class _CitygenEnv(gymnasium.Env):
         return int(self.np_random.integers(self.source.size))
 
     def _ground_z(self, x: float, y: float) -> float:
+        """Ground height (m) at ``(x, y)``; free at the last :meth:`_terrain_around` centre."""
+        c = self._around
+        if c is not None and c[0] is self.scene and c[1] == x and c[2] == y:
+            return c[4]
         return float(height_at(self.scene, x, y))
+
+    def _terrain_around(self, x: float, y: float, yaw: float) -> tuple[float, np.ndarray]:
+        """The ground height (m) at ``(x, y)`` and the height map's grid of ground heights (m,
+        float64, flat) around the pose ``(x, y, yaw)``, from one :func:`height_at` call and
+        remembered for the last pose (a step asks for them several times)."""
+        c = self._around
+        if c is not None and c[0] is self.scene and c[1] == x and c[2] == y and c[3] == yaw:
+            return c[4], c[5]
+        u, v, _ = self._hm_local
+        cs, sn = math.cos(yaw), math.sin(yaw)
+        xs, ys = np.empty(u.size + 1), np.empty(u.size + 1)
+        xs[:-1], ys[:-1] = x + cs * u - sn * v, y + sn * u + cs * v
+        xs[-1], ys[-1] = x, y
+        z = height_at(self.scene, xs, ys)
+        self._around = (self.scene, x, y, yaw, float(z[-1]), z[:-1])
+        return self._around[4], self._around[5]
 
     def _out_of_bounds(self, x: float, y: float) -> bool:
         """Outside the scene's bounds."""
         (x0, y0), (x1, y1) = self.scene.bounds.min, self.scene.bounds.max
         return not (x0 <= x <= x1 and y0 <= y <= y1)
 
-    def _physics(self, command: Any) -> None:
+    def _physics(self, command: Callable[[float], None] | None) -> None:
+        """One control step: :attr:`_substeps` physics steps. ``command(dt)`` (the robot's
+        drive) runs before every ``handle.drive_substeps`` of them (``dt`` in s: the time
+        until its next call); with no command MuJoCo steps them in one call."""
         import mujoco
 
-        for _ in range(self._substeps):
-            command()
-            mujoco.mj_step(self.model, self.data)
+        n = self._substeps
+        if command is None:
+            mujoco.mj_step(self.model, self.data, nstep=n)
+            return
+        k, h = self.handle.drive_substeps, self.model.opt.timestep
+        done = 0
+        while done < n:
+            m = min(k, n - done)
+            command(m * h)
+            mujoco.mj_step(self.model, self.data, nstep=m)
+            done += m
 
     # --- observations --------------------------------------------------------------------
 
     def _height_map(self, x: float, y: float, z_feet: float, yaw: float) -> np.ndarray:
-        u, v, shape = self._hm_local
-        c, s = math.cos(yaw), math.sin(yaw)
-        xs, ys = x + c * u - s * v, y + s * u + c * v
-        return (height_at(self.scene, xs, ys) - z_feet).reshape(shape).astype(np.float32)
+        _, heights = self._terrain_around(x, y, yaw)
+        return (heights - z_feet).reshape(self._hm_local[2]).astype(np.float32)
 
     def _images(self, pose: tuple[float, float, float, float]) -> dict[str, np.ndarray]:
         out: dict[str, np.ndarray] = {}
@@ -259,7 +290,7 @@ class _CitygenEnv(gymnasium.Env):
     def _eye_camera(self, pose: tuple[float, float, float, float]):
         import mujoco
 
-        x, y, z, yaw = pose
+        x, y, _, yaw = pose
         cam = mujoco.MjvCamera()
         cam.type = mujoco.mjtCamera.mjCAMERA_FREE
         ground = self._ground_z(x, y)
@@ -453,7 +484,7 @@ class NavEnv(_CitygenEnv):
                     radii.append(self.crowd.radius)
                 self.traffic.step(np.concatenate(obstacles), np.concatenate(radii))
             self._write_agents()
-        self._physics(lambda: self.handle.drive(self.data, v, w))
+        self._physics(lambda dt: self.handle.drive(self.data, v, w, dt))
         self.steps += 1
         return self._after_step()
 
@@ -471,20 +502,20 @@ class NavEnv(_CitygenEnv):
                 return True
         return False
 
-    def _fallen(self, z: float, x: float, y: float) -> bool:
+    def _fallen(self, z: float, x: float, y: float, yaw: float) -> bool:
         """Tipped over (base tilted more than 60 degrees) or fallen through the ground."""
         up = self.data.xmat[self.handle.base_id][8]
-        return bool(up < 0.5 or z < self._ground_z(x, y) - 0.5)
+        return bool(up < 0.5 or z < self._terrain_around(x, y, yaw)[0] - 0.5)
 
     def _after_step(self):
-        x, y, z, _yaw = self.handle.pose(self.data)
+        x, y, z, yaw = self.handle.pose(self.data)
         d = self._distance()
         walkable = bool(
             self.prepared.walkable[self.prepared.occupancy.cell(x, y)]
         ) and not self._out_of_bounds(x, y)
         collision = self._collision(x, y)
         success = d <= self.tolerance
-        lost = self._out_of_bounds(x, y) or self._fallen(z, x, y)
+        lost = self._out_of_bounds(x, y) or self._fallen(z, x, y, yaw)
         reward = 2.0 * ((1.0 - math.tanh(d / 1.0)) + 0.2 * (1.0 - math.tanh(d / 0.2)))
         reward -= 0.5 * (not walkable)
         reward -= 1.0 * collision
@@ -508,7 +539,7 @@ class NavEnv(_CitygenEnv):
         gx, gy = self._goal()
         gu, gv = _yaw_rotate(np.float64(gx - x), np.float64(gy - y), yaw)
         vel = self.handle.velocity(self.data)
-        feet = self._ground_z(x, y)
+        feet, _ = self._terrain_around(x, y, yaw)
         obs = {
             "goal": np.array([gu, gv], dtype=np.float32),
             "velocity": np.array([vel[0], vel[1], vel[3]], dtype=np.float32),
@@ -584,7 +615,7 @@ class TraverseEnv(NavEnv):
             self._since_progress += self.dt
         done = self.waypoint >= len(self.route)
         if not done and (
-            self._out_of_bounds(x, y) or self._fallen(z, x, y) or self._since_progress > STUCK_SECONDS
+            self._out_of_bounds(x, y) or self._fallen(z, x, y, yaw) or self._since_progress > STUCK_SECONDS
         ):
             (ax, ay), ayaw = self._anchor
             self.handle.reset(self.data, (ax, ay, self._ground_z(ax, ay), ayaw))
@@ -692,9 +723,9 @@ class LocoEnv(_CitygenEnv):
     def step(self, action):
         a = np.clip(np.asarray(action, dtype=np.float64).reshape(self.n_joints), -1.0, 1.0)
         self.handle.joint_action(self.data, a)
-        self._physics(lambda: None)
+        self._physics(None)
         self.steps += 1
-        x, y, z, yaw = self.handle.pose(self.data)
+        x, y, _, _ = self.handle.pose(self.data)
         vel = self.handle.velocity(self.data)
         fallen = self._ground_force() > FALL_FORCE or self._out_of_bounds(x, y)
         dv = (vel[0] - self.command[0]) ** 2 + (vel[1] - self.command[1]) ** 2
@@ -728,7 +759,7 @@ class LocoEnv(_CitygenEnv):
             ),
             "joint_vel": np.asarray(self.handle.joint_velocities(self.data), dtype=np.float32),
             "last_action": self.last_action.astype(np.float32),
-            "height_map": self._height_map(x, y, self._ground_z(x, y), yaw),
+            "height_map": self._height_map(x, y, self._terrain_around(x, y, yaw)[0], yaw),
         }
         obs.update(self._images((x, y, z, yaw)))
         return obs

@@ -34,9 +34,13 @@ open-loop trot of :mod:`citygen.runner.gaits` is the locomotion baseline, not th
 navigation drive (it is not precise enough to track a planner's commands).
 
 **Control timing**: :data:`TIMESTEP` (0.002 s) physics step, implicit-fast integrator.
-:meth:`RobotHandle.drive` reads the base's state, so call it before **every** physics
-step (it costs microseconds); :meth:`RobotHandle.joint_action` only writes position
-targets and may run at the control rate (50 Hz = every 10 steps is the usual choice).
+:meth:`RobotHandle.drive` reads the base's state and is a feedback loop: the environments
+run a wheel drive at :data:`DRIVE_DT` (100 Hz, every :attr:`RobotHandle.drive_substeps`
+physics steps, its outputs held in between, as a real wheel controller does) and the
+ideal-locomotion servo at every physics step; called with no ``dt`` it assumes one call
+per physics step. :meth:`RobotHandle.joint_action` only writes
+position targets and may run at the control rate (50 Hz = every 10 steps is the usual
+choice).
 
 >>> robot = load_robot("wheeled")
 >>> robot.nav_mode, robot.radius
@@ -1017,6 +1021,15 @@ def compose(scene_mjcf: MJCF, robot: Robot, pose: tuple[float, float, float, flo
 
 # --- driving a robot in a compiled model ------------------------------------------------------
 
+#: Period (s) of the wheel drive's feedback loop as the environments run it: they call
+#: :meth:`RobotHandle.drive` of a wheeled robot once per period and hold its wheel speed
+#: targets for the physics steps in between (100 Hz: 5 physics steps of :data:`TIMESTEP`;
+#: real wheel controllers run at 100-1000 Hz). The wheels' velocity actuators and the legs'
+#: PD act at every physics step inside MuJoCo. The ideal-locomotion servo (``nav_mode ==
+#: "base"``) stands in for a locomotion policy with stiff force feedback and runs at every
+#: physics step (held 5 steps its attitude loop diverges).
+DRIVE_DT = 0.01
+
 # Drive feedback: wheel speeds get the command plus these gains (1) times the error of the
 # measured forward speed and yaw rate, and these gains (1/s) times its integral.
 _WHEEL_P, _WHEEL_I = 0.5, 3.0
@@ -1024,17 +1037,23 @@ _WHEEL_P, _WHEEL_I = 0.5, 3.0
 _SERVO_V, _SERVO_W, _SERVO_KP, _SERVO_KD = 10.0, 10.0, 400.0, 40.0
 
 
-def yaw_of(quat: np.ndarray) -> float:
-    """Yaw (rad) of a unit quaternion ``(w, x, y, z)``."""
+def yaw_of(quat: Any) -> float:
+    """Yaw (rad) of a unit quaternion ``(w, x, y, z)`` (any sequence of 4 numbers)."""
     w, x, y, z = (float(v) for v in quat)
     return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
+def _clamp(x: float, limit: float) -> float:
+    return -limit if x < -limit else limit if x > limit else x
 
 
 class RobotHandle:
     """A robot inside a compiled model (from :func:`compose`): ids, reset, state, drive.
 
     ``geom_ids``, ``body_ids``: all of the robot's; ``foot_geom_ids``: those allowed to
-    touch the ground. Arrays are of MuJoCo ids in ``model``.
+    touch the ground. Arrays are of MuJoCo ids in ``model``. ``drive_substeps``: physics
+    steps per call of :meth:`drive` in the environments (a :data:`DRIVE_DT` period for
+    wheels, 1 for the ideal-locomotion servo).
     """
 
     def __init__(self, model: Any, robot: Robot, prefix: str = PREFIX) -> None:
@@ -1070,9 +1089,21 @@ class RobotHandle:
         self._is_robot_geom[self.geom_ids] = True
         self._not_foot = self._is_robot_geom.copy()
         self._not_foot[self.foot_geom_ids] = False
-        self._integral = np.zeros(2)
-        self._ref = np.zeros(2)
+        wheels = robot.nav_mode == "wheels"
+        self.drive_substeps = max(1, round(DRIVE_DT / model.opt.timestep)) if wheels else 1
+        # Drive state: the integral of the speed and yaw-rate errors, the ramped reference.
+        self._integral = (0.0, 0.0)
+        self._ref = (0.0, 0.0)
         self._ground: float | None = None
+        # Constants of the drive, read once: plain floats and ids (the drive runs often).
+        self._timestep = float(model.opt.timestep)
+        self._left_ids = [int(a) for a in self.left]
+        self._right_ids = [int(a) for a in self.right]
+        self._body_masses = model.body_mass[self.body_ids].copy()
+        self._half_inertia = float(model.body_inertia[self.body_ids].sum() / 2)
+        self._ray_point = np.zeros(3)
+        self._ray_down = np.array([0.0, 0.0, -1.0])
+        self._ray_geom = np.zeros(1, dtype=np.int32)
 
     @property
     def n_joints(self) -> int:
@@ -1095,58 +1126,70 @@ class RobotHandle:
         data.ctrl[self.leg_act] = self.default
         data.ctrl[self.wheel_act] = 0.0
         data.xfrc_applied[self.body_ids] = 0.0
-        self._integral[:] = 0.0
-        self._ref[:] = 0.0
+        self._integral = (0.0, 0.0)
+        self._ref = (0.0, 0.0)
         self._ground = z
         self._mj.mj_forward(m, data)
 
     def pose(self, data: Any) -> tuple[float, float, float, float]:
         """``(x, y, z, yaw)`` of the base origin, in m and rad (z is the base's height)."""
-        q = data.qpos[self.qadr : self.qadr + 7]
-        return float(q[0]), float(q[1]), float(q[2]), yaw_of(q[3:7])
+        x, y, z, qw, qx, qy, qz = data.qpos[self.qadr : self.qadr + 7].tolist()
+        return x, y, z, math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
 
     def velocity(self, data: Any) -> np.ndarray:
         """``[vx, vy, vz, wz]`` of the base (m/s, rad/s) in its yaw frame (x forward, z up)."""
-        lin = data.qvel[self.dadr : self.dadr + 3]
-        ang = data.xmat[self.base_id].reshape(3, 3) @ data.qvel[self.dadr + 3 : self.dadr + 6]
-        yaw = yaw_of(data.qpos[self.qadr + 3 : self.qadr + 7])
-        c, s = math.cos(yaw), math.sin(yaw)
-        return np.array([c * lin[0] + s * lin[1], -s * lin[0] + c * lin[1], lin[2], ang[2]])
+        return np.array(self._velocity(data))
 
-    def drive(self, data: Any, v: float, w: float) -> None:
+    def _velocity(self, data: Any) -> tuple[float, float, float, float]:
+        """:meth:`velocity` as plain floats."""
+        qw, qx, qy, qz = data.qpos[self.qadr + 3 : self.qadr + 7].tolist()
+        lx, ly, lz, ax, ay, az = data.qvel[self.dadr : self.dadr + 6].tolist()
+        r = data.xmat[self.base_id].tolist()  # row-major 3x3; the free joint's spin is local
+        yaw = math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
+        c, s = math.cos(yaw), math.sin(yaw)
+        return c * lx + s * ly, -s * lx + c * ly, lz, r[6] * ax + r[7] * ay + r[8] * az
+
+    def drive(self, data: Any, v: float, w: float, dt: float | None = None) -> None:
         """Track forward speed ``v`` (m/s) and yaw rate ``w`` (rad/s), clipped to the
-        robot's limits and approached at its acceleration limits. Call it before every
-        physics step: it feeds back the base's measured motion (wheel robots: a PI
-        correction of the wheel speeds; ideal locomotion: the base servo's forces in
-        ``data.xfrc_applied``)."""
+        robot's limits and approached at its acceleration limits. Call it once per feedback
+        period ``dt`` (s; default one physics step): it feeds back the base's measured
+        motion (wheel robots: a PI correction of the wheel speeds; ideal locomotion: the
+        base servo's forces in ``data.xfrc_applied``) and its outputs hold until the next
+        call. The environments call it every :data:`DRIVE_DT`."""
         r = self.robot
-        v = float(np.clip(v, -r.max_speed, r.max_speed))
-        w = float(np.clip(w, -r.max_yaw_rate, r.max_yaw_rate))
+        dt = self._timestep if dt is None else float(dt)
+        v = _clamp(float(v), r.max_speed)
+        w = _clamp(float(w), r.max_yaw_rate)
         if self.leg_act.size:
             data.ctrl[self.leg_act] = self.default
         # the reference approaches the command at the robot's acceleration limits
-        dt = self.model.opt.timestep
-        ref = self._ref + np.clip((v, w) - self._ref, -dt * r.max_accel, dt * r.max_accel)
-        ref[1] = self._ref[1] + np.clip(w - self._ref[1], -dt * r.max_yaw_accel, dt * r.max_yaw_accel)
-        self._ref = ref
-        v, w = float(ref[0]), float(ref[1])
-        vel = self.velocity(data)
-        if r.nav_mode == "wheels":
-            err = np.array([v - vel[0], w - vel[3]])
-            self._integral = np.clip(self._integral + err * self.model.opt.timestep, -1.0, 1.0)
-            vc, wc = (v, w) + _WHEEL_P * err + _WHEEL_I * self._integral
-            data.ctrl[self.left] = (vc - wc * r.track_width / 2) / r.wheel_radius
-            data.ctrl[self.right] = (vc + wc * r.track_width / 2) / r.wheel_radius
-        else:
-            self._servo(data, v, w, vel)
+        rv, rw = self._ref
+        rv += _clamp(v - rv, dt * r.max_accel)
+        rw += _clamp(w - rw, dt * r.max_yaw_accel)
+        self._ref = (rv, rw)
+        if r.nav_mode != "wheels":
+            self._servo(data, rv, rw)
+            return
+        vx, _, _, wz = self._velocity(data)
+        ev, ew = rv - vx, rw - wz
+        iv, iw = self._integral
+        iv, iw = _clamp(iv + ev * dt, 1.0), _clamp(iw + ew * dt, 1.0)
+        self._integral = (iv, iw)
+        vc = rv + _WHEEL_P * ev + _WHEEL_I * iv
+        wc = rw + _WHEEL_P * ew + _WHEEL_I * iw
+        half = wc * r.track_width / 2
+        ctrl = data.ctrl
+        for a in self._left_ids:
+            ctrl[a] = (vc - half) / r.wheel_radius
+        for a in self._right_ids:
+            ctrl[a] = (vc + half) / r.wheel_radius
 
     def _ground_below(self, data: Any) -> float:
         """Height (m) of the first non-robot surface under the base origin."""
-        point = data.xpos[self.base_id].copy()
-        gid = np.zeros(1, dtype=np.int32)
-        down = np.array([0.0, 0.0, -1.0])
+        point, gid = self._ray_point, self._ray_geom
+        point[:] = data.xpos[self.base_id]
         for _ in range(8):
-            dist = self._mj.mj_ray(self.model, data, point, down, None, 1, self.base_id, gid)
+            dist = self._mj.mj_ray(self.model, data, point, self._ray_down, None, 1, self.base_id, gid)
             if dist < 0:
                 break
             point[2] -= dist
@@ -1156,38 +1199,33 @@ class RobotHandle:
             point[2] -= 1e-4
         return self._ground if self._ground is not None else 0.0
 
-    def _servo(self, data: Any, v: float, w: float, vel: np.ndarray) -> None:
-        m, b = self.mass, self.base_id
-        R = data.xmat[b].reshape(3, 3)
+    def _servo(self, data: Any, v: float, w: float) -> None:
+        """Ideal locomotion: base forces and torques (``data.xfrc_applied``) that carry the
+        weight at the hover height, keep the trunk level and track ``(v, w)``."""
+        b = self.base_id
+        r = data.xmat[b].tolist()  # row-major 3x3 rotation of the base
         # composite inertia about the subtree's centre of mass (kg m^2), horizontal axes
-        com = data.subtree_com[b]
-        masses = self.model.body_mass[self.body_ids]
-        d = data.xipos[self.body_ids] - com
-        inertia = float(
-            masses @ (d[:, 0] ** 2 + d[:, 1] ** 2) + self.model.body_inertia[self.body_ids].sum() / 2
-        )
-        yaw = yaw_of(data.qpos[self.qadr + 3 : self.qadr + 7])
+        d = data.xipos[self.body_ids] - data.subtree_com[b]
+        inertia = float(self._body_masses @ (d[:, 0] ** 2 + d[:, 1] ** 2)) + self._half_inertia
+        z, qw, qx, qy, qz = data.qpos[self.qadr + 2 : self.qadr + 7].tolist()
+        lx, ly, lz, ax, ay, az = data.qvel[self.dadr : self.dadr + 6].tolist()
+        yaw = math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
         c, s = math.cos(yaw), math.sin(yaw)
-        lin = data.qvel[self.dadr : self.dadr + 3]
-        ang = R @ data.qvel[self.dadr + 3 : self.dadr + 6]
+        # world angular velocity (the free joint's is in the base frame)
+        wx = r[0] * ax + r[1] * ay + r[2] * az
+        wy = r[3] * ax + r[4] * ay + r[5] * az
+        wz = r[6] * ax + r[7] * ay + r[8] * az
         target = self._ground_below(data) + self.robot.stand_height + HOVER_CLEARANCE
-        force = m * np.array(
-            [
-                _SERVO_V * (v * c - lin[0]),
-                _SERVO_V * (v * s - lin[1]),
-                _GRAVITY + _SERVO_KP * (target - data.qpos[self.qadr + 2]) - _SERVO_KD * lin[2],
-            ]
+        m = self.mass
+        # tilt = (base z axis) x (world z): the base's z axis is the rotation's third column
+        data.xfrc_applied[b] = (
+            m * _SERVO_V * (v * c - lx),
+            m * _SERVO_V * (v * s - ly),
+            m * (_GRAVITY + _SERVO_KP * (target - z) - _SERVO_KD * lz),
+            inertia * (_SERVO_KP * r[5] - _SERVO_KD * wx),
+            inertia * (_SERVO_KP * -r[2] - _SERVO_KD * wy),
+            inertia * _SERVO_W * (w - wz),
         )
-        tilt = np.cross(R[:, 2], (0.0, 0.0, 1.0))
-        torque = inertia * np.array(
-            [
-                _SERVO_KP * tilt[0] - _SERVO_KD * ang[0],
-                _SERVO_KP * tilt[1] - _SERVO_KD * ang[1],
-                _SERVO_W * (w - ang[2]),
-            ]
-        )
-        data.xfrc_applied[b, :3] = force
-        data.xfrc_applied[b, 3:] = torque
 
     def joint_action(self, data: Any, action: np.ndarray) -> None:
         """Locomotion: leg joint targets ``default_pose + action_scale * clip(action, -1, 1)``
