@@ -14,6 +14,7 @@ twice) to a road end of its last block. Cars, vans and buses in 75 : 15 : 10.
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections.abc import Sequence
 
@@ -108,8 +109,9 @@ def _people(bounds, zones, placements, cfg, rng, level, ends, robot_radius, seed
     trip = min(TRIP, 0.5 * min(bounds.size))
     out = []
     live = [k for k, w in zip(kinds, weights, strict=True) if w > 0]
+    mix = _Choice(weights / weights.sum())
     for i in range(count):
-        drawn = kinds[int(rng.choice(3, p=weights / weights.sum()))]
+        drawn = kinds[mix.draw(rng)]
         # Where the drawn kind finds no room (a cyclist's disc in a narrow lane), the
         # others in the mix are tried, the slimmest first.
         for kind in [drawn, *sorted((k for k in live if k != drawn), key=lambda k: radius[k][1])]:
@@ -130,6 +132,20 @@ def _people(bounds, zones, placements, cfg, rng, level, ends, robot_radius, seed
     return out
 
 
+class _Choice:
+    """``rng.choice(len(p), p=p)`` without its per-call checks: the same cumulative weights,
+    one uniform draw and the same search, so the same index from the same generator state."""
+
+    def __init__(self, p: np.ndarray):
+        cdf = np.asarray(p, dtype=float).cumsum()
+        if len(cdf):
+            cdf /= cdf[-1]
+        self._cdf = cdf.tolist()
+
+    def draw(self, rng: np.random.Generator) -> int:
+        return bisect.bisect_right(self._cdf, rng.random())
+
+
 class _Pieces:
     """The connected pieces of one kind's free space, their areas, and a sampler of each,
     triangulated when the piece is first drawn (a city's largest pieces draw most people)."""
@@ -138,6 +154,7 @@ class _Pieces:
         self.polygons = polygons
         areas = np.array([p.area for p in polygons])
         self.p = areas / areas.sum() if polygons else areas
+        self.choice = _Choice(self.p)
         self.samplers: dict[int, Sampler] = {}
 
     def __len__(self) -> int:
@@ -145,6 +162,7 @@ class _Pieces:
 
     def __getitem__(self, k: int) -> tuple[Polygon, Sampler]:
         if k not in self.samplers:
+            shapely.prepare(self.polygons[k])  # many points are tested against it
             self.samplers[k] = Sampler(self.polygons[k])
         return self.polygons[k], self.samplers[k]
 
@@ -152,18 +170,19 @@ class _Pieces:
 def _trip(spaces: _Pieces, rng, trip, r, taken):
     """A start clear of every disc in ``taken`` and a goal in the same piece, as far as
     ``trip`` when the piece allows, else the farthest of a few draws."""
+    # A point is in a piece where the piece covers it: for a point, ``intersects_xy``.
     for _ in range(64):
-        k = int(rng.choice(len(spaces), p=spaces.p))
+        k = spaces.choice.draw(rng)
         piece, sampler = spaces[k]
         start = sampler.point(rng)
-        if not piece.covers(Point(start)):
+        if not shapely.intersects_xy(piece, *start):
             continue
         if any(math.dist(start, (x, y)) < r + q + GAP for x, y, q in taken):
             continue
         best = None
         for _ in range(16):
             goal = sampler.point(rng)
-            if not piece.covers(Point(goal)):
+            if not shapely.intersects_xy(piece, *goal):
                 continue
             d = math.dist(start, goal)
             if d >= trip:
