@@ -84,8 +84,6 @@ class Asset:
     semantic_class: str
     parts: tuple[Part, ...]
     """Convex parts: the collision geometry."""
-    footprint: Polygon = field(compare=False)
-    """Union of the parts' ground projections (m), holes filled; derived from ``parts``."""
     base: Polygon = field(compare=False)
     """The footprint of the parts reaching below :data:`BASE_HEIGHT`: what a pedestrian or a
     robot can walk into. A lamp's arm or a tree's crown overhead is in ``footprint`` only.
@@ -95,6 +93,16 @@ class Asset:
     zones: frozenset[str]
     clearance: float
     """Free space (m) the asset wants around its footprint."""
+
+    @functools.cached_property
+    def footprint(self) -> Polygon:
+        """Union of the parts' ground projections (m), holes filled; derived from ``parts``.
+
+        Placement needs only :attr:`base`, so an asset with parts above :data:`BASE_HEIGHT`
+        outlines all its parts on first use (the same polygon as when it was resolved);
+        for any other asset it is the base itself.
+        """
+        return _outline(footprints([p.extent()[2] for p in self.parts]))
 
     def visual_mesh(self) -> trimesh.Trimesh:
         """The watertight union of the parts (manifold3d), faces coloured by part material.
@@ -143,24 +151,26 @@ def resolve(asset_id: str) -> Asset:
     parts = tuple(category.build(rng))
     if not parts or not all(isinstance(p, _PART_TYPES) for p in parts):
         raise TypeError(f"the {name!r} builder must return a non-empty list of parts, got {parts!r}")
-    # Each part's height range and footprint once, shared by the footprint, the base and the
-    # height; the footprints in one vectorised pass over all parts.
+    # Each part's height range once, and only the footprints the base is the outline of, in
+    # one vectorised pass; the footprint of all parts is the base unless some are high.
     extents = [p.extent() for p in parts]
     release(parts)
-    prints = footprints([xy for _, _, xy in extents])
-    low = [f for f, (z_low, _, _) in zip(prints, extents, strict=True) if z_low < BASE_HEIGHT]
-    footprint = _outline(prints)
-    return Asset(
+    low = [xy for z_low, _, xy in extents if z_low < BASE_HEIGHT]
+    if not low:
+        raise TypeError(f"the {name!r} builder must return a part reaching below {BASE_HEIGHT} m, got none")
+    asset = Asset(
         id=asset_id,
         category=name,
         semantic_class=category.semantic_class,
         parts=parts,
-        footprint=footprint,
-        base=footprint if len(low) == len(prints) else _outline(low),
+        base=_outline(footprints(low)),
         height=max(z_high for _, z_high, _ in extents),
         zones=category.zones,
         clearance=category.clearance,
     )
+    if len(low) == len(parts):
+        asset.__dict__["footprint"] = asset.base  # what the cached property would give
+    return asset
 
 
 def _outline(prints: Sequence[Polygon]) -> Polygon:

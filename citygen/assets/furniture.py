@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from citygen.assets.category import Category, zones
-from citygen.assets.parts import Box, Capsule, ConvexMesh, Cylinder, Look, Part, frustum, rod
+from citygen.assets.parts import Box, Capsule, Cylinder, Look, Part, convex_mesh, frustum, rod
 from citygen.assets.parts import tilted_box as tilted
 
 PAINT = tuple(
@@ -296,7 +296,7 @@ def _plant(rng: np.random.Generator, soil: float, room: float) -> list[Part]:
         d = rng.normal(size=(26, 3))
         d = np.vstack([np.eye(3), -np.eye(3), d / np.linalg.norm(d, axis=1, keepdims=True)])
         pts = d * [rx, ry, hz / 2] + [0.0, 0.0, soil + hz / 2 - 0.02]
-        return [ConvexMesh(tuple(map(tuple, pts.tolist())), leaves)]
+        return [convex_mesh(pts, leaves)]
     if kind == 1:  # cone
         return [frustum(dim(rng, 0.5, 1.0) * room, 0.0, soil - 0.02, soil + dim(rng, 0.3, 1.0), leaves)]
     ball = min(dim(rng, 0.2, 0.35), room)

@@ -28,7 +28,7 @@ from citygen.assets.furniture import (
     dim,
     pick,
 )
-from citygen.assets.parts import Box, Capsule, ConvexMesh, Cylinder, Look, Part, frustum, rod
+from citygen.assets.parts import Box, Capsule, ConvexMesh, Cylinder, Look, Part, convex_mesh, frustum, rod
 from citygen.assets.parts import tilted_box as tilted
 
 
@@ -93,7 +93,7 @@ _SPHERE = np.vstack([np.eye(3), -np.eye(3), _fibonacci(26)])
 
 
 def _mesh(points: np.ndarray, look: Look) -> ConvexMesh:
-    return ConvexMesh(tuple(map(tuple, np.asarray(points, float).tolist())), look)
+    return convex_mesh(points, look)
 
 
 def _blob(

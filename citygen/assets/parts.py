@@ -85,9 +85,11 @@ def _spans_volume(points: np.ndarray) -> bool:
 def _floats(field: str, value: Iterable[float], n: int, positive: bool = False) -> tuple[float, ...]:
     """``value`` as ``n`` finite rounded floats, or a ValueError naming the field."""
     try:
-        out = tuple(round(float(v), DECIMALS) + 0.0 for v in value)
+        out = tuple([round(float(v), DECIMALS) + 0.0 for v in value])
     except (TypeError, ValueError):
         out = ()
+    if len(out) == n and math.isfinite(sum(out)) and (not positive or min(out) > 0):
+        return out  # the common case, settled in a few C calls (a NaN or inf makes the sum so)
     if len(out) != n or not all(math.isfinite(v) and (v > 0 or not positive) for v in out):
         kind = "positive" if positive else "finite"
         raise ValueError(f"{field}: expected {n} {kind} numbers (metres), got {value!r}")
@@ -168,10 +170,13 @@ def footprints(outlines: Sequence[np.ndarray]) -> np.ndarray:
     polygons; a hull seen exactly edge-on (a segment or a point) is grown by 1 micrometre.
 
     One vectorised shapely call per step for all of them, the same polygons as one by one.
+    Each array goes to GEOS as a line string through its points rather than a multipoint (one
+    geometry, not one per point): a convex hull is of the distinct coordinates, in the same
+    order, whatever geometry holds them.
     """
     counts = [len(o) for o in outlines]
-    points = shapely.multipoints(np.concatenate(outlines), indices=np.repeat(np.arange(len(counts)), counts))
-    hulls = shapely.convex_hull(points)
+    lines = shapely.linestrings(np.concatenate(outlines), indices=np.repeat(np.arange(len(counts)), counts))
+    hulls = shapely.convex_hull(lines)
     flat = shapely.get_type_id(hulls) != shapely.GeometryType.POLYGON
     if flat.any():  # a part seen exactly edge-on from above
         hulls[flat] = shapely.buffer(hulls[flat], 1e-6, quad_segs=1)
@@ -358,12 +363,13 @@ def _flat(count: int) -> None:
     )
 
 
-def _set_vertices(mesh: ConvexMesh, rounded: np.ndarray) -> None:
-    """Give ``mesh`` the rounded ``(n, 3)`` vertex array, or the ValueError of a flat one."""
-    if not _spans_volume(rounded):
+def _set_vertices(mesh: ConvexMesh, rounded: np.ndarray, solid: bool = False) -> None:
+    """Give ``mesh`` the rounded ``(n, 3)`` vertex array, or the ValueError of a flat one
+    (``solid``: the caller has shown that the points span a volume)."""
+    if not (solid or _spans_volume(rounded)):
         _flat(len(rounded))
     rounded.flags.writeable = False
-    object.__setattr__(mesh, "vertices", tuple(map(tuple, rounded.tolist())))
+    object.__setattr__(mesh, "vertices", tuple(zip(*rounded.T.tolist(), strict=True)))
     object.__setattr__(mesh, "_points", rounded)
 
 
@@ -371,15 +377,21 @@ Part = Box | Cylinder | Capsule | ConvexMesh
 """Any convex part."""
 
 
-def _as_mesh(points: np.ndarray, material: Look) -> ConvexMesh:
-    """``ConvexMesh(points, material)`` for an ``(n, 3)`` array (m), without going through
-    nested tuples: the same vertices, the same errors."""
+def convex_mesh(points: np.ndarray, material: Look = DEFAULT_LOOK, solid: bool = False) -> ConvexMesh:
+    """``ConvexMesh(vertices, material)`` of an ``(n, 3)`` array of points (m), built without
+    going through nested tuples: the same vertices, the same errors. ``solid``: the caller
+    has shown that the points span a volume even once rounded, so that check is skipped.
+
+    >>> corners = ((1, 0, 0), (0, 1, 0), (0, 0, 1), (0, 0, 0))
+    >>> convex_mesh(np.array(corners)) == ConvexMesh(corners)
+    True
+    """
     points = np.asarray(points, dtype=np.float64)
     if not (points.ndim == 2 and points.shape[1] == 3 and np.isfinite(points).all()):
         return ConvexMesh(tuple(map(tuple, points.tolist())), material)
     mesh = object.__new__(ConvexMesh)
     object.__setattr__(mesh, "material", material)
-    _set_vertices(mesh, _round_array(points))
+    _set_vertices(mesh, _round_array(points), solid)
     return mesh
 
 
@@ -414,7 +426,13 @@ def rod(
     v = np.array([ay * uz - az * uy, az * ux - ax * uz, ax * uy - ay * ux])
     cos, sin = _unit_circle(SEGMENTS)
     circle = radius * (cos[:, None] * u + sin[:, None] * v)  # np.outer, term by term
-    return _as_mesh(np.vstack([a + circle, b + circle]), material)
+    points = np.empty((2 * SEGMENTS, 3))
+    points[:SEGMENTS] = a + circle
+    points[SEGMENTS:] = b + circle
+    # About their mean the two rims have singular values sqrt(24) |radius| (twice) and
+    # sqrt(12) length; rounding to DECIMALS moves them by under 6e-6 m, so from 1e-5 m up
+    # the rod spans a volume without asking the SVD.
+    return convex_mesh(points, material, solid=abs(radius) >= 1e-5 and length >= 1e-5)
 
 
 def frustum(
@@ -437,7 +455,7 @@ def frustum(
         )
     rings = [_ring(r, z, xy, sides) for r, z in ((r_bottom, z_bottom), (r_top, z_top)) if r > 0]
     apexes = [[xy[0], xy[1], z] for r, z in ((r_bottom, z_bottom), (r_top, z_top)) if r == 0]
-    return _as_mesh(np.vstack([*rings, *([np.array(apexes)] if apexes else [])]), material)
+    return convex_mesh(np.vstack([*rings, *([np.array(apexes)] if apexes else [])]), material)
 
 
 def tilted_box(
@@ -447,4 +465,4 @@ def tilted_box(
     local = _CORNERS * np.asarray(size, float) / 2
     c, s = math.cos(lean), math.sin(lean)
     turn = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
-    return _as_mesh(local @ turn.T + np.asarray(pos, float), material)
+    return convex_mesh(local @ turn.T + np.asarray(pos, float), material)
