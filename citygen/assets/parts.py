@@ -248,10 +248,19 @@ class Box(_Convex):
         turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
         return local @ turn.T + np.asarray(self.pos)
 
+    def _outline(self) -> np.ndarray:
+        if self.yaw != 0.0:
+            return self.hull_points()[:, :2]
+        # Unturned, hull_points() gives each corner exactly pos -+ size / 2 (the turn's zero
+        # terms add signed zeros to a non-zero half size): the same 8 points, in its order.
+        (sx, sy, _), (x, y, _) = self.size, self.pos
+        x0, x1, y0, y1 = x - sx / 2, x + sx / 2, y - sy / 2, y + sy / 2
+        return np.array([[x0, y0], [x0, y0], [x0, y1], [x0, y1], [x1, y0], [x1, y0], [x1, y1], [x1, y1]])
+
     def extent(self) -> tuple[float, float, np.ndarray]:
         # The turn about +Z leaves each corner's z exactly pos.z -+ size.z / 2.
         half, z = self.size[2] / 2, self.pos[2]
-        return z - half, z + half, self.hull_points()[:, :2]
+        return z - half, z + half, self._outline()
 
 
 @dataclass(frozen=True, slots=True)
