@@ -1027,7 +1027,8 @@ def compose(scene_mjcf: MJCF, robot: Robot, pose: tuple[float, float, float, flo
 #: real wheel controllers run at 100-1000 Hz). The wheels' velocity actuators and the legs'
 #: PD act at every physics step inside MuJoCo. The ideal-locomotion servo (``nav_mode ==
 #: "base"``) stands in for a locomotion policy with stiff force feedback and runs at every
-#: physics step (held 5 steps its attitude loop diverges).
+#: physics step (held 5 steps its attitude loop diverges); only its gain's composite
+#: inertia, which changes with the legs' pose alone, is recomputed once per period.
 DRIVE_DT = 0.01
 
 # Drive feedback: wheel speeds get the command plus these gains (1) times the error of the
@@ -1095,6 +1096,8 @@ class RobotHandle:
         self._integral = (0.0, 0.0)
         self._ref = (0.0, 0.0)
         self._ground: float | None = None
+        self._servo_age = math.inf  # s since the servo's inertia was computed
+        self._servo_inertia = 0.0  # kg m^2
         # Constants of the drive, read once: plain floats and ids (the drive runs often).
         self._timestep = float(model.opt.timestep)
         self._left_ids = [int(a) for a in self.left]
@@ -1129,6 +1132,7 @@ class RobotHandle:
         self._integral = (0.0, 0.0)
         self._ref = (0.0, 0.0)
         self._ground = z
+        self._servo_age = math.inf
         self._mj.mj_forward(m, data)
 
     def pose(self, data: Any) -> tuple[float, float, float, float]:
@@ -1168,7 +1172,7 @@ class RobotHandle:
         rw += _clamp(w - rw, dt * r.max_yaw_accel)
         self._ref = (rv, rw)
         if r.nav_mode != "wheels":
-            self._servo(data, rv, rw)
+            self._servo(data, rv, rw, dt)
             return
         vx, _, _, wz = self._velocity(data)
         ev, ew = rv - vx, rw - wz
@@ -1199,14 +1203,23 @@ class RobotHandle:
             point[2] -= 1e-4
         return self._ground if self._ground is not None else 0.0
 
-    def _servo(self, data: Any, v: float, w: float) -> None:
+    def _servo(self, data: Any, v: float, w: float, dt: float) -> None:
         """Ideal locomotion: base forces and torques (``data.xfrc_applied``) that carry the
-        weight at the hover height, keep the trunk level and track ``(v, w)``."""
+        weight at the hover height, keep the trunk level and track ``(v, w)``; ``dt`` (s):
+        the time since the last call. The composite inertia is recomputed every
+        :data:`DRIVE_DT`; the ground under the base at every call (the hover height must
+        follow edges and objects as the base passes over them)."""
         b = self.base_id
+        self._servo_age += dt
+        if self._servo_age >= DRIVE_DT - 1e-9:
+            self._servo_age = 0.0
+            # composite inertia about the subtree's centre of mass (kg m^2), horizontal axes
+            d = data.xipos[self.body_ids] - data.subtree_com[b]
+            inertia = float(self._body_masses @ (d[:, 0] ** 2 + d[:, 1] ** 2)) + self._half_inertia
+            self._servo_inertia = inertia
+        inertia = self._servo_inertia
+        target = self._ground_below(data) + self.robot.stand_height + HOVER_CLEARANCE
         r = data.xmat[b].tolist()  # row-major 3x3 rotation of the base
-        # composite inertia about the subtree's centre of mass (kg m^2), horizontal axes
-        d = data.xipos[self.body_ids] - data.subtree_com[b]
-        inertia = float(self._body_masses @ (d[:, 0] ** 2 + d[:, 1] ** 2)) + self._half_inertia
         z, qw, qx, qy, qz = data.qpos[self.qadr + 2 : self.qadr + 7].tolist()
         lx, ly, lz, ax, ay, az = data.qvel[self.dadr : self.dadr + 6].tolist()
         yaw = math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
@@ -1215,7 +1228,6 @@ class RobotHandle:
         wx = r[0] * ax + r[1] * ay + r[2] * az
         wy = r[3] * ax + r[4] * ay + r[5] * az
         wz = r[6] * ax + r[7] * ay + r[8] * az
-        target = self._ground_below(data) + self.robot.stand_height + HOVER_CLEARANCE
         m = self.mass
         # tilt = (base z axis) x (world z): the base's z axis is the rotation's third column
         data.xfrc_applied[b] = (
