@@ -44,7 +44,7 @@ def _rollout(env, seed, actions):
     trace = [obs]
     rewards = []
     for a in actions:
-        obs, r, term, trunc, info = env.step(a)
+        obs, r, term, trunc, _ = env.step(a)
         trace.append(obs)
         rewards.append(r)
         if term or trunc:
@@ -64,7 +64,7 @@ def test_a_seeded_episode_replays_identically():
         for key in x:
             np.testing.assert_array_equal(x[key], y[key])
     # another seed draws another scene or another crowd
-    tc, rc = _rollout(a, 12, actions)
+    _, rc = _rollout(a, 12, actions)
     assert rc != ra
 
 
