@@ -15,8 +15,8 @@ What is measured
        at indices past the published 256, so every scene is new): each worker's RSS after
        its warm-up (at least ``--rss-warmup`` scenes, and until the catalog's asset cache,
        bounded at 4,096 assets of about 26 KiB, is full), every tenth of its share, and at
-       the end, and how much it grew per 10,000 scenes after the warm-up (least squares).
-       Flat memory means a growth of about 0.
+       the end, and how much it grew per 10,000 scenes after the warm-up and over the second
+       half of each worker's share (least squares). Flat memory means a growth of about 0.
     3. With ``--city``: one urban-tra-city scene (target at most 60 s).
 
 The machine is shared, so the load average at the start is printed, and each full run's CPU
@@ -169,9 +169,10 @@ def rss_run(scenes: int, workers: int, warmup: int) -> list[dict]:
         return [f.result() for f in futures]
 
 
-def growth_per_10k(samples: list[tuple[int, float]]) -> float:
-    """Least-squares slope of RSS (MiB) against scenes after the warm-up, per 10,000 scenes."""
-    pts = [(n, m) for n, m in samples if n >= 0]
+def growth_per_10k(samples: list[tuple[int, float]], start: int = 0) -> float:
+    """Least-squares slope of RSS (MiB) against scenes from scene ``start`` on (0: right after
+    the warm-up), per 10,000 scenes."""
+    pts = [(n, m) for n, m in samples if n >= start]
     if len(pts) < 2:
         return 0.0
     mx = sum(n for n, _ in pts) / len(pts)
@@ -281,6 +282,14 @@ def main() -> None:
         figures["rss_before_warmup_mb"] = [round(w["samples"][0][1], 1) for w in workers]
         figures["rss_peak_mb"] = [round(w["peak_mb"], 1) for w in workers]
         figures["rss_growth_mb_per_10k"] = round(max(growth), 3)
+        # The allocator settles over the first few hundred scenes after the warm-up (a few MiB
+        # in all); a short run's slope over all of it extrapolates that settling. The slope
+        # over each worker's second half is the steady state's.
+        late = [growth_per_10k(w["samples"], w["scenes"] // 2) for w in workers]
+        figures["rss_growth_second_half_mb_per_10k"] = round(max(late), 3)
+        print(
+            f"growth per 10,000 scenes over each worker's second half: {', '.join(f'{g:.2f}' for g in late)}"
+        )
         figures["rss_warmup_scenes"] = [w["warmup"] for w in workers]
         figures["asset_cache_entries_end"] = [w["asset_cache"] for w in workers]
     if args.city:
