@@ -344,6 +344,12 @@ def write_plots(results: dict, folder: Path) -> dict[str, str]:
         fig.savefig(folder / f"{name}.png", dpi=110, metadata={"Software": None})
         plt.close(fig)
 
+    def decorate(ax, title: str, xlabel: str, ylabel: str, axis: str = "both") -> None:
+        ax.set(title=title, xlabel=xlabel, ylabel=ylabel)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=8)
+        ax.grid(True, which="both", axis=axis, alpha=0.3)
+
     def fit(x, y) -> tuple[float, float]:
         k, c = np.polyfit(np.log(x), np.log(y), 1)
         return float(k), float(c)
@@ -377,23 +383,16 @@ def write_plots(results: dict, folder: Path) -> dict[str, str]:
         if md and ours7:  # the 7-block comparison, drawn at the area of citygen's 250 m network
             ax.loglog([0.0625], [ours7 / 1e3], "*", ms=11, color="C0", label="citygen 7-block network, zoned")
             ax.loglog([0.0625], [md / 1e3], "*", ms=11, color="C3", label="MetaDrive 7-block map (peer)")
-        ax.set_xlabel("scene area (km²)")
-        ax.set_ylabel("CPU seconds")
-        ax.set_title("Generation time against scene area")
-        ax.legend(fontsize=8)
-        ax.grid(True, which="both", alpha=0.3)
+        decorate(ax, "Generation time against scene area", "scene area (km²)", "CPU seconds")
         if gen.get("generate_over_json"):
             area = np.array(gen["generate_sides_m"], dtype=float) ** 2 / 1e6
             ax2.semilogx(area, gen["generate_over_json"], "o-", color="C1")
-            ax2.set_ylabel("generation time / JSON write time")
             ax2.set_ylim(bottom=0)
         ratio = lay.get("layout7_vs_metadrive_cpu_ratio")
-        ax2.set_title(
-            "Whole pipeline over its JSON floor"
-            + (f"\n7-block network: {ratio:.2f}x MetaDrive's CPU time" if ratio else "")
+        title = "Whole pipeline over its JSON floor" + (
+            f"\n7-block network: {ratio:.2f}x MetaDrive's CPU time" if ratio else ""
         )
-        ax2.set_xlabel("scene area (km²)")
-        ax2.grid(True, which="both", alpha=0.3)
+        decorate(ax2, title, "scene area (km²)", "generation time / JSON write time")
         save(fig, "generation_vs_area")
     else:
         skipped["generation_vs_area"] = "bench_layout and bench_generate gave no sizes"
@@ -416,11 +415,8 @@ def write_plots(results: dict, folder: Path) -> dict[str, str]:
                             textcoords="offset points", xytext=(4, 4), fontsize=8)  # fmt: skip
         ax.hlines(50, 64 * 64 / 1.5, 64 * 64 * 1.5, color="C3", lw=2, label="target at 64 x 64: 50 ms")
         ax.set_xticks(cells, [f"{s}x{s}" for s in sizes])
-        ax.set_xlabel("grid (tiles)")
-        ax.set_ylabel("median wall ms")
-        ax.set_title(f"WFC time against grid size ({wfc.get('wfc_variants', '?')} tile variants)")
-        ax.legend(fontsize=8)
-        ax.grid(True, which="both", alpha=0.3)
+        title = f"WFC time against grid size ({wfc.get('wfc_variants', '?')} tile variants)"
+        decorate(ax, title, "grid (tiles)", "median wall ms")
         save(fig, "wfc_vs_grid")
     else:
         skipped["wfc_vs_grid"] = "bench_wfc gave no grid sizes"
@@ -444,11 +440,12 @@ def write_plots(results: dict, folder: Path) -> dict[str, str]:
             ax.annotate(f"{r:.0f}/s", (j, r), textcoords="offset points", xytext=(5, -12), fontsize=8)
         ax.set_xticks(jobs)
         ax.set_yscale("log")
-        ax.set_xlabel("worker processes (--jobs)")
-        ax.set_ylabel("scenes per second (wall)")
-        ax.set_title("Urban-Nav dataset: scenes/s against jobs")
-        ax.legend(fontsize=8)
-        ax.grid(True, which="both", alpha=0.3)
+        decorate(
+            ax,
+            "Urban-Nav dataset: scenes/s against jobs",
+            "worker processes (--jobs)",
+            "scenes per second (wall)",
+        )
         save(fig, "dataset_vs_jobs")
     else:
         skipped["dataset_vs_jobs"] = "bench_dataset gave no per-jobs rates"
@@ -475,11 +472,8 @@ def write_plots(results: dict, folder: Path) -> dict[str, str]:
                 )
             ax.set_yscale("log")
             ax.set_xticks(n)
-            ax.set_xlabel("environments (1 in-process; more: async vector env); resets included")
-            ax.set_ylabel("environment steps per second")
-            ax.set_title("Runner throughput against environments")
-            ax.legend(fontsize=8)
-            ax.grid(True, which="both", alpha=0.3)
+            xlabel = "environments (1 in-process; more: async vector env); resets included"
+            decorate(ax, "Runner throughput against environments", xlabel, "environment steps per second")
         if rn.get("runner_obs"):
             names, rates = rn["runner_obs"], rn["runner_obs_steps_per_s"]
             xs = np.arange(len(names))
@@ -494,10 +488,11 @@ def write_plots(results: dict, folder: Path) -> dict[str, str]:
                         ax2.annotate(f"{r:.0f}/s\n{q:.1f}x physics", (x, r), ha="center",
                                      textcoords="offset points", xytext=(0, 3), fontsize=8)  # fmt: skip
             ax2.set_xticks(xs, names, rotation=15, fontsize=8)
-            ax2.set_ylabel("steps per second, 1 env (resets apart)")
-            ax2.set_title("Runner throughput against observation type")
-            ax2.legend(fontsize=8)
-            ax2.grid(True, axis="y", alpha=0.3)
+            title, ylabel = (
+                "Runner throughput against observation type",
+                "steps per second, 1 env (resets apart)",
+            )
+            decorate(ax2, title, "", ylabel, axis="y")
         save(fig, "runner")
     else:
         skipped["runner"] = "bench_runner gave no environment or observation series"
@@ -520,12 +515,9 @@ def write_plots(results: dict, folder: Path) -> dict[str, str]:
                 pts = [(n, v) for n, v in pts if v is not None]
                 if pts:
                     ax.loglog(*zip(*pts, strict=True), style, label=label)
-            ax.set_xlabel("agents")
-            ax.set_ylabel("CPU µs per agent-step")
             ratio = orca.get(f"orca_{sc}_100_citygen_over_rvo2")
-            ax.set_title(f"ORCA, '{sc}' scene" + (f": {ratio:.2f}x RVO2 at 100 agents" if ratio else ""))
-            ax.legend(fontsize=8)
-            ax.grid(True, which="both", alpha=0.3)
+            title = f"ORCA, '{sc}' scene" + (f": {ratio:.2f}x RVO2 at 100 agents" if ratio else "")
+            decorate(ax, title, "agents", "CPU µs per agent-step")
         save(fig, "orca_vs_agents")
     else:
         skipped["orca_vs_agents"] = "bench_orca gave no per-agent costs"
