@@ -95,7 +95,7 @@ from shapely.geometry import box as rect
 from citygen.assets import Box, Capsule, ConvexMesh, Cylinder, UnknownAsset, resolve
 from citygen.errors import DependencyMissing, ExportError, Problem, SpecError
 from citygen.exporters import ZONE_COLORS, ExportWarning, as_scene, output_name, shared_file
-from citygen.geometry.terrain import MIN_THICKNESS, height_at, tile_boxes, tile_height
+from citygen.geometry.terrain import MIN_THICKNESS, height_at, tile_boxes, tile_grid
 from citygen.io import write_atomic
 from citygen.spec.agents import Person
 from citygen.spec.scene import Scene
@@ -174,6 +174,12 @@ def _n(x: float) -> str:
 
 def _v(values: Any) -> str:
     return " ".join(map(_n, np.asarray(values, dtype=float).ravel().tolist()))
+
+
+def _ints(values: list[int]) -> str:
+    """Integers separated by single spaces, as ``" ".join(map(str, values))`` writes them
+    (one C-level format call, about twice as fast for a heightfield's elevation)."""
+    return ("%d " * len(values) % tuple(values))[:-1]
 
 
 # --- convex pieces of polygons --------------------------------------------------------
@@ -595,7 +601,7 @@ def _shaped_tiles(b: _Builder, zones: list[Polygon], tree: Any) -> None:
         key = (tuple(sorted(tile.model_dump(exclude={"height", "material", "friction"}).items())), cells)
         if key not in hfields:
             g = np.linspace(0.0, s, cells + 1)
-            rel = tile_height(tile, s, g[None, :], g[:, None]) - tile.height  # rows along +y
+            rel = tile_grid(tile, s, g, g) - tile.height  # rows along +y
             lo = float(rel.min())
             # MuJoCo rescales elevation to [0, 1], so it is written in whole units of
             # HFIELD_UNIT above the lowest sample, rows from +y down (as an image's).
@@ -611,7 +617,7 @@ def _shaped_tiles(b: _Builder, zones: list[Polygon], tree: Any) -> None:
             ET.SubElement(
                 b.asset, "hfield", name=name, nrow=str(cells + 1), ncol=str(cells + 1),
                 size=_v((s / 2, s / 2, span, HFIELD_BASE)),
-                elevation=" ".join(map(str, steps[::-1].ravel().tolist())),
+                elevation=_ints(steps[::-1].ravel().tolist()),
             )  # fmt: skip
             hfields[key] = (name, lo)
         name, lo = hfields[key]

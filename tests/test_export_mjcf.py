@@ -523,3 +523,29 @@ def test_convex_pieces_are_convex_and_tile_the_polygon(poly):
     assert shapely.union_all(pieces).symmetric_difference(poly).area < 1e-9
     if mjcf._rectilinear(poly):
         assert all(mjcf._as_rectangle(mjcf._clean_ring(np.asarray(p.exterior.coords))) for p in pieces)
+
+
+@pytest.mark.parametrize("scale", [0.2, 0.7, 3.3])
+@pytest.mark.parametrize("cells", [1, 5, 64])
+def test_tile_grid_is_tile_height_bit_for_bit(scale, cells):
+    """The heightfields sample rough tiles per axis (tile_grid): the same float64 bits as
+    tile_height at every sample, also where the grid is coarser than the noise lattice
+    (samples skip lattice nodes) and on an uneven grid."""
+    from citygen.geometry.terrain import tile_grid, tile_height
+    from citygen.spec.terrain import RoughTile
+
+    s = 2.5
+    tile = RoughTile(kind="rough", amplitude=0.08, scale=scale, seed=1234567, height=0.3)
+    g = np.linspace(0.0, s, cells + 1)
+    h = s * np.sqrt(np.linspace(0.0, 1.0, cells + 4))
+    for us, vs in ((g, g), (g, h), (h, g)):
+        grid = tile_grid(tile, s, us, vs)
+        assert grid.shape == (len(vs), len(us))
+        assert grid.tobytes() == tile_height(tile, s, us[None, :], vs[:, None]).tobytes()
+    assert np.ptp(tile_grid(tile, s, g, g)) > 0 or cells == 1
+
+
+def test_elevation_text_is_the_plain_join():
+    """The heightfield's elevation text: integers separated by single spaces, as str writes them."""
+    for values in ([], [0], [7, 10, 99999, 0, 123456789012]):
+        assert mjcf._ints(values) == " ".join(map(str, values))
