@@ -94,7 +94,7 @@ from shapely.geometry import Polygon
 from citygen.assets import Asset, Box, Capsule, ConvexMesh, Cylinder, Look, UnknownAsset, resolve
 from citygen.errors import DependencyMissing, ExportError, Problem, SpecError
 from citygen.exporters import ExportWarning, as_scene, output_name, shared_file
-from citygen.geometry.terrain import DEFAULT_ROUGH_CELLS, MAX_ROUGH_CELLS, height_at, tile_mesh
+from citygen.geometry.terrain import DEFAULT_ROUGH_CELLS, MAX_ROUGH_CELLS, height_at, height_grid, tile_mesh
 from citygen.spec.agents import Person, Vehicle
 from citygen.spec.scene import Scene
 from citygen.spec.surfaces import FRICTION
@@ -621,16 +621,17 @@ def _cliff(terrain: Terrain, row: int, col: int) -> bool:
 
 
 def _rough_surfaces(terrain: Terrain, ids: np.ndarray, cells: int) -> tuple[np.ndarray, np.ndarray]:
-    """Surfaces of rough tiles ``ids`` (all sampled ``cells`` x ``cells``), heights from height_at."""
+    """Surfaces of rough tiles ``ids`` (all sampled ``cells`` x ``cells``), heights from
+    height_at (through height_grid: the same numbers, the noise computed per axis)."""
     s, (ox, oy) = terrain.tile_size, terrain.origin
     g = np.linspace(0.0, s, cells + 1)
     k = cells + 1
     x0 = ox + (ids % terrain.cols) * s
     y0 = oy + (ids // terrain.cols) * s
+    zs = height_grid(terrain, x0[:, None] + g[None, :], y0[:, None] + g[None, :])
     xs = x0[:, None, None] + g[None, None, :]
     ys = y0[:, None, None] + g[None, :, None]
     xs, ys = np.broadcast_arrays(xs, ys)
-    zs = height_at(terrain, xs, ys)
     verts = np.stack([xs, ys, zs], axis=-1).reshape(-1, 3)
     idx = np.arange(k * k).reshape(k, k)
     a, b, c, d = (q.ravel() for q in (idx[:-1, :-1], idx[:-1, 1:], idx[1:, 1:], idx[1:, :-1]))

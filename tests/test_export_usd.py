@@ -697,3 +697,40 @@ def test_too_fine_a_terrain_is_refused_before_building_it(tmp_path):
         ExportError, match=r"terrain: 9 rough tiles make \d+ triangles .* coarser terrain_resolution"
     ):
         usd.export(scene, tmp_path, terrain_resolution=0.001)
+
+
+def test_height_grid_is_height_at_bit_for_bit():
+    """The rough surfaces' heights come from height_grid: the float64 bits height_at gives at
+    every sample, on tile grids (whose last row and column fall on the next tile, flat, slope,
+    stair or rough), on grids straddling the terrain's edge and at NaN coordinates."""
+    from citygen.geometry.terrain import height_grid
+
+    kinds = [
+        {"kind": "rough", "amplitude": 0.1, "scale": 0.6, "seed": 11},
+        {"kind": "flat", "height": 0.2},
+        {"kind": "rough", "amplitude": 0.05, "scale": 2.0, "seed": 12, "height": 0.1},
+        {"kind": "slope", "angle": 0.1, "ascent": "-y"},
+        {"kind": "stair", "step_height": 0.1, "step_count": 3},
+        {"kind": "rough", "amplitude": 0.2, "scale": 0.3, "seed": 13},
+    ]
+    terrain = Terrain(origin=(-1.0, 2.0), tile_size=2.5, rows=2, cols=3, tiles=kinds)
+    s, (ox, oy) = terrain.tile_size, terrain.origin
+    ids = np.arange(6)
+    rough = 0
+    for cells in (1, 7, 40):
+        g = np.linspace(0.0, s, cells + 1)
+        xs = ox + (ids % 3)[:, None] * s + g[None, :]
+        ys = oy + (ids // 3)[:, None] * s + g[None, :]
+        grid = height_grid(terrain, xs, ys)
+        assert grid.shape == (6, cells + 1, cells + 1)
+        assert grid.tobytes() == height_at(terrain, xs[:, None, :], ys[:, :, None]).tobytes()
+        rough += np.ptp(grid[0]) > 0
+    assert rough
+    rng = np.random.default_rng(5)
+    xs, ys = rng.uniform(-4.0, 10.0, (3, 2, 9)), rng.uniform(0.0, 9.0, (3, 2, 5))
+    xs[0, 0, 3], ys[2, 1, 0] = np.nan, np.nan
+    grid = height_grid(terrain, xs, ys)
+    assert grid.shape == (3, 2, 5, 9)
+    assert grid.tobytes() == height_at(terrain, xs[..., None, :], ys[..., :, None]).tobytes()
+    with pytest.raises(ValueError, match="same leading shape"):
+        height_grid(terrain, np.zeros((2, 3)), np.zeros((3, 3)))
