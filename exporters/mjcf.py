@@ -176,10 +176,25 @@ def _v(values: Any) -> str:
     return " ".join(map(_n, np.asarray(values, dtype=float).ravel().tolist()))
 
 
-def _ints(values: list[int]) -> str:
-    """Integers separated by single spaces, as ``" ".join(map(str, values))`` writes them
-    (one C-level format call, about twice as fast for a heightfield's elevation)."""
-    return ("%d " * len(values) % tuple(values))[:-1]
+def _ints(values: Any) -> str:
+    """Integers separated by single spaces, the characters ``" ".join(map(str, values))``
+    writes, two to four times faster for a heightfield's elevation: non-negative values'
+    digits are laid out in columns by numpy and the leading zeros dropped."""
+    v = np.asarray(values, dtype=np.int64).ravel()
+    if not v.size:
+        return ""
+    if v.min() < 0:
+        return ("%d " * v.size % tuple(v.tolist()))[:-1]
+    width = len(str(int(v.max())))
+    chars = np.empty((v.size, width + 1), dtype=np.uint8)
+    chars[:, width] = ord(" ")
+    rest = v.copy()
+    for d in range(width - 1, -1, -1):
+        chars[:, d] = ord("0") + rest % 10
+        rest //= 10
+    keep = np.ones(chars.shape, dtype=bool)  # from each number's first non-zero digit on
+    keep[:, : width - 1] = v[:, None] >= 10 ** np.arange(width - 1, 0, -1, dtype=np.int64)
+    return chars[keep].tobytes()[:-1].decode("ascii")
 
 
 # --- convex pieces of polygons --------------------------------------------------------
@@ -617,7 +632,7 @@ def _shaped_tiles(b: _Builder, zones: list[Polygon], tree: Any) -> None:
             ET.SubElement(
                 b.asset, "hfield", name=name, nrow=str(cells + 1), ncol=str(cells + 1),
                 size=_v((s / 2, s / 2, span, HFIELD_BASE)),
-                elevation=_ints(steps[::-1].ravel().tolist()),
+                elevation=_ints(steps[::-1]),
             )  # fmt: skip
             hfields[key] = (name, lo)
         name, lo = hfields[key]

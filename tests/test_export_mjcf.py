@@ -546,6 +546,15 @@ def test_tile_grid_is_tile_height_bit_for_bit(scale, cells):
 
 
 def test_elevation_text_is_the_plain_join():
-    """The heightfield's elevation text: integers separated by single spaces, as str writes them."""
-    for values in ([], [0], [7, 10, 99999, 0, 123456789012]):
+    """The heightfield's elevation text: integers separated by single spaces, as str writes
+    them, across digit counts (powers of ten and their neighbours), zeros, negatives and
+    a 2-d array read row by row."""
+    rng = np.random.default_rng(3)
+    cases = [[], [0], [7, 10, 99999, 0, 123456789012], [9, 10, 11, 99, 100, 101, 10**17], [-3, 0, 12]]
+    cases += [
+        rng.integers(0, 10 ** int(rng.integers(1, 18)), int(rng.integers(1, 300))).tolist() for _ in range(50)
+    ]
+    for values in cases:
         assert mjcf._ints(values) == " ".join(map(str, values))
+    grid = rng.integers(0, 5000, (17, 17))
+    assert mjcf._ints(grid[::-1]) == " ".join(map(str, grid[::-1].ravel().tolist()))

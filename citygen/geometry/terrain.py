@@ -121,36 +121,36 @@ def _rough(key: np.ndarray, scale: np.ndarray, s: float, u: np.ndarray, v: np.nd
 
 def _rough_grid(key: np.uint64, scale: float, s: float, u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """:func:`_rough` of one tile on the grid ``u[None, :], v[:, None]`` (1-d arrays of local
-    coordinates, m), bit for bit: every factor that depends on one axis is computed once
-    along it and the lattice hashed once per node, then the same products are formed."""
+    coordinates in ``[0, s]``, m), bit for bit: every factor that depends on one axis is
+    computed once along it and the lattice hashed once per node, then the same products
+    are formed in the same order."""
+    kx = u.size
     spacing = scale / 2.0
-    gx, gy = u / spacing, v / spacing
-    fx0, fy0 = np.floor(gx), np.floor(gy)
-    fx, fy = _fade(gx - fx0)[None, :], _fade(gy - fy0)[:, None]
-    i, j = fx0.astype(np.uint64), fy0.astype(np.uint64)
-    ni, nj = np.unique(i, return_inverse=True), np.unique(j, return_inverse=True)
-    nodes_i = np.union1d(ni[0], ni[0] + np.uint64(1))
-    nodes_j = np.union1d(nj[0], nj[0] + np.uint64(1))
+    g = np.concatenate([u, v]) / spacing
+    g0 = np.floor(g)
+    f = _fade(g - g0)
+    fx, fy = f[None, :kx], f[kx:, None]
+    idx = g0.astype(np.uint64)
+    i, j = idx[:kx], idx[kx:]
+    i0, j0 = i.min(), j.min()
+    ri, rj = (i - i0).astype(np.intp), (j - j0).astype(np.intp)
+    span_i, span_j = int(ri.max()) + 2, int(rj.max()) + 2
+    if span_i * span_j > 4 * u.size * v.size + 256:  # a grid much coarser than the lattice
+        return _rough(key, np.float64(scale), s, u[None, :], v[:, None])
+    nodes_i = i0 + np.arange(span_i, dtype=np.uint64)
+    nodes_j = j0 + np.arange(span_j, dtype=np.uint64)
     # Node values of the lattice around the grid: rows along j, columns along i.
     table = _node(_mix64(key ^ nodes_i)[None, :], nodes_j[:, None])
-    col, row = _next_index(nodes_i, ni), _next_index(nodes_j, nj)
-    a = table[row[0][:, None], col[0][None, :]]
-    b = table[row[0][:, None], col[1][None, :]]
-    c = table[row[1][:, None], col[0][None, :]]
-    d = table[row[1][:, None], col[1][None, :]]
+    south, north = table[rj], table[rj + 1]
+    a, b = south[:, ri], south[:, ri + 1]
+    c, d = north[:, ri], north[:, ri + 1]
     n = (a * (1.0 - fx) + b * fx) * (1.0 - fy) + (c * (1.0 - fx) + d * fx) * fy
     w = min(scale, s / 4.0)
-    ramp_u = _ramp(u / w) * _ramp((s - u) / w)
-    return n * ((ramp_u[None, :] * _ramp(v / w)[:, None]) * _ramp((s - v) / w)[:, None])
-
-
-def _next_index(nodes: np.ndarray, unique: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """For samples whose lattice index is ``values[inverse]`` (``unique = (values, inverse)``):
-    the positions in ``nodes`` of each sample's index and of the index after it."""
-    values, inverse = unique
-    at = np.searchsorted(nodes, values)
-    after = np.searchsorted(nodes, values + np.uint64(1))
-    return at[inverse], after[inverse]
+    r = _ramp(np.concatenate([u / w, (s - u) / w, v / w, (s - v) / w]))
+    ky = v.size
+    ramp_u = r[:kx] * r[kx : 2 * kx]
+    rv1, rv2 = r[2 * kx : 2 * kx + ky], r[2 * kx + ky :]
+    return n * ((ramp_u[None, :] * rv1[:, None]) * rv2[:, None])
 
 
 # --- tile parameters as arrays --------------------------------------------------------
@@ -367,9 +367,8 @@ def tile_grid(tile: AnyTile, tile_size: float, us, vs) -> np.ndarray:
     v = np.clip(np.asarray(vs, dtype=np.float64).ravel(), 0.0, tile_size)
     if not isinstance(tile, RoughTile) or not (u.size and v.size):
         return tile_height(tile, tile_size, u[None, :], v[:, None])
-    tab = _build_table([tile], tile_size)
-    noise = _rough_grid(tab.key[0], float(tab.scale[0]), tile_size, u, v)
-    return tab.h[0] + tab.a[0] * noise
+    noise = _rough_grid(noise_key(tile.seed)[0], float(tile.scale), tile_size, u, v)
+    return np.float64(tile.height) + np.float64(tile.amplitude) * noise
 
 
 def max_step(scene_or_terrain: Scene | Terrain | None) -> float:
