@@ -555,13 +555,25 @@ def _ground(b: _Builder) -> None:
         _shaped_tiles(b, zones, tree)
 
 
-def _tile_ground(b: _Builder, k: int, square: Polygon, zones: list[Polygon], tree: Any):
-    """The friction and material of a non-level tile, and whether zones of different
-    friction share it."""
+def _zone_areas(
+    squares: np.ndarray, zones: list[Polygon], tree: Any
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For tile squares (an array of boxes): the pairs ``(square, zone)`` that intersect,
+    sorted by square then zone index, and each pair's area of overlap (m^2), all at once."""
+    pairs = tree.query(squares, predicate="intersects")
+    order = np.lexsort((pairs[1], pairs[0]))
+    tiles, zis = pairs[0][order], pairs[1][order]
+    areas = shapely.area(shapely.intersection(np.asarray(zones, dtype=object)[zis], squares[tiles]))
+    return tiles, zis, areas
+
+
+def _tile_ground(b: _Builder, k: int, square_area: float, zis: list[int], areas: list[float]):
+    """The friction and material of a non-level tile (``square_area`` m^2), given the zones
+    ``zis`` meeting it in ascending order and their areas of overlap, and whether zones of
+    different friction share it."""
     tile = b.scene.terrain.tiles[k]
     best, best_area, mus = None, 0.0, []
-    for zi in sorted(tree.query(square, predicate="intersects").tolist()):
-        area = zones[zi].intersection(square).area
+    for zi, area in zip(zis, areas, strict=True):
         if area > _AREA_EPS:
             mus.append(b.scene.zones[zi].mu)
             if area > best_area:
@@ -575,7 +587,7 @@ def _tile_ground(b: _Builder, k: int, square: Polygon, zones: list[Polygon], tre
         return own, mat, False
     if best is None:
         return DEFAULT_FRICTION, mat, False
-    covered = best_area >= square.area * (1 - 1e-9)
+    covered = best_area >= square_area * (1 - 1e-9)
     mixed = len(set(mus)) > 1 or (not covered and best.mu != DEFAULT_FRICTION)
     return best.mu, mat, mixed
 
@@ -594,12 +606,23 @@ def _shaped_tiles(b: _Builder, zones: list[Polygon], tree: Any) -> None:
     s = terrain.tile_size
     hfields: dict[tuple, tuple[str, float]] = {}
     mixed: list[int] = []
-    for k, tile in enumerate(terrain.tiles):
-        if _level(tile):
-            continue
+    shaped = [k for k, tile in enumerate(terrain.tiles) if not _level(tile)]
+    if not shaped:
+        return
+    ids = np.asarray(shaped)
+    xs = terrain.origin[0] + (ids % terrain.cols) * s
+    ys = terrain.origin[1] + (ids // terrain.cols) * s
+    squares = shapely.box(xs, ys, xs + s, ys + s)  # as rect(x, y, x + s, y + s) makes them
+    square_areas = shapely.area(squares).tolist()
+    tiles, zis, areas = _zone_areas(squares, zones, tree)
+    runs = np.searchsorted(tiles, np.arange(len(shaped) + 1)).tolist()
+    zis, areas = zis.tolist(), areas.tolist()
+    for n, k in enumerate(shaped):
+        tile = terrain.tiles[k]
         row, col = divmod(k, terrain.cols)
         x, y = terrain.origin[0] + col * s, terrain.origin[1] + row * s
-        mu, mat, mix = _tile_ground(b, k, rect(x, y, x + s, y + s), zones, tree)
+        run = slice(runs[n], runs[n + 1])
+        mu, mat, mix = _tile_ground(b, k, square_areas[n], zis[run], areas[run])
         if mix:
             mixed.append(k)
         prefix = f"terrain/{tile.kind}/{row}_{col}"

@@ -558,3 +558,23 @@ def test_elevation_text_is_the_plain_join():
         assert mjcf._ints(values) == " ".join(map(str, values))
     grid = rng.integers(0, 5000, (17, 17))
     assert mjcf._ints(grid[::-1]) == " ".join(map(str, grid[::-1].ravel().tolist()))
+
+
+def test_zone_areas_are_the_per_tile_intersections():
+    """The tiles' zone overlaps, computed at once, are each tile's own query, in ascending
+    zone order, with the areas zone.intersection(square).area gives."""
+    rng = np.random.default_rng(4)
+    zones = [Point(rng.uniform(0, 10), rng.uniform(0, 10)).buffer(rng.uniform(0.5, 3)) for _ in range(12)]
+    zones.append(Polygon([(0, 0), (10, 0), (10, 1), (0, 1)]))
+    tree = shapely.STRtree(zones)
+    xs, ys = np.meshgrid(np.arange(5) * 2.5 - 1.0, np.arange(4) * 2.5)
+    xs, ys = xs.ravel(), ys.ravel()
+    squares = shapely.box(xs, ys, xs + 2.5, ys + 2.5)
+    tiles, zis, areas = mjcf._zone_areas(squares, zones, tree)
+    expected = [
+        (t, zi, zones[zi].intersection(squares[t]).area)
+        for t in range(len(squares))
+        for zi in sorted(tree.query(squares[t], predicate="intersects").tolist())
+    ]
+    assert len(expected) > len(squares)
+    assert list(zip(tiles.tolist(), zis.tolist(), areas.tolist(), strict=True)) == expected
