@@ -34,28 +34,15 @@ from collections.abc import Callable
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from profile_generate import HOTSPOT, short
 
 from citygen.exporters import ExportWarning
 from citygen.spec.scene import Scene
 
-HOTSPOT = 0.20
-"""A function costing more than this share of its pipeline is a hotspot."""
 OWN = ("citygen/", "exporters/")
 """Path prefixes of citygen's own code in the shortened function names."""
-
-
-def short(func: tuple[str, int, str]) -> str:
-    """``package/module.py:line(name)`` for citygen and exporters code, else the file name."""
-    path, line, name = func
-    if path == "~":
-        return name
-    parts = Path(path).parts
-    for root in ("exporters", "citygen", "site-packages"):
-        if root in parts:
-            at = len(parts) - 1 - parts[::-1].index(root)
-            path = "/".join(parts[at + (root == "site-packages") :])
-            break
-    return f"{path}:{line}({name})"
 
 
 def top_function(prof: cProfile.Profile, floor: float) -> tuple[str, float]:

@@ -138,15 +138,17 @@ def stage_profiles(split_name: str, indices: range) -> dict[str, cProfile.Profil
     return dict(profiles)
 
 
-def _short(func: tuple[str, int, str]) -> str:
+def short(func: tuple[str, int, str]) -> str:
+    """``package/module.py:line(name)`` for citygen, exporters and installed code."""
     path, line, name = func
     if path == "~":
         return name
     parts = Path(path).parts
-    if "citygen" in parts:
-        path = "/".join(parts[len(parts) - 1 - parts[::-1].index("citygen") :])
-    elif "site-packages" in parts:
-        path = "/".join(parts[parts.index("site-packages") + 1 :])
+    for root in ("exporters", "citygen", "site-packages"):
+        if root in parts:
+            at = len(parts) - 1 - parts[::-1].index(root)
+            path = "/".join(parts[at + (root == "site-packages") :])
+            break
     return f"{path}:{line}({name})"
 
 
@@ -156,7 +158,7 @@ def hotspots(prof: cProfile.Profile, key: int, top: int) -> list[tuple[str, floa
     stats = pstats.Stats(prof).stats  # func -> (cc, nc, tt, ct, callers)
     stage_s = max((v[3] for v in stats.values()), default=0.0)
     rows = sorted(stats.items(), key=lambda kv: kv[1][key], reverse=True)[:top]
-    return [(_short(f), v[key], v[key] / stage_s if stage_s else 0.0) for f, v in rows]
+    return [(short(f), v[key], v[key] / stage_s if stage_s else 0.0) for f, v in rows]
 
 
 def report(

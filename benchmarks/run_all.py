@@ -92,8 +92,7 @@ class Target:
     unit: str = ""
 
     def measured(self, results: dict) -> Any:
-        figures = results.get("benches", {}).get(self.bench, {}).get("figures") or {}
-        return figures.get(self.key)
+        return figures_of(results, self.bench).get(self.key)
 
     def holds(self, value: Any) -> bool | None:
         """Whether ``value`` meets the target; None when it was not measured."""

@@ -47,7 +47,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import gymnasium
 import numpy as np
@@ -95,6 +95,18 @@ def _yaw_rotate(vx: np.ndarray, vy: np.ndarray, yaw: float) -> tuple[np.ndarray,
     return c * vx + s * vy, -s * vx + c * vy
 
 
+class _Around(NamedTuple):
+    """The terrain around the last pose asked for: ground height (m) under ``(x, y)`` and
+    the height map's grid of ground heights (m, flat)."""
+
+    scene: Any
+    x: float
+    y: float
+    yaw: float
+    ground: float
+    grid: np.ndarray
+
+
 class _CitygenEnv(gymnasium.Env):
     """What the three task families share: scenes, the robot, the MuJoCo loop, images."""
 
@@ -139,7 +151,7 @@ class _CitygenEnv(gymnasium.Env):
         self.handle = None
         self._renderer = None
         self._index = -1
-        self._around: tuple | None = None  # the last _terrain_around: scene, x, y, yaw, ground, grid
+        self._around: _Around | None = None  # the last _terrain_around
         hx, hy, step = HEIGHT_MAP
         nx, ny = round(hx / step) + 1, round(hy / step) + 1
         u, v = np.meshgrid(np.linspace(-hx / 2, hx / 2, nx), np.linspace(-hy / 2, hy / 2, ny), indexing="ij")
@@ -197,8 +209,8 @@ class _CitygenEnv(gymnasium.Env):
     def _ground_z(self, x: float, y: float) -> float:
         """Ground height (m) at ``(x, y)``; free at the last :meth:`_terrain_around` centre."""
         c = self._around
-        if c is not None and c[0] is self.scene and c[1] == x and c[2] == y:
-            return c[4]
+        if c is not None and c.scene is self.scene and c.x == x and c.y == y:
+            return c.ground
         return float(height_at(self.scene, x, y))
 
     def _terrain_around(self, x: float, y: float, yaw: float) -> tuple[float, np.ndarray]:
@@ -206,16 +218,16 @@ class _CitygenEnv(gymnasium.Env):
         float64, flat) around the pose ``(x, y, yaw)``, from one :func:`height_at` call and
         remembered for the last pose (a step asks for them several times)."""
         c = self._around
-        if c is not None and c[0] is self.scene and c[1] == x and c[2] == y and c[3] == yaw:
-            return c[4], c[5]
+        if c is not None and c.scene is self.scene and (c.x, c.y, c.yaw) == (x, y, yaw):
+            return c.ground, c.grid
         u, v, _ = self._hm_local
         cs, sn = math.cos(yaw), math.sin(yaw)
         xs, ys = np.empty(u.size + 1), np.empty(u.size + 1)
         xs[:-1], ys[:-1] = x + cs * u - sn * v, y + sn * u + cs * v
         xs[-1], ys[-1] = x, y
         z = height_at(self.scene, xs, ys)
-        self._around = (self.scene, x, y, yaw, float(z[-1]), z[:-1])
-        return self._around[4], self._around[5]
+        self._around = _Around(self.scene, x, y, yaw, float(z[-1]), z[:-1])
+        return self._around.ground, self._around.grid
 
     def _out_of_bounds(self, x: float, y: float) -> bool:
         """Outside the scene's bounds."""
