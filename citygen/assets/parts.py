@@ -51,11 +51,6 @@ def _round_array(points: np.ndarray) -> np.ndarray:
     return out
 
 
-def _round_rows(points: np.ndarray) -> list[list[float]]:
-    """:func:`_round_array` as nested lists of Python floats."""
-    return _round_array(points).tolist()
-
-
 #: Smallest singular value (m) of a convex mesh's vertices about their mean: below it they span no volume.
 MIN_SPREAD = 1e-7
 
