@@ -1,0 +1,80 @@
+"""The runner's robots: embodiments built in code as MJCF, a user's own MJCF or URDF robot
+through a small adapter, and a handle that drives a robot inside a compiled scene.
+
+Built-in robots (:data:`BUILTIN`, mesh-free, every geom a primitive), one module each in this
+package, registered by :func:`~citygen.runner.robots.registry.register` (a new robot is one new
+file here: every test and command that runs over robots picks it up):
+
+- ``wheeled``: a delivery robot, 0.7 m x 0.55 m, 0.5 m tall, about 45 kg; two driven
+  wheels (hinge joints with velocity actuators) at mid-length and a frictionless caster
+  sphere in front and behind: exact differential drive.
+- ``quadruped``: Go2-like, trunk 0.38 x 0.09 x 0.11 m, about 15 kg, 12 hinge joints (hip
+  abduction, hip flexion, knee per leg, legs in the order FR, FL, RR, RL) with position
+  actuators (kp 50 N m/rad, kd 1 N m s/rad, Go2's torque limits), standing base height 0.30 m.
+- ``wheeled_legged``: B2-W-like, about 76 kg, the same 12 leg joints (kp 600, kd 12) plus a
+  driven wheel at each foot (4 velocity actuators), standing base height about 0.60 m.
+- ``wheelchair``: an electric wheelchair, 0.65 m wide, 1.1 m long, about 110 kg including
+  a 70 kg seated person; differential drive on the rear wheels, frictionless front casters.
+
+Units: metres, kilograms, seconds, radians. Frames: a robot's base frame has +x forward,
++z up; a pose is ``(x, y, ground_z, yaw)`` with ``ground_z`` the ground's height under the
+robot and the base origin :attr:`Robot.stand_height` above it.
+
+**Navigation** (:meth:`RobotHandle.drive`): wheeled robots (``nav_mode == "wheels"``:
+``wheeled``, ``wheelchair``, ``wheeled_legged``) really drive on their wheels: each
+wheel's velocity actuator gets the differential-drive wheel speed of the command,
+corrected by a proportional feedback on the measured base speed and yaw rate (it makes up
+for skid steering and slip; the four-wheel ``wheeled_legged`` turns by skidding). The legs
+of ``wheeled_legged`` hold the stand pose by their PD. The ``quadruped`` has no learned
+locomotion policy under the navigation policy, so it uses **ideal locomotion**
+(``nav_mode == "base"``): the legs hold the stand pose by PD while a servo of forces and
+torques on the base (``data.xfrc_applied``) carries the body's weight
+:data:`HOVER_CLEARANCE` above the stand height over the ground found by a ray under the
+base, keeps the trunk level, and tracks the planar velocity ``(v, w)``. Feet then do not
+touch flat ground; legs and trunk still collide with obstacles, curbs and agents. The
+open-loop trot of :mod:`citygen.runner.gaits` is the locomotion baseline, not the
+navigation drive (it is not precise enough to track a planner's commands).
+
+**Control timing**: :data:`TIMESTEP` (0.002 s) physics step, implicit-fast integrator.
+:meth:`RobotHandle.drive` reads the base's state and is a feedback loop: the environments
+run a wheel drive at :data:`DRIVE_DT` (100 Hz, every :attr:`RobotHandle.drive_substeps`
+physics steps, its outputs held in between, as a real wheel controller does) and the
+ideal-locomotion servo at every physics step; called with no ``dt`` it assumes one call
+per physics step. :meth:`RobotHandle.joint_action` only writes
+position targets and may run at the control rate (50 Hz = every 10 steps is the usual
+choice).
+
+>>> robot = load_robot("wheeled")
+>>> robot.nav_mode, robot.radius
+('wheels', 0.35)
+"""
+
+from citygen.runner.robots.base import (
+    HOVER_CLEARANCE,
+    IMPRATIO,
+    PREFIX,
+    TIMESTEP,
+    Leg,
+    Robot,
+    lowest_point,
+)
+from citygen.runner.robots.handle import DRIVE_DT, RobotHandle, compose, flat_ground, yaw_of
+from citygen.runner.robots.registry import BUILTIN, load_robot, register
+
+__all__ = [
+    "BUILTIN",
+    "DRIVE_DT",
+    "HOVER_CLEARANCE",
+    "IMPRATIO",
+    "PREFIX",
+    "TIMESTEP",
+    "Leg",
+    "Robot",
+    "RobotHandle",
+    "compose",
+    "flat_ground",
+    "load_robot",
+    "lowest_point",
+    "register",
+    "yaw_of",
+]

@@ -1,0 +1,319 @@
+"""A robot inside a scene: :func:`compose` puts it in a compiled model, :class:`RobotHandle`
+resets, reads and drives it there (the wheel drive, the ideal-locomotion servo, joint targets)."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from citygen.errors import CitygenError, ExportError
+from citygen.exporters.mjcf import MJCF, ROBOT_BIT, ROBOT_CONAFFINITY, import_mujoco
+from citygen.runner.robots.base import _GRAVITY, HOVER_CLEARANCE, IMPRATIO, PREFIX, Robot, _v
+
+
+def flat_ground(size: float = 40.0, friction: float = 0.75) -> MJCF:
+    """A scene of flat ground only: a static box ``size`` metres square, top at z = 0, with
+    the scene exporter's contact bits and the given sliding friction (concrete's by default)."""
+    xml = (
+        '<mujoco model="flat">\n  <compiler angle="radian" autolimits="true"/>\n  <worldbody>\n'
+        f'    <geom name="zone/none/ground/0" type="box" size="{_v(size / 2, size / 2, 0.5)}" pos="0 0 -0.5" '
+        f'contype="1" conaffinity="0" priority="1" friction="{_v(friction, 0.005, 0.0001)}" '
+        'rgba="0.8 0.8 0.78 1"/>\n'
+        '    <light name="sun" directional="true" dir="0.3 0.4 -1" pos="0 0 10"/>\n'
+        "  </worldbody>\n</mujoco>\n"
+    )
+    return MJCF(xml, {})
+
+
+def compose(scene_mjcf: MJCF, robot: Robot, pose: tuple[float, float, float, float]) -> Any:
+    """The scene with the robot in it, compiled: a ``mujoco.MjModel``.
+
+    ``pose = (x, y, ground_z, yaw)`` in m and rad: the robot stands there (its base
+    origin ``robot.stand_height`` above ``ground_z``; :meth:`RobotHandle.reset` puts it
+    anywhere later). The robot's names get the prefix :data:`PREFIX`; the physics step
+    is ``robot.timestep`` with the implicit-fast integrator.
+    """
+    mujoco = import_mujoco()
+    x, y, z, yaw = (float(v) for v in pose)
+    try:
+        scene = mujoco.MjSpec.from_string(scene_mjcf.xml, assets=dict(scene_mjcf.assets))
+        child = mujoco.MjSpec.from_string(robot.xml, assets=dict(robot.assets))
+    except ValueError as exc:
+        raise ExportError(f"compose: MuJoCo rejected the {robot.name!r} robot or the scene: {exc}") from None
+    base = child.body(robot.base_body)
+    base.pos, base.quat = [0.0, 0.0, robot.stand_height], [1.0, 0.0, 0.0, 0.0]
+    for geom in child.geoms:
+        if geom.contype or geom.conaffinity:
+            geom.contype, geom.conaffinity = ROBOT_BIT, ROBOT_CONAFFINITY
+    for spec in (scene, child):  # equal options, so attaching has nothing to reconcile
+        spec.option.timestep = robot.timestep
+        spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+        spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+        spec.option.impratio = IMPRATIO
+    # A city holds ~10^4 static bodies: MuJoCo's default arena is too small for its broadphase.
+    n = len(scene.geoms)
+    if n > 2000:
+        scene.memory = max(scene.memory, n * 16 * 1024)
+    frame = scene.worldbody.add_frame(pos=[x, y, z], quat=[math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])
+    scene.attach(child, prefix=PREFIX, frame=frame)
+    try:
+        return scene.compile()
+    except ValueError as exc:
+        raise ExportError(
+            f"compose: MuJoCo rejected the scene with the {robot.name!r} robot: {exc}"
+        ) from None
+
+
+# --- driving a robot in a compiled model ------------------------------------------------------
+
+#: Period (s) of the wheel drive's feedback loop as the environments run it: they call
+#: :meth:`RobotHandle.drive` of a wheeled robot once per period and hold its wheel speed
+#: targets for the physics steps in between (100 Hz: 5 physics steps of :data:`TIMESTEP`;
+#: real wheel controllers run at 100-1000 Hz). The wheels' velocity actuators and the legs'
+#: PD act at every physics step inside MuJoCo. The ideal-locomotion servo (``nav_mode ==
+#: "base"``) stands in for a locomotion policy with stiff force feedback and runs at every
+#: physics step (held 5 steps its attitude loop diverges); only its gain's composite
+#: inertia, which changes with the legs' pose alone, is recomputed once per period.
+DRIVE_DT = 0.01
+
+# Drive feedback: wheel speeds get the command plus these gains (1) times the error of the
+# measured forward speed and yaw rate, and these gains (1/s) times its integral.
+_WHEEL_P, _WHEEL_I = 0.5, 3.0
+# Ideal-locomotion servo: planar velocity (1/s), height (1/s^2, 1/s), attitude (1/s^2, 1/s).
+_SERVO_V, _SERVO_W, _SERVO_KP, _SERVO_KD = 10.0, 10.0, 400.0, 40.0
+
+
+def yaw_of(quat: Any) -> float:
+    """Yaw (rad) of a unit quaternion ``(w, x, y, z)`` (any sequence of 4 numbers)."""
+    w, x, y, z = (float(v) for v in quat)
+    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
+def _clamp(x: float, limit: float) -> float:
+    return -limit if x < -limit else limit if x > limit else x
+
+
+class RobotHandle:
+    """A robot inside a compiled model (from :func:`compose`): ids, reset, state, drive.
+
+    ``geom_ids``, ``body_ids``: all of the robot's; ``foot_geom_ids``: those allowed to
+    touch the ground. Arrays are of MuJoCo ids in ``model``. ``drive_substeps``: physics
+    steps per call of :meth:`drive` in the environments (a :data:`DRIVE_DT` period for
+    wheels, 1 for the ideal-locomotion servo).
+    """
+
+    def __init__(self, model: Any, robot: Robot, prefix: str = PREFIX) -> None:
+        mujoco = import_mujoco()
+        self.model, self.robot, self._mj = model, robot, mujoco
+        try:
+            self.base_id = model.body(prefix + robot.base_body).id
+            self.foot_geom_ids = np.array([model.geom(prefix + n).id for n in robot.foot_geoms], dtype=int)
+            self.leg_act = np.array([model.actuator(prefix + n).id for n in robot.leg_actuators], dtype=int)
+            joints = [model.joint(prefix + n).id for n in robot.leg_joints]
+            self.left = np.array([model.actuator(prefix + n).id for n in robot.left_wheels], dtype=int)
+            self.right = np.array([model.actuator(prefix + n).id for n in robot.right_wheels], dtype=int)
+        except KeyError as exc:
+            raise CitygenError(
+                f"the model holds no robot {robot.name!r} under the prefix {prefix!r}: {exc}"
+            ) from None
+        root = self.base_id
+        jnt = model.body_jntadr[root]
+        if jnt < 0 or model.jnt_type[jnt] != mujoco.mjtJoint.mjJNT_FREE:
+            raise CitygenError(f"the robot {robot.name!r}'s base has no free joint")
+        self.qadr, self.dadr = int(model.jnt_qposadr[jnt]), int(model.jnt_dofadr[jnt])
+        self.body_ids = np.flatnonzero(model.body_rootid == root)
+        self.geom_ids = np.flatnonzero(np.isin(model.geom_bodyid, self.body_ids))
+        self.joint_ids = np.flatnonzero(np.isin(model.jnt_bodyid, self.body_ids))
+        self.dof_ids = np.flatnonzero(np.isin(model.dof_bodyid, self.body_ids))
+        self.leg_qadr = model.jnt_qposadr[joints].astype(int)
+        self.leg_dadr = model.jnt_dofadr[joints].astype(int)
+        self.wheel_act = np.concatenate([self.left, self.right])
+        self.mass = float(model.body_subtreemass[root])
+        self.default = np.array(robot.default_pose, dtype=float)
+        self.scale = np.array(robot.action_scale, dtype=float)
+        self._is_robot_geom = np.zeros(model.ngeom, dtype=bool)
+        self._is_robot_geom[self.geom_ids] = True
+        self._not_foot = self._is_robot_geom.copy()
+        self._not_foot[self.foot_geom_ids] = False
+        wheels = robot.nav_mode == "wheels"
+        self.drive_substeps = max(1, round(DRIVE_DT / model.opt.timestep)) if wheels else 1
+        # Drive state: the integral of the speed and yaw-rate errors, the ramped reference.
+        self._integral = (0.0, 0.0)
+        self._ref = (0.0, 0.0)
+        self._ground: float | None = None
+        self._servo_age = math.inf  # s since the servo's inertia was computed
+        self._servo_inertia = 0.0  # kg m^2
+        # Constants of the drive, read once: plain floats and ids (the drive runs often).
+        self._timestep = float(model.opt.timestep)
+        self._left_ids = [int(a) for a in self.left]
+        self._right_ids = [int(a) for a in self.right]
+        self._body_masses = model.body_mass[self.body_ids].copy()
+        self._half_inertia = float(model.body_inertia[self.body_ids].sum() / 2)
+        self._ray_point = np.zeros(3)
+        self._ray_down = np.array([0.0, 0.0, -1.0])
+        self._ray_geom = np.zeros(1, dtype=np.int32)
+
+    @property
+    def n_joints(self) -> int:
+        return self.robot.n_joints
+
+    def reset(self, data: Any, pose: tuple[float, float, float, float]) -> None:
+        """Put the robot standing at ``pose = (x, y, ground_z, yaw)`` (m, rad), legs in the
+        default pose, every robot velocity, applied force and drive integral zero; runs
+        ``mj_forward``."""
+        m = self.model
+        x, y, z, yaw = (float(v) for v in pose)
+        for j in self.joint_ids:
+            a, n = m.jnt_qposadr[j], (7 if m.jnt_type[j] == 0 else 4 if m.jnt_type[j] == 1 else 1)
+            data.qpos[a : a + n] = m.qpos0[a : a + n]
+        q = self.qadr
+        data.qpos[q : q + 7] = (x, y, z + self.robot.stand_height, math.cos(yaw / 2), 0, 0, math.sin(yaw / 2))
+        data.qpos[self.leg_qadr] = self.default
+        data.qvel[self.dof_ids] = 0.0
+        data.qacc_warmstart[self.dof_ids] = 0.0
+        data.ctrl[self.leg_act] = self.default
+        data.ctrl[self.wheel_act] = 0.0
+        data.xfrc_applied[self.body_ids] = 0.0
+        self._integral = (0.0, 0.0)
+        self._ref = (0.0, 0.0)
+        self._ground = z
+        self._servo_age = math.inf
+        self._mj.mj_forward(m, data)
+
+    def pose(self, data: Any) -> tuple[float, float, float, float]:
+        """``(x, y, z, yaw)`` of the base origin, in m and rad (z is the base's height)."""
+        x, y, z, qw, qx, qy, qz = data.qpos[self.qadr : self.qadr + 7].tolist()
+        return x, y, z, math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
+
+    def velocity(self, data: Any) -> np.ndarray:
+        """``[vx, vy, vz, wz]`` of the base (m/s, rad/s) in its yaw frame (x forward, z up)."""
+        return np.array(self._velocity(data))
+
+    def _velocity(self, data: Any) -> tuple[float, float, float, float]:
+        """:meth:`velocity` as plain floats."""
+        qw, qx, qy, qz = data.qpos[self.qadr + 3 : self.qadr + 7].tolist()
+        lx, ly, lz, ax, ay, az = data.qvel[self.dadr : self.dadr + 6].tolist()
+        r = data.xmat[self.base_id].tolist()  # row-major 3x3; the free joint's spin is local
+        yaw = math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
+        c, s = math.cos(yaw), math.sin(yaw)
+        return c * lx + s * ly, -s * lx + c * ly, lz, r[6] * ax + r[7] * ay + r[8] * az
+
+    def drive(self, data: Any, v: float, w: float, dt: float | None = None) -> None:
+        """Track forward speed ``v`` (m/s) and yaw rate ``w`` (rad/s), clipped to the
+        robot's limits and approached at its acceleration limits. Call it once per feedback
+        period ``dt`` (s; default one physics step): it feeds back the base's measured
+        motion (wheel robots: a PI correction of the wheel speeds; ideal locomotion: the
+        base servo's forces in ``data.xfrc_applied``) and its outputs hold until the next
+        call. The environments call it every :data:`DRIVE_DT`."""
+        r = self.robot
+        dt = self._timestep if dt is None else float(dt)
+        v = _clamp(float(v), r.max_speed)
+        w = _clamp(float(w), r.max_yaw_rate)
+        if self.leg_act.size:
+            data.ctrl[self.leg_act] = self.default
+        # the reference approaches the command at the robot's acceleration limits
+        rv, rw = self._ref
+        rv += _clamp(v - rv, dt * r.max_accel)
+        rw += _clamp(w - rw, dt * r.max_yaw_accel)
+        self._ref = (rv, rw)
+        if r.nav_mode != "wheels":
+            self._servo(data, rv, rw, dt)
+            return
+        vx, _, _, wz = self._velocity(data)
+        ev, ew = rv - vx, rw - wz
+        iv, iw = self._integral
+        iv, iw = _clamp(iv + ev * dt, 1.0), _clamp(iw + ew * dt, 1.0)
+        self._integral = (iv, iw)
+        vc = rv + _WHEEL_P * ev + _WHEEL_I * iv
+        wc = rw + _WHEEL_P * ew + _WHEEL_I * iw
+        half = wc * r.track_width / 2
+        ctrl = data.ctrl
+        for a in self._left_ids:
+            ctrl[a] = (vc - half) / r.wheel_radius
+        for a in self._right_ids:
+            ctrl[a] = (vc + half) / r.wheel_radius
+
+    def _ground_below(self, data: Any) -> float:
+        """Height (m) of the first non-robot surface under the base origin."""
+        point, gid = self._ray_point, self._ray_geom
+        point[:] = data.xpos[self.base_id]
+        for _ in range(8):
+            dist = self._mj.mj_ray(self.model, data, point, self._ray_down, None, 1, self.base_id, gid)
+            if dist < 0:
+                break
+            point[2] -= dist
+            if not self._is_robot_geom[gid[0]]:
+                self._ground = float(point[2])
+                break
+            point[2] -= 1e-4
+        return self._ground if self._ground is not None else 0.0
+
+    def _servo(self, data: Any, v: float, w: float, dt: float) -> None:
+        """Ideal locomotion: base forces and torques (``data.xfrc_applied``) that carry the
+        weight at the hover height, keep the trunk level and track ``(v, w)``; ``dt`` (s):
+        the time since the last call. The composite inertia is recomputed every
+        :data:`DRIVE_DT`; the ground under the base at every call (the hover height must
+        follow edges and objects as the base passes over them)."""
+        b = self.base_id
+        self._servo_age += dt
+        if self._servo_age >= DRIVE_DT - 1e-9:
+            self._servo_age = 0.0
+            # composite inertia about the subtree's centre of mass (kg m^2), horizontal axes
+            d = data.xipos[self.body_ids] - data.subtree_com[b]
+            inertia = float(self._body_masses @ (d[:, 0] ** 2 + d[:, 1] ** 2)) + self._half_inertia
+            self._servo_inertia = inertia
+        inertia = self._servo_inertia
+        target = self._ground_below(data) + self.robot.stand_height + HOVER_CLEARANCE
+        r = data.xmat[b].tolist()  # row-major 3x3 rotation of the base
+        z, qw, qx, qy, qz = data.qpos[self.qadr + 2 : self.qadr + 7].tolist()
+        lx, ly, lz, ax, ay, az = data.qvel[self.dadr : self.dadr + 6].tolist()
+        yaw = math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
+        c, s = math.cos(yaw), math.sin(yaw)
+        # world angular velocity (the free joint's is in the base frame)
+        wx = r[0] * ax + r[1] * ay + r[2] * az
+        wy = r[3] * ax + r[4] * ay + r[5] * az
+        wz = r[6] * ax + r[7] * ay + r[8] * az
+        m = self.mass
+        # tilt = (base z axis) x (world z): the base's z axis is the rotation's third column
+        data.xfrc_applied[b] = (
+            m * _SERVO_V * (v * c - lx),
+            m * _SERVO_V * (v * s - ly),
+            m * (_GRAVITY + _SERVO_KP * (target - z) - _SERVO_KD * lz),
+            inertia * (_SERVO_KP * r[5] - _SERVO_KD * wx),
+            inertia * (_SERVO_KP * -r[2] - _SERVO_KD * wy),
+            inertia * _SERVO_W * (w - wz),
+        )
+
+    def joint_action(self, data: Any, action: np.ndarray) -> None:
+        """Locomotion: leg joint targets ``default_pose + action_scale * clip(action, -1, 1)``
+        (rad) for an action of :attr:`n_joints` numbers; wheels (if any) are held still."""
+        a = np.asarray(action, dtype=float)
+        if a.shape != (self.n_joints,):
+            raise ValueError(f"joint_action: expected {self.n_joints} numbers, got shape {a.shape}")
+        data.ctrl[self.leg_act] = self.default + self.scale * np.clip(a, -1.0, 1.0)
+        data.ctrl[self.wheel_act] = 0.0
+
+    def joint_positions(self, data: Any) -> np.ndarray:
+        """Leg joint angles (rad), in action order."""
+        return data.qpos[self.leg_qadr].copy()
+
+    def joint_velocities(self, data: Any) -> np.ndarray:
+        """Leg joint speeds (rad/s), in action order."""
+        return data.qvel[self.leg_dadr].copy()
+
+    def torques(self, data: Any) -> np.ndarray:
+        """Forces of the leg actuators (N m), in action order."""
+        return data.actuator_force[self.leg_act].copy()
+
+    def body_contacts(self, data: Any) -> np.ndarray:
+        """Ids of the non-robot geoms that a robot geom other than a foot touches (a
+        collision, or the trunk on the ground), sorted."""
+        n = data.ncon
+        if n == 0:
+            return np.zeros(0, dtype=int)
+        g = np.asarray(data.contact.geom[:n], dtype=int)
+        hit = self._not_foot[g[:, 0]] & ~self._is_robot_geom[g[:, 1]]
+        hit2 = self._not_foot[g[:, 1]] & ~self._is_robot_geom[g[:, 0]]
+        return np.unique(np.concatenate([g[hit, 1], g[hit2, 0]]))

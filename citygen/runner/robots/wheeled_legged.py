@@ -1,0 +1,70 @@
+"""``wheeled_legged``: B2-W-like, about 76 kg, 12 leg joints (kp 1500, kd 30) plus a driven
+wheel at each foot (4 velocity actuators), standing base height about 0.60 m; in navigation it
+drives on its wheels (skid steering) while the legs hold the stand pose."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from citygen.runner.robots.base import Robot, _Doc, _leg_set, _legs, _stand, _v
+from citygen.runner.robots.registry import register
+from citygen.spec.task import ROBOT_RADIUS
+
+_WL_LEGS = _leg_set(0.3285, 0.072, 0.12, 0.35, 0.35, 0.09)
+# Front feet a little behind their hips, rear feet in front, legs splayed out: a wheelbase
+# near the track width, so the four wheels can skid-steer.
+_WL_POSE = tuple(
+    round(float(q), 4)
+    for leg in _WL_LEGS
+    for q in leg.ik(
+        np.array([-0.1 if leg.hip_x > 0 else 0.1, leg.lateral + math.copysign(0.1, leg.lateral), -0.5])
+    )
+)
+
+
+@register("wheeled_legged")
+def _wheeled_legged() -> Robot:
+    legs, pose = _WL_LEGS, _WL_POSE
+    h = _stand(legs, pose)
+    doc = _Doc("wheeled_legged", h, "0.3 0.3 0.32 1")
+    doc.geom(doc.base, "trunk", 48.0, type="box", size=_v(0.4, 0.14, 0.09))
+    r = legs[0].foot_radius
+    joints, acts, feet = _legs(
+        doc,
+        legs,
+        sizes={"armature": 0.05, "hip_r": 0.07, "hip_len": 0.08, "thigh_r": 0.04, "calf_r": 0.025},
+        masses={"hip": 1.5, "thigh": 2.5, "calf": 1.0},
+        ranges={"hip": (-0.87, 0.87), "thigh": (-1.0, 3.0), "calf": (-2.6, -0.6)},
+        torques=(200.0, 200.0, 320.0),
+        kp=1500.0,
+        kd=30.0,
+        wheel={"offset": 0.07, "width": 0.05, "mass": 1.5, "kv": 6.0, "torque": 60.0},
+    )
+    # the legs' splay: the wheel track is measured between the wheels' contact points
+    q = np.array(pose[0:3])
+    foot = legs[0].fk(q)
+    track = 2 * (abs(legs[0].hip_y + foot[1]) + 0.07)
+    return Robot(
+        name="wheeled_legged",
+        xml=doc.xml(),
+        radius=ROBOT_RADIUS["wheeled_legged"],
+        max_speed=2.0,
+        max_yaw_rate=1.5,
+        mass=0.0,
+        max_accel=1.5,
+        max_yaw_accel=3.0,
+        stand_height=h,
+        max_step=0.08,
+        left_wheels=("FL_wheel", "RL_wheel"),
+        right_wheels=("FR_wheel", "RR_wheel"),
+        wheel_radius=r,
+        track_width=track,
+        leg_joints=tuple(joints),
+        leg_actuators=tuple(acts),
+        default_pose=pose,
+        action_scale=(0.5, 1.0, 1.0) * 4,
+        foot_geoms=tuple(feet),
+        legs=legs,
+    )
