@@ -58,10 +58,13 @@ class CityPlan:
     districts: dict[tuple[int, int], str]
     """What city block ``(i, j)`` is (``i`` from -1 west of the first line to ``len(xs) - 1``)."""
 
-    def district(self, x: float, y: float) -> str:
-        i = int(np.searchsorted(self.lines[0], x)) - 1
-        j = int(np.searchsorted(self.lines[1], y)) - 1
-        return self.districts[(i, j)]
+    courtyards: dict[tuple[int, int], str]
+    """What the lots behind a downtown city block's frontage are: ``plaza``, ``vegetation``
+    (a garden) or ``parking``."""
+
+    def cell(self, x: float, y: float) -> tuple[int, int]:
+        """The city block ``(i, j)`` the point is in."""
+        return int(np.searchsorted(self.lines[0], x)) - 1, int(np.searchsorted(self.lines[1], y)) - 1
 
 
 def _lines(lo: float, hi: float, cfg: CityConfig, rng: np.random.Generator) -> list[float]:
@@ -286,16 +289,17 @@ def plan_city(
         tuple(_cuts(line, hi, [n * lane_width + side for n in axis_lanes], depth, cfg, rng))
         for line, hi, axis_lanes in ((xs, x1, lanes[0]), (ys, y1, lanes[1]))
     )
-    districts = _districts(bounds, xs, ys, merged, root, cfg, rng)
-    return CityPlan(tuple(blocks), (tuple(xs), tuple(ys)), cuts, districts)
+    districts, courtyards = _districts(bounds, xs, ys, merged, root, cfg, rng)
+    return CityPlan(tuple(blocks), (tuple(xs), tuple(ys)), cuts, districts, courtyards)
 
 
-def _districts(bounds: Bounds, xs, ys, merged, root, cfg: CityConfig, rng) -> dict[tuple[int, int], str]:
-    """What each city block is; joined city blocks are one thing."""
+def _districts(bounds: Bounds, xs, ys, merged, root, cfg: CityConfig, rng):
+    """What each city block is, and its courtyards; joined city blocks are one thing."""
     (x0, y0), (x1, y1) = bounds.min, bounds.max
     cx, cy, half = (x0 + x1) / 2, (y0 + y1) / 2, min(x1 - x0, y1 - y0) / 2
     ex, ey = [x0, *xs, x1], [y0, *ys, y1]
     out: dict[tuple[int, int], str] = {}
+    yards: dict[tuple[int, int], str] = {}
     for cell in sorted(merged, key=lambda c: (c[1], c[0])):
         i, j = cell
         home = root(cell)
@@ -313,9 +317,11 @@ def _districts(bounds: Bounds, xs, ys, merged, root, cfg: CityConfig, rng) -> di
         else:
             kind = "residential"
         out[cell] = kind
+        yard = rng.random()
+        yards[cell] = "parking" if yard < cfg.parking_share else ("plaza" if yard < 0.5 else "vegetation")
     for cell in merged:
-        out[cell] = out[root(cell)]
-    return out
+        out[cell], yards[cell] = out[root(cell)], yards[root(cell)]
+    return out, yards
 
 
 def _pose(position, yaw: float) -> Pose2:

@@ -7,9 +7,11 @@ frontage strips). The land is cut into lots along the plan's lines
 lots, lot widths along the street), and each lot is divided as its city block is built:
 
 - **downtown**: every frontage lot is a building up to the sidewalk (a continuous street
-  wall, now and then a small plaza); the lots behind are courtyards (lawn, plaza, parking);
+  wall, now and then a small plaza); the lots behind are one courtyard (a garden, a plaza or
+  parking, ``city.parking_share`` of them);
 - **residential**: a front yard (``city.residential_setback``) along the sidewalk, then
-  a building in each frontage lot with side yards; back yards and parking behind;
+  a building in each frontage lot with side yards; back yards behind (half
+  ``city.parking_share`` of those lots parking);
 - **park**: lawn crossed by trails through the middle of the city block;
 - **plaza**: paved, with lawn beds in the lots behind the frontage.
 
@@ -80,7 +82,8 @@ def plan_city_ground(
     for (j, i), parts in sorted(clipped.items()):
         walk, road, curb_band, island, furnish, clear, front, yard_band = parts
         lot = box(xs[i], ys[j], xs[i + 1], ys[j + 1])
-        district = plan.district((xs[i] + xs[i + 1]) / 2, (ys[j] + ys[j + 1]) / 2)
+        cell = plan.cell((xs[i] + xs[i + 1]) / 2, (ys[j] + ys[j + 1]) / 2)
+        district, courtyard = plan.districts[cell], plan.courtyards[cell]
         layers: list[Layer] = [
             ("crosswalk", None, walk),
             ("roadway", None, road),
@@ -97,10 +100,10 @@ def plan_city_ground(
             # Trails through the middle lot row and column: a layer, noded with the rest.
             layers.append(("trail", None, _trail(lot, i in middle[0], j in middle[1], r)))
 
-        def fill(part, r=r, district=district):
+        def fill(part, r=r, district=district, courtyard=courtyard):
             reach = setback + FACING if district == "residential" else FACING
             faces = bool(shapely.dwithin(street, part, reach))
-            return _lot(part, district, faces, city, r)
+            return _lot(part, district, courtyard, faces, city, r)
 
         pieces += _arrange(lot, layers, fill)
     return _zones(pieces)
@@ -116,7 +119,7 @@ def _middles(cuts, lines) -> set[int]:
     return out
 
 
-def _lot(part: Polygon, district: str, faces: bool, city: CityConfig, r) -> list[Piece]:
+def _lot(part: Polygon, district: str, courtyard: str, faces: bool, city: CityConfig, r) -> list[Piece]:
     """What one lot's land (``part``, what the streets leave of it) is built as."""
     if district == "park":
         return [("vegetation", None, part)]
@@ -135,13 +138,10 @@ def _lot(part: Polygon, district: str, faces: bool, city: CityConfig, r) -> list
                 return [*(("building", None, f) for f in footprints), ("vegetation", None, yard)]
     if faces:
         return [("plaza" if district == "downtown" else "vegetation", None, part)]
-    # Courtyards and back yards.
-    draw = r.random()
-    if draw < city.parking_share:
-        return [("parking", None, part)]
-    if district == "downtown" and draw < city.parking_share + 0.3:
-        return [("plaza", None, part)]
-    return [("vegetation", None, part)]
+    # Courtyards (one kind per downtown city block) and back yards (lawn, some parking).
+    if district == "downtown":
+        return [(courtyard, None, part)]
+    return [("parking" if r.random() < city.parking_share / 2 else "vegetation", None, part)]
 
 
 def _compact(part: Polygon) -> bool:

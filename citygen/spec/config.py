@@ -131,8 +131,9 @@ class CityConfig(SpecModel):
     """Share of the city blocks that are parks (lawn crossed by trails)."""
     plaza_share: bounded_float(0.0, 1.0) = 0.04
     """Share of the city blocks that are public plazas."""
-    parking_share: bounded_float(0.0, 1.0) = 0.2
-    """Share of the courtyard lots (behind the frontage lots) that are parking."""
+    parking_share: bounded_float(0.0, 1.0) = 0.25
+    """Share of the downtown courtyards (the lots behind the frontage lots) that are parking;
+    half as many of the residential back-yard lots are."""
     lot_depth: Span = (18.0, 28.0)
     """Depth of the frontage lots behind the sidewalk, in metres."""
     lot_width: Span = (14.0, 30.0)
