@@ -109,7 +109,19 @@ def plan_city(
     *,
     seed: int | None = None,
 ) -> CityPlan:
-    """The street plan of a city filling ``bounds`` (see the module docstring)."""
+    """The street plan of a city filling ``bounds`` (see the module docstring).
+
+    >>> from collections import Counter
+    >>> from citygen.seeding import stage_rng
+    >>> from citygen.spec.config import GeneratorConfig
+    >>> cfg = GeneratorConfig(size=(600.0, 600.0), layout="city")
+    >>> bounds = Bounds(min=(0, 0), max=cfg.size)
+    >>> plan = plan_city(bounds, cfg.city, cfg.blocks, cfg.ground, stage_rng(1, "blocks"))
+    >>> sorted(Counter(b.kind for b in plan.blocks).items())
+    [('curve', 4), ('intersection', 6), ('roundabout', 1), ('straight', 39), ('t_intersection', 14)]
+    >>> len(plan.lines[0]), plan.districts[plan.cell(300.0, 300.0)]
+    (5, 'downtown')
+    """
     (x0, y0), (x1, y1) = bounds.min, bounds.max
     if min(x1 - x0, y1 - y0) < 2 * cfg.edge_inset[1] + cfg.street_spacing[0]:
         raise GenerationError(
