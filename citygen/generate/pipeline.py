@@ -18,6 +18,12 @@ them again, rebuilding from any later stage keeps the scene's (a start or goal m
 hand survives, the terrain and objects made again respect it). The rest of the task
 (robot, time limit, tolerances) comes from the config whenever the task stage runs.
 
+**Cities.** ``layout = "city"`` plans the streets (:func:`citygen.generate.city.plan_city`, from
+the ``blocks`` stage's generator) and the ground of each city block
+(:func:`citygen.generate.city_ground.plan_city_ground`, from the ``ground`` stage's); a traverse
+task there runs along the sidewalks and crosswalks (:func:`~citygen.generate.task.street_route`),
+and people walk straight lines that stay on walkable ground.
+
 **Tracks.** ``layout = "track"`` (Urban-Tra-Standard) lays :class:`~citygen.spec.config.TrackUnit`
 units side by side along +x, one walkable zone each (``unit-1`` ...). The terrain keeps the
 even units flat at street level (they are handed to the terrain stage as hard ground) and
