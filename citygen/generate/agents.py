@@ -73,10 +73,15 @@ def place_agents(
     robot_radius: float = 0.0,
     seed: int = 0,
     walkable: BaseGeometry | None = None,
+    straight: bool = False,
 ) -> tuple[Person | Vehicle, ...]:
     """People and vehicles of one scene; ``level`` scales the config's counts; ``walkable`` is
-    the walkable ground when the caller has it."""
-    people = _people(bounds, zones, placements, cfg, child(rng, 0), level, ends, robot_radius, seed, walkable)
+    the walkable ground when the caller has it. ``straight`` (a city) keeps each person's
+    straight line from start to goal on walkable ground: people walk along a sidewalk, over a
+    crosswalk or across a plaza, never over a lawn or through a building."""
+    people = _people(
+        bounds, zones, placements, cfg, child(rng, 0), level, ends, robot_radius, seed, walkable, straight
+    )
     vehicles = math.floor(cfg.vehicles * level + 0.5)
     if vehicles and not blocks:
         raise GenerationError(
@@ -88,7 +93,9 @@ def place_agents(
     return (*people, *cars)
 
 
-def _people(bounds, zones, placements, cfg, rng, level, ends, robot_radius, seed, walkable) -> list[Person]:
+def _people(
+    bounds, zones, placements, cfg, rng, level, ends, robot_radius, seed, walkable, straight=False
+) -> list[Person]:
     count = math.floor(cfg.people * level + 0.5)
     if count == 0:
         return []
@@ -116,9 +123,16 @@ def _people(bounds, zones, placements, cfg, rng, level, ends, robot_radius, seed
         # others in the mix are tried, the slimmest first.
         for kind in [drawn, *sorted((k for k in live if k != drawn), key=lambda k: radius[k][1])]:
             if kind not in spaces:
-                spaces[kind] = _Pieces(pieces(free_space(ground, bases, radius[kind][1]))[:64])
+                free = free_space(ground, bases, radius[kind][1])
+                if straight:
+                    # A city's walkable ground is one network: cut into squares, each piece of
+                    # which is quick to triangulate (a straight trip stays in one anyway).
+                    spaces[kind] = _Pieces(pieces(_squares(free, bounds, SQUARE))[:MAX_PIECES])
+                else:
+                    spaces[kind] = _Pieces(pieces(free)[:64])
             r = round(truncated_normal(rng, radius[kind]), 3)
-            pair = _trip(spaces[kind], rng, trip, r, taken) if spaces[kind] else None
+            find = _line_trip if straight else _trip
+            pair = find(spaces[kind], rng, trip, r, taken) if spaces[kind] else None
             if pair is not None:
                 break
         else:
@@ -191,6 +205,53 @@ def _trip(spaces: _Pieces, rng, trip, r, taken):
                 best = (d, goal)
         if best is not None:
             return start, best[1]
+    return None
+
+
+#: Side (m) of the squares a city's free space is cut into, and how many of the pieces people
+#: are drawn in.
+SQUARE, MAX_PIECES = 100.0, 20_000
+
+
+def _squares(free: BaseGeometry, bounds: Bounds, side: float):
+    """``free`` cut into squares of ``side`` metres from the bounds' minimum corner."""
+    (x0, y0), (x1, y1) = bounds.min, bounds.max
+    nx_, ny_ = max(1, math.ceil((x1 - x0) / side)), max(1, math.ceil((y1 - y0) / side))
+    cells = [
+        (x0 + i * side, y0 + j * side, min(x1, x0 + (i + 1) * side), min(y1, y0 + (j + 1) * side))
+        for j in range(ny_)
+        for i in range(nx_)
+    ]
+    parts = [shapely.clip_by_rect(free, *c) for c in cells]
+    return shapely.GeometryCollection([g for p in parts for g in shapely.get_parts(p)])
+
+
+#: Shortest trip (m) :func:`_line_trip` takes.
+SHORTEST = 5.0
+
+
+def _line_trip(spaces: _Pieces, rng, trip, r, taken):
+    """As :func:`_trip`, with the goal in a straight line of free space from the start: the
+    longest of some draws of heading and distance (up to ``trip``) whose line the piece
+    covers, at least :data:`SHORTEST` metres."""
+    for _ in range(64):
+        k = spaces.choice.draw(rng)
+        piece, sampler = spaces[k]
+        start = sampler.point(rng)
+        if not shapely.intersects_xy(piece, *start):
+            continue
+        if any(math.dist(start, (x, y)) < r + q + GAP for x, y, q in taken):
+            continue
+        headings = rng.uniform(-math.pi, math.pi, 48)
+        reach = trip * rng.uniform(0.3, 1.0, 48)
+        ends = np.round(
+            np.asarray(start) + reach[:, None] * np.stack([np.cos(headings), np.sin(headings)], 1), 3
+        )
+        lines = shapely.linestrings(np.stack([np.broadcast_to(start, ends.shape), ends], 1))
+        ok = np.flatnonzero(shapely.covers(piece, lines) & (reach >= SHORTEST))
+        if len(ok):
+            best = ok[int(np.argmax(reach[ok]))]
+            return start, (float(ends[best, 0]) + 0.0, float(ends[best, 1]) + 0.0)
     return None
 
 

@@ -202,13 +202,11 @@ def ground_margin(cfg: GroundConfig) -> float:
     return cfg.curb_width[1] + cfg.sidewalk_width[1]
 
 
-def plan_ground(
-    bounds: Bounds, blocks: Sequence, cfg: GroundConfig, rng: np.random.Generator, *, seed: int | None = None
-) -> tuple[Zone, ...]:
-    """Zones tiling ``bounds`` around the road ``blocks``."""
-    if not blocks:
-        raise GenerationError("ground", seed, "a road layout needs at least one block")
-    (x0, y0), (x1, y1) = bounds.min, bounds.max
+def street_bands(blocks: Sequence, cfg: GroundConfig, rng: np.random.Generator):
+    """The ground of the streets, drawn from ``rng`` in this order: the curb width, each
+    block's crosswalks (``child(rng, k)``), each block's sidewalk strips
+    (``child(rng, len(blocks) + k)``). Returns ``(crosswalks, roads, curbs, islands,
+    sidewalks)``, sidewalks a dict of the furnishing, clear and frontage bands."""
     geoms = [block_geometry(b) for b in blocks]
     curb = uniform(rng, cfg.curb_width)
     roads = shapely.union_all([g.outline for g in geoms], grid_size=GRID)
@@ -254,6 +252,17 @@ def plan_ground(
         ):
             bands[strip].append(g.outline.buffer(reach, quad_segs=QUAD_SEGS))
     sidewalks = {strip: shapely.union_all(shapes) for strip, shapes in bands.items()}
+    return crosswalks, roads, curbs, islands, sidewalks
+
+
+def plan_ground(
+    bounds: Bounds, blocks: Sequence, cfg: GroundConfig, rng: np.random.Generator, *, seed: int | None = None
+) -> tuple[Zone, ...]:
+    """Zones tiling ``bounds`` around the road ``blocks``."""
+    if not blocks:
+        raise GenerationError("ground", seed, "a road layout needs at least one block")
+    (x0, y0), (x1, y1) = bounds.min, bounds.max
+    crosswalks, roads, curbs, islands, sidewalks = street_bands(blocks, cfg, rng)
     setback = uniform(rng, cfg.building_setback)
     street = sidewalks["frontage"]
     near = street.buffer(setback, quad_segs=QUAD_SEGS) if setback > 0.25 else None

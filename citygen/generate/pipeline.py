@@ -18,6 +18,12 @@ them again, rebuilding from any later stage keeps the scene's (a start or goal m
 hand survives, the terrain and objects made again respect it). The rest of the task
 (robot, time limit, tolerances) comes from the config whenever the task stage runs.
 
+**Cities.** ``layout = "city"`` plans the streets (:func:`citygen.generate.city.plan_city`, from
+the ``blocks`` stage's generator) and the ground of each city block
+(:func:`citygen.generate.city_ground.plan_city_ground`, from the ``ground`` stage's); a traverse
+task there runs along the sidewalks and crosswalks (:func:`~citygen.generate.task.street_route`),
+and people walk straight lines that stay on walkable ground.
+
 **Tracks.** ``layout = "track"`` (Urban-Tra-Standard) lays :class:`~citygen.spec.config.TrackUnit`
 units side by side along +x, one walkable zone each (``unit-1`` ...). The terrain keeps the
 even units flat at street level (they are handed to the terrain stage as hard ground) and
@@ -39,10 +45,12 @@ from citygen._version import __version__
 from citygen.errors import GenerationError, Problem, SpecError
 from citygen.generate.agents import place_agents
 from citygen.generate.blocks import connect_blocks
+from citygen.generate.city import plan_city
+from citygen.generate.city_ground import plan_city_ground
 from citygen.generate.ground import ground_margin, plan_ground, plan_region
 from citygen.generate.placement import place_objects
 from citygen.generate.space import walkable_ground, zone_polygon
-from citygen.generate.task import LEG, Endpoints, choose_endpoints, make_task, robot_clearance
+from citygen.generate.task import LEG, Endpoints, choose_endpoints, make_task, robot_clearance, street_route
 from citygen.generate.terrain import build_terrain
 from citygen.seeding import child, stage_rng
 from citygen.spec.config import GeneratorConfig, TaskConfig, TrackConfig
@@ -60,7 +68,7 @@ STAGES = ("layout", "terrain", "placement", "agents", "task")
 def layout(
     config: GeneratorConfig, seed: int, *, split: str | None = None, index: int | None = None
 ) -> Scene:
-    """Stages 1 and 2: the road blocks (for ``layout="blocks"``) and the zones of a scene."""
+    """Stages 1 and 2: the road blocks (for ``layout="blocks"`` and ``"city"``) and the zones of a scene."""
     bounds = Bounds(min=(0.0, 0.0), max=config.size)
     blocks: tuple = ()
     if config.layout == "blocks":
@@ -68,6 +76,14 @@ def layout(
             bounds, config.blocks, stage_rng(seed, "blocks"), seed=seed, margin=ground_margin(config.ground)
         )
         zones = plan_ground(bounds, blocks, config.ground, stage_rng(seed, "ground"), seed=seed)
+    elif config.layout == "city":
+        plan = plan_city(
+            bounds, config.city, config.blocks, config.ground, stage_rng(seed, "blocks"), seed=seed
+        )
+        blocks = plan.blocks
+        zones = plan_city_ground(
+            bounds, plan, config.ground, config.city, stage_rng(seed, "ground"), seed=seed
+        )
     elif config.layout == "region":
         zones = plan_region(bounds, config.region, stage_rng(seed, "ground"), seed=seed)
     elif config.layout == "track":
@@ -141,6 +157,8 @@ def _finish(scene: Scene, config: GeneratorConfig, seed: int, *, keep: int) -> S
         ends = endpoints_of(kept_task, config.task)
     elif track is not None and config.task.kind == "traverse":
         ends = track.laps(config.task)
+    elif config.layout == "city" and config.task.kind == "traverse":
+        ends = street_route(bounds, scene.zones, config.task, stage_rng(seed, "task"), seed=seed)
     else:
         ends = choose_endpoints(
             bounds, scene.zones, config.task, stage_rng(seed, "task"), seed=seed, walkable=walkable
@@ -190,6 +208,7 @@ def _finish(scene: Scene, config: GeneratorConfig, seed: int, *, keep: int) -> S
             robot_radius=robot_clearance(config.task),
             seed=seed,
             walkable=walkable,
+            straight=config.layout == "city",
         )
     task = _task(config.task, ends, terrain, seed, kept_task)
     return scene.model_copy(

@@ -27,6 +27,8 @@ IntRange = tuple[Int, Int]
 Weight = bounded_float(0.0, 1e6)
 LotRange = tuple[bounded_float(2.0, 10_000.0), bounded_float(2.0, 10_000.0)]
 """``[low, high]`` side of a lot in metres."""
+Span = tuple[bounded_float(5.0, 1_000.0), bounded_float(5.0, 1_000.0)]
+"""``[low, high]`` length of a street plan's part in metres."""
 
 
 class RegionShapes(SpecModel):
@@ -98,6 +100,46 @@ class BlocksConfig(SpecModel):
     """Minimum gap between roads that do not connect, in metres."""
     max_tries: bounded_int(1, 100_000) = 200
     """Candidate blocks sampled before the generator gives up with a clear error."""
+
+
+class CityConfig(SpecModel):
+    """The street plan of ``layout = "city"``: a perturbed grid of arterial and local streets
+    that closes into city blocks, and what each city block is built as."""
+
+    street_spacing: Span = (100.0, 150.0)
+    """Distance between the centre lines of neighbouring parallel streets, in metres (city
+    blocks of 80-250 m between the sidewalks)."""
+    edge_inset: Span = (30.0, 45.0)
+    """Distance from the scene's edge to the centre line of the outermost streets, in metres."""
+    grid_irregularity: bounded_float(0.0, 0.5) = 0.12
+    """Share of the interior local street segments left out, each joining two city blocks
+    into one (its junctions become T-intersections)."""
+    arterial_share: bounded_float(0.0, 1.0) = 0.3
+    """Share of the street lines that are arterials (``arterial_lanes`` lanes each way)."""
+    arterial_lanes: bounded_int(1, 4) = 2
+    """Lanes in each direction of an arterial street."""
+    local_lanes: bounded_int(1, 4) = 1
+    """Lanes in each direction of a local street."""
+    roundabout_share: bounded_float(0.0, 1.0) = 0.08
+    """Share of the four-way junctions built as roundabouts (never two side by side)."""
+    corner_radius: Span = (20.0, 35.0)
+    """Centre-line radius of the curves at the corners of the outer streets, in metres."""
+    downtown_radius: bounded_float(0.0, 1.5) = 0.45
+    """City blocks whose centre is within this share of half the scene's size from its centre
+    are downtown: buildings fill the whole frontage (continuous street walls)."""
+    park_share: bounded_float(0.0, 1.0) = 0.08
+    """Share of the city blocks that are parks (lawn crossed by trails)."""
+    plaza_share: bounded_float(0.0, 1.0) = 0.04
+    """Share of the city blocks that are public plazas."""
+    parking_share: bounded_float(0.0, 1.0) = 0.25
+    """Share of the downtown courtyards (the lots behind the frontage lots) that are parking;
+    half as many of the residential back-yard lots are."""
+    lot_depth: Span = (18.0, 28.0)
+    """Depth of the frontage lots behind the sidewalk, in metres."""
+    lot_width: Span = (14.0, 30.0)
+    """Width of the lots along the street, in metres."""
+    residential_setback: Range = (2.0, 5.0)
+    """Front yard between the sidewalk and the lots of residential city blocks, in metres."""
 
 
 class GroundConfig(SpecModel):
@@ -301,11 +343,14 @@ class GeneratorConfig(SpecModel):
     format: Literal["citygen.config/1"] = "citygen.config/1"
     size: Vec2 = (10.0, 10.0)
     """Width (x) and depth (y) of the scene, in metres."""
-    layout: Literal["region", "blocks", "curriculum", "track"] = "region"
-    """``region`` for small roadless scenes, ``blocks`` for road networks, ``curriculum`` for
-    locomotion grids, ``track`` for the Urban-Tra-Standard running track."""
+    layout: Literal["region", "blocks", "curriculum", "track", "city"] = "region"
+    """``region`` for small roadless scenes, ``blocks`` for road networks grown block by block,
+    ``city`` for a city's street grid of city blocks, ``curriculum`` for locomotion grids,
+    ``track`` for the Urban-Tra-Standard running track."""
     region: RegionConfig = RegionConfig()
     blocks: BlocksConfig = BlocksConfig()
+    city: CityConfig = CityConfig()
+    """The street plan of a ``city`` layout (ignored by the other layouts)."""
     ground: GroundConfig = GroundConfig()
     terrain: TerrainConfig = TerrainConfig()
     placement: PlacementConfig = PlacementConfig()
@@ -382,7 +427,7 @@ def check_config(config: BaseModel, path: str = "$") -> list[Problem]:
     return problems
 
 
-_RANGE_TYPES = (Range, IntRange, LotRange)
+_RANGE_TYPES = (Range, IntRange, LotRange, Span)
 
 
 def _is_range(config: BaseModel, name: str, field: object) -> bool:
