@@ -134,6 +134,7 @@ def run(
     """Run one episode on a scene and print its metrics; optionally save frames or an animation."""
     from citygen.io import load_scene
     from citygen.runner.bench import make_env, run_episode
+    from citygen.runner.learn.policy import resolve_policy
     from citygen.runner.policies import POLICIES, make_policy
 
     spec = load_scene(scene)
@@ -141,7 +142,8 @@ def run(
     if kind is None:
         raise SpecError(f"{scene}: $.task: expected a task in the scene, or give --task")
     _check(kind, TASKS, "--task")
-    _check(policy, POLICIES, "--policy")
+    options = {} if adapter is None else {"adapter": str(adapter)}
+    policy = resolve_policy(policy, kind, robot, POLICIES, **options)  # a name, or a model file's path
     want_pictures = frames is not None or animation is not None
     env = make_env(kind, spec, robot=robot, adapter=None if adapter is None else str(adapter),
                    render_mode="rgb_array" if want_pictures else None)  # fmt: skip

@@ -216,7 +216,8 @@ def plot_curve(out: Path) -> Path | None:
     ax.set_title(
         f"PPO {config.get('task', '')} {config.get('robot_name', '')} on {config.get('train_split', '')}"
     )
-    fig.legend(loc="lower right")
+    (h1, l1), (h2, l2) = ax.get_legend_handles_labels(), ax2.get_legend_handles_labels()
+    ax.legend(h1 + h2, l1 + l2, loc="upper left")
     fig.tight_layout()
     png = out / "curve.png"
     fig.savefig(png)
@@ -339,11 +340,17 @@ def train(
             bar.stop()
             bar = None
         save_checkpoint(model, venv, out, cfg.keep_checkpoints)
-        venv.close()
+        try:
+            venv.close()
+        except Exception:  # workers that got the Ctrl-C too are gone already
+            pass
         raise TrainError(
             f"interrupted at {model.num_timesteps:,} steps; checkpoint saved, "
             f"continue with --resume --out {out}"
         ) from None
+    except BaseException:
+        venv.close()  # no worker process outlives a failed run
+        raise
     finally:
         if bar is not None:
             bar.stop()
