@@ -21,6 +21,7 @@ Seeded: the same config and seed give the same run as far as PyTorch's CPU kerne
 from __future__ import annotations
 
 import collections
+import contextlib
 import csv
 import json
 import sys
@@ -340,10 +341,8 @@ def train(
             bar.stop()
             bar = None
         save_checkpoint(model, venv, out, cfg.keep_checkpoints)
-        try:
+        with contextlib.suppress(BaseException):  # workers that got the Ctrl-C too are gone already
             venv.close()
-        except Exception:  # workers that got the Ctrl-C too are gone already
-            pass
         raise TrainError(
             f"interrupted at {model.num_timesteps:,} steps; checkpoint saved, "
             f"continue with --resume --out {out}"

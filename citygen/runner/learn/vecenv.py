@@ -64,8 +64,15 @@ class SceneSchedule(gymnasium.Wrapper):
 def _sub_env(
     task: str, split: str, robot: str, scenes: int | None, sampling: str, seed: int, rank: int, period: int
 ) -> gymnasium.Env:
+    import multiprocessing
+    import signal
+
     from citygen.runner.bench import make_env
 
+    if multiprocessing.parent_process() is not None:
+        # A worker of AsyncVectorEnv: Ctrl-C is the trainer's to handle (it saves a checkpoint
+        # and closes the workers), not a traceback in every worker.
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
     env = make_env(task, split=split, robot=robot)
     return SceneSchedule(env, scenes=scenes, sampling=sampling, seed=seed, rank=rank, period=period)
 
