@@ -52,6 +52,8 @@ ARGS: dict[str, list[str]] = {
     # 100,000 scenes (the issue's memory run) take 17-30 minutes alone; 4,000 show the trend.
     "bench_dataset": ["--rss-scenes", "4000", "--city"],
     "profile_generate": ["--scenes", "40"],
+    # the scaling experiment's quick variant (the full one takes hours: see its docstring)
+    "bench_learning": ["--quick"],
 }
 """Arguments per script (by file stem); scripts not listed run with none."""
 EXTRA = ("profile_generate", "profile_export")

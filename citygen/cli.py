@@ -14,6 +14,7 @@ import typer
 
 import citygen
 from citygen.cli_runner import register as register_runner
+from citygen.cli_train import register as register_train
 from citygen.errors import CitygenError, Problem, SpecError
 
 app = typer.Typer(
@@ -498,6 +499,7 @@ def assets_render(
 
 # `citygen bench` and `citygen run` (the MuJoCo runner) live in their own module.
 register_runner(app)
+register_train(app)  # `citygen train` (the optional `train` extra)
 
 
 def _print_error(exc: CitygenError) -> None:

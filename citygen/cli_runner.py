@@ -48,7 +48,8 @@ def bench(
         typer.Option(
             "--policy",
             "-p",
-            help="random, planner, stand, trot, human, ai, shared-cautious, shared-efficient.",
+            help="random, planner, stand, trot, human, ai, shared-cautious, shared-efficient; "
+            "ppo (the shipped learned baseline) or a model file of `citygen train` (.npz, .zip).",
         ),
     ] = "planner",
     episodes: Annotated[
@@ -65,13 +66,14 @@ def bench(
     """Run a baseline on a split and print the URBAN-BENCH table (mean and standard error per metric)."""
     from citygen.runner.bench import run_bench, summary_json
     from citygen.runner.envs import DEFAULT_SPLIT
+    from citygen.runner.learn.policy import resolve_policy
     from citygen.runner.metrics import format_table
     from citygen.runner.policies import POLICIES
 
     _check(task, TASKS, "--task")
-    _check(policy, POLICIES, "--policy")
     split = split or DEFAULT_SPLIT[task]
     options = {} if adapter is None else {"adapter": str(adapter)}
+    policy = resolve_policy(policy, task, robot, POLICIES, **options)  # a name, or a model file's path
     robot_arg = robot
     if output is not None and output.exists() and output.is_dir():
         raise SpecError(f"{output}: expected a file path for --output, got a folder")
@@ -132,6 +134,7 @@ def run(
     """Run one episode on a scene and print its metrics; optionally save frames or an animation."""
     from citygen.io import load_scene
     from citygen.runner.bench import make_env, run_episode
+    from citygen.runner.learn.policy import resolve_policy
     from citygen.runner.policies import POLICIES, make_policy
 
     spec = load_scene(scene)
@@ -139,7 +142,8 @@ def run(
     if kind is None:
         raise SpecError(f"{scene}: $.task: expected a task in the scene, or give --task")
     _check(kind, TASKS, "--task")
-    _check(policy, POLICIES, "--policy")
+    options = {} if adapter is None else {"adapter": str(adapter)}
+    policy = resolve_policy(policy, kind, robot, POLICIES, **options)  # a name, or a model file's path
     want_pictures = frames is not None or animation is not None
     env = make_env(kind, spec, robot=robot, adapter=None if adapter is None else str(adapter),
                    render_mode="rgb_array" if want_pictures else None)  # fmt: skip

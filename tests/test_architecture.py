@@ -35,6 +35,7 @@ LAYERS = {
     "citygen.runner": "runner",
     "citygen.cli": "cli",
     "citygen.cli_runner": "cli",
+    "citygen.cli_train": "cli",
     "citygen.__main__": "cli",
     "citygen": "package",
 }

@@ -115,7 +115,7 @@ def run_bench(
     the per-episode metric rows, in episode order (the same for any ``jobs``)."""
     from citygen.runner.policies import POLICIES
 
-    if policy not in POLICIES:
+    if policy not in POLICIES and not policy.lower().endswith((".npz", ".zip")):  # a learned model's file
         raise SpecError(f"policy: expected one of {', '.join(POLICIES)}, got {policy!r}")
     if task not in KINDS:
         raise SpecError(f"task: expected one of {', '.join(KINDS)}, got {task!r}")

@@ -14,7 +14,9 @@ with ``goal`` (the goal in the robot's frame, m), ``velocity`` (``[vx, vy, wz]``
 robot's frame) and ``height_map`` (ground heights relative to the robot's feet on a
 1.6 m x 1.0 m grid around it, every 0.1 m, from :func:`citygen.height_at`), plus ``depth``
 and ``rgb`` (MuJoCo renderer, ``image_size`` square, off unless asked) and ``rays``
-(ranges of :data:`RAY_COUNT` horizontal rays, off unless asked). Reward per step:
+(ranges of :data:`RAY_COUNT` horizontal rays, off unless asked), and ``local_map``
+(elevation of everything and walkability around the robot, :mod:`citygen.runner.localmap`);
+the last step's ``info["is_success"]`` says whether the goal was reached. Reward per step:
 ``+50`` on reaching the goal and ``-100`` on leaving the scene's bounds (both end the
 episode; a fall ends it like leaving the bounds), ``2.0 * [(1 - tanh(d / 1.0)) + 0.2 (1 -
 tanh(d / 0.2))]`` for the distance ``d`` to the goal, ``-0.5`` on non-walkable ground and
@@ -55,6 +57,7 @@ from gymnasium import spaces
 
 from citygen.errors import SpecError
 from citygen.geometry.terrain import height_at
+from citygen.runner import localmap
 from citygen.runner import metrics as M
 from citygen.runner.scenes import Prepared, SceneSource, process_cache
 from citygen.spec import Scene
@@ -381,6 +384,7 @@ class NavEnv(_CitygenEnv):
             "goal": spaces.Box(-np.inf, np.inf, (2,), np.float32),
             "velocity": spaces.Box(-np.inf, np.inf, (3,), np.float32),
             "height_map": self._height_space(),
+            "local_map": localmap.space(),
         }
         obs.update(self._image_spaces())
         self.observation_space = spaces.Dict(obs)
@@ -544,6 +548,7 @@ class NavEnv(_CitygenEnv):
             left = 0.0 if success else self.prepared.geodesic((x, y), self.goal)
             self.recorder.finish(success=success, distance_left=left if math.isfinite(left) else d)
             info["metrics"] = M.nav_metrics(self.recorder)
+            info["is_success"] = success
         return obs, float(reward), bool(terminated), bool(truncated), info
 
     def _observation(self) -> dict[str, np.ndarray]:
@@ -556,6 +561,7 @@ class NavEnv(_CitygenEnv):
             "goal": np.array([gu, gv], dtype=np.float32),
             "velocity": np.array([vel[0], vel[1], vel[3]], dtype=np.float32),
             "height_map": self._height_map(x, y, feet, yaw),
+            "local_map": localmap.observe(self, x, y, yaw, feet),
         }
         obs.update(self._images((x, y, z, yaw)))
         return obs

@@ -211,4 +211,8 @@ def make_policy(name: str, *, seed: int = 0, driver: Driver | None = None) -> Po
         return GaitPolicy(name)
     if name in MODES:
         return ControlMode(MODES[name], driver)
+    if name.lower().endswith((".npz", ".zip")):  # a learned model (citygen.runner.learn)
+        from citygen.runner.learn.policy import load_policy
+
+        return load_policy(name)
     raise SpecError(f"policy: expected one of {', '.join(POLICIES)}, got {name!r}")

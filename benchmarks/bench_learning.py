@@ -1,0 +1,180 @@
+"""The paper's scaling experiment: NavStatic success on urban-nav-2-test after the same number of
+PPO steps on 1, 8, 64, 256 and 1,024 distinct training scenes, with asynchronous scene sampling
+(each sub-environment its own scene) against synchronous (all sub-environments the same scene).
+
+    python benchmarks/bench_learning.py            # the full experiment (hours: see below)
+    python benchmarks/bench_learning.py --quick    # run_all.py's variant (1, 8, 64 scenes; minutes)
+
+Each (scenes, sampling) pair is one ``citygen train`` run (the same config, seed and steps;
+scenes beyond the split's 256 continue urban-nav-2-train's seed derivation) into
+``--out/<sampling>-<scenes>/``, evaluated deterministically on the first ``--episodes``
+scenes of urban-nav-2-test. One scene is the same run under both samplings, so it is trained
+once. The paper (URBAN-SIM, section "Evaluation of Scalability") reports 5.1 % success with
+1 scene and 83.2 % with 1,024, async ahead of sync from 8 scenes on; its figure gives no
+other numbers, so those two points stand beside ours in the plot.
+
+Full size: 9 runs of ``--steps`` (default 300,000) on 8 sub-environments: about 9 x 300k /
+(steps/s of the machine) -- 2.5 hours at 300 steps/s. ``--quick``: 1, 8 and 64 scenes,
+6,400 steps each (4 rollouts of 8 x 200), 16 test episodes: about 10 minutes on 2 idle cores;
+it checks the pipeline end to end, the steps are far too few to learn. Prints a table, and
+as its last line one JSON object of figures.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+#: The paper's points: training scenes -> success rate (%), asynchronous sampling.
+PAPER = {1: 5.1, 1024: 83.2}
+
+
+def _ints(text: str) -> list[int]:
+    return [int(x) for x in text.split(",") if x]
+
+
+def run_one(scenes: int, sampling: str, args: argparse.Namespace) -> dict:
+    from citygen.runner.bench import run_bench
+    from citygen.runner.learn.config import load_config
+    from citygen.runner.learn.train import train
+
+    out = args.out / f"{sampling}-{scenes}"
+    cfg = load_config(
+        args.config,
+        task="nav-static",
+        split="urban-nav-2-train",
+        robot=args.robot,
+        steps=args.steps,
+        envs=args.envs,
+        seed=args.seed,
+        scenes=scenes,
+        sampling=sampling,
+        checkpoint_every=max(args.steps // 4, 1),
+    )
+    t0 = time.perf_counter()
+    resume = (out / "checkpoints").exists() and not (out / "policy.npz").exists()
+    if not (out / "policy.npz").exists():
+        train(cfg, out, resume=resume, progress=sys.stderr.isatty())
+    train_s = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    rows = run_bench(
+        "nav-static",
+        "urban-nav-2-test",
+        robot=args.robot,
+        policy=str(out / "policy.npz"),
+        episodes=args.episodes,
+        jobs=args.jobs,
+        seed=args.seed,
+    )
+    n = len(rows)
+    return {
+        "scenes": scenes,
+        "sampling": sampling,
+        "success_rate": sum(r["success_rate"] for r in rows) / n,
+        "route_completion": sum(r["route_completion"] for r in rows) / n,
+        "train_s": train_s,
+        "eval_s": time.perf_counter() - t0,
+    }
+
+
+def plot(results: list[dict], path: Path, steps: int) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.5, 4), dpi=110)
+    for sampling, colour in (("async", "tab:green"), ("sync", "tab:orange")):
+        pts = sorted((r["scenes"], r["success_rate"]) for r in results if r["sampling"] == sampling)
+        if pts:
+            ax.plot(*zip(*pts, strict=True), "o-", color=colour, label=f"citygen, {sampling} sampling")
+    ax.plot(list(PAPER), list(PAPER.values()), "k*", markersize=12, label="URBAN-SIM paper (async)")
+    ax.set_xscale("log", base=2)
+    ax.set_xlabel("distinct training scenes")
+    ax.set_ylabel("NavStatic success on urban-nav-2-test (%)")
+    ax.set_ylim(0, 100)
+    ax.set_title(f"PPO, {steps:,} steps per run, wheeled robot")
+    ax.legend(loc="upper left")
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--quick", action="store_true", help="1, 8, 64 scenes, 6,400 steps, 16 episodes")
+    p.add_argument("--scenes", type=_ints, default=None, help="comma-separated scene counts")
+    p.add_argument("--sampling", default="async,sync", help="async, sync or both (comma-separated)")
+    p.add_argument("--steps", type=int, default=None, help="PPO steps per run (default 300,000)")
+    p.add_argument("--envs", type=int, default=8, help="sub-environments")
+    p.add_argument("--episodes", type=int, default=None, help="test episodes (default 256)")
+    p.add_argument("--jobs", type=int, default=None, help="evaluation processes (default: every core)")
+    p.add_argument("--robot", default="wheeled")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--config", type=Path, default=None, help="a TrainConfig file (TOML/JSON) for every run")
+    p.add_argument(
+        "--out",
+        type=Path,
+        default=HERE / "logs" / "learning",
+        help="run folders (reused: a finished run is evaluated again, an interrupted one resumed)",
+    )
+    args = p.parse_args()
+    args.scenes = args.scenes or ([1, 8, 64] if args.quick else [1, 8, 64, 256, 1024])
+    args.steps = args.steps or (6_400 if args.quick else 300_000)
+    args.episodes = args.episodes or (16 if args.quick else 256)
+    samplings = [s for s in args.sampling.split(",") if s]
+    if args.quick and args.out == HERE / "logs" / "learning":
+        args.out = HERE / "logs" / "learning-quick"
+
+    t0 = time.perf_counter()
+    results = []
+    for scenes in args.scenes:
+        for sampling in samplings:
+            if sampling == "sync" and scenes == 1 and "async" in samplings:
+                continue  # one scene: both samplings are the same run
+            results.append(run_one(scenes, sampling, args))
+            r = results[-1]
+            print(
+                f"{sampling:>5} {scenes:>5} scenes: success {r['success_rate']:5.1f} %, "
+                f"route completion {r['route_completion']:5.1f} % ({r['train_s']:.0f} s training)",
+                flush=True,
+            )
+    one = next((r for r in results if r["scenes"] == 1), None)
+    if one is not None and "sync" in samplings and "async" in samplings:
+        results.append({**one, "sampling": "sync"})
+    plot(results, HERE / "plots" / ("learning_quick.png" if args.quick else "learning.png"), args.steps)
+
+    print()
+    print(
+        f"NavStatic success (%) on urban-nav-2-test ({args.episodes} episodes) after {args.steps:,} PPO steps"
+    )
+    print(f"{'scenes':>7} {'async':>7} {'sync':>7} {'paper':>7}")
+    by = {(r["scenes"], r["sampling"]): r["success_rate"] for r in results}
+    for scenes in args.scenes:
+        cells = [by.get((scenes, s)) for s in ("async", "sync")]
+        paper = PAPER.get(scenes)
+        print(
+            f"{scenes:>7} "
+            + " ".join("      -" if c is None else f"{c:7.1f}" for c in cells)
+            + ("       -" if paper is None else f" {paper:7.1f}")
+        )
+    figures = {
+        f"success_{r['sampling']}_{r['scenes']}_scenes_pct": round(r["success_rate"], 2) for r in results
+    }
+    figures.update(
+        {
+            "steps_per_run": args.steps,
+            "test_episodes": args.episodes,
+            "wall_s": round(time.perf_counter() - t0, 1),
+        }
+    )
+    print(json.dumps(figures))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,99 @@
+"""``citygen train``: PPO on citygen's environments (registered on the app by :mod:`citygen.cli`).
+Stable-Baselines3 and PyTorch (the optional ``train`` extra) are imported when it runs."""
+
+from __future__ import annotations
+
+import shlex
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+
+def train(
+    task: Annotated[
+        str | None,
+        typer.Option(
+            "--task", "-t", help="nav-clear, nav-static, nav-dynamic or loco-*.  [default: nav-static]"
+        ),
+    ] = None,
+    split: Annotated[
+        str | None, typer.Option("--split", "-s", help="Training split.  [default: the task's train split]")
+    ] = None,
+    robot: Annotated[
+        str | None, typer.Option("--robot", "-r", help="Robot.  [default: wheeled; quadruped for locomotion]")
+    ] = None,
+    steps: Annotated[
+        int | None, typer.Option("--steps", "-n", help="Environment steps in all.  [default: 1000000]")
+    ] = None,
+    envs: Annotated[
+        int | None, typer.Option("--envs", help="Parallel sub-environments.  [default: 8]")
+    ] = None,
+    out: Annotated[
+        Path, typer.Option("--out", "-o", help="Run folder: checkpoints, logs, curve, model.")
+    ] = Path("runs/ppo"),
+    config: Annotated[
+        Path | None,
+        typer.Option("--config", "-c", help="TOML/JSON of TrainConfig fields; options override it."),
+    ] = None,
+    resume: Annotated[
+        bool, typer.Option("--resume", help="Continue the run in --out from its last checkpoint.")
+    ] = False,
+    seed: Annotated[int | None, typer.Option("--seed", help="Seed of the run.  [default: 0]")] = None,
+    scenes: Annotated[
+        int | None,
+        typer.Option("--scenes", help="Distinct training scenes.  [default: every scene of the split]"),
+    ] = None,
+    processes: Annotated[
+        int | None,
+        typer.Option(
+            "--processes",
+            help="1: a process per sub-environment, 0: all in this one.  "
+            "[default: 1 on a multi-core machine]",
+        ),
+    ] = None,
+    sampling: Annotated[
+        str | None,
+        typer.Option("--sampling", help="async (a scene per sub-environment) or sync.  [default: async]"),
+    ] = None,
+) -> None:
+    """Train a PPO policy (the paper's hyperparameters) and export it for `citygen bench --policy`."""
+    from citygen.runner.learn.config import load_config
+    from citygen.runner.learn.train import require_train
+    from citygen.runner.learn.train import train as run
+
+    require_train()
+    cfg = load_config(
+        config,
+        task=task,
+        split=split,
+        robot=robot,
+        steps=steps,
+        envs=envs,
+        seed=seed,
+        scenes=scenes,
+        sampling=sampling,
+        processes=processes,
+    )
+    command = (
+        "citygen " + shlex.join(sys.argv[1:]) if sys.argv and Path(sys.argv[0]).name == "citygen" else None
+    )
+    typer.echo(
+        f"training PPO on {cfg.task} ({cfg.train_split}, robot {cfg.robot_name}) for {cfg.steps:,} steps "
+        f"with {cfg.envs} sub-environments into {out}/"
+    )
+    result = run(cfg, out, resume=resume, command=command)
+    rate = "-" if result.success_rate is None else f"{result.success_rate:.1f} %"
+    typer.echo(
+        f"{result.steps:,} steps in {result.seconds:.0f} s, training success {rate} (last 100 episodes)"
+    )
+    typer.echo(
+        f"wrote {result.policy} (evaluate: citygen bench --task {cfg.task} --robot {cfg.robot_name} "
+        f"--policy {result.policy})"
+    )
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``citygen train`` to ``app``."""
+    app.command()(train)

@@ -1,0 +1,137 @@
+"""The configuration of a ``citygen train`` run: one frozen pydantic model, the paper's PPO
+hyperparameters as defaults (appendix, "Hyper-parameters of RL in urban navigation").
+
+The paper gives horizon 200, learning rate 4e-4, gamma 0.99, GAE lambda 0.95, clip 0.2,
+value-loss coefficient 1.0, entropy coefficient 5e-4, and a train batch of 256 envs x 60
+steps cut into SGD minibatches of 3,840 (four minibatches per batch). It names neither the
+network nor the number of epochs: citygen uses two hidden layers of 128 (tanh) for the actor
+and the critic and 5 epochs. On a laptop CPU the batch is ``envs`` x ``n_steps`` with
+``n_steps`` = the horizon (200), still cut into :attr:`TrainConfig.minibatches` = 4.
+
+A ``--config FILE`` (TOML or JSON) holds any of the fields; command-line options override it.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+#: Observation keys a navigation policy sees (images stay off: an MLP policy).
+NAV_KEYS = ("goal", "velocity", "height_map", "local_map")
+#: Observation keys a locomotion policy sees.
+LOCO_KEYS = ("base_lin_vel", "base_ang_vel", "command", "joint_pos", "joint_vel", "last_action", "height_map")
+
+#: The training split of each task kind (the test split is :data:`citygen.runner.envs.DEFAULT_SPLIT`).
+TRAIN_SPLIT = {
+    "nav-clear": "urban-nav-1-train",
+    "nav-static": "urban-nav-2-train",
+    "nav-dynamic": "urban-nav-3-train",
+    "loco-flat": "urban-loc-1-train",
+    "loco-slope": "urban-loc-2-train",
+    "loco-stair": "urban-loc-3-train",
+    "loco-rough": "urban-loc-4-train",
+}
+
+PositiveInt = Annotated[int, Field(ge=1)]
+
+
+class TrainConfig(BaseModel):
+    """Everything a training run depends on (units in the descriptions)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    task: Literal[
+        "nav-clear", "nav-static", "nav-dynamic", "loco-flat", "loco-slope", "loco-stair", "loco-rough"
+    ] = "nav-static"
+    split: str | None = Field(None, description="Training split; default the task's train split.")
+    robot: str | None = Field(None, description="Robot name; default wheeled (quadruped for locomotion).")
+    steps: Annotated[int, Field(ge=1, le=10**10)] = Field(1_000_000, description="Environment steps in all.")
+    envs: Annotated[int, Field(ge=1, le=4096)] = Field(8, description="Parallel sub-environments.")
+    processes: Annotated[int, Field(ge=0, le=1)] | None = Field(
+        None,
+        description="0 runs every sub-environment in this process, 1 one process per "
+        "sub-environment; default 1 when the machine has more than one core and envs > 1.",
+    )
+    seed: Annotated[int, Field(ge=0)] = 0
+    scenes: Annotated[int, Field(ge=1, le=100_000)] | None = Field(
+        None,
+        description="Distinct training scenes (the split's first N, extended past its end); "
+        "default every scene of the split.",
+    )
+    sampling: Literal["async", "sync"] = Field(
+        "async",
+        description="async: every sub-environment draws its own scene at each reset; sync: "
+        "all sub-environments run the same scene, a new one every rollout.",
+    )
+    # PPO (paper defaults)
+    n_steps: PositiveInt = Field(200, description="Rollout steps per sub-environment (the horizon).")
+    learning_rate: Annotated[float, Field(gt=0, le=1)] = 4e-4
+    gamma: Annotated[float, Field(ge=0, le=1)] = 0.99
+    gae_lambda: Annotated[float, Field(ge=0, le=1)] = 0.95
+    clip_range: Annotated[float, Field(gt=0, le=1)] = 0.2
+    vf_coef: Annotated[float, Field(ge=0)] = 1.0
+    ent_coef: Annotated[float, Field(ge=0)] = 5e-4
+    max_grad_norm: Annotated[float, Field(gt=0)] = 0.5
+    n_epochs: PositiveInt = 5
+    minibatches: PositiveInt = Field(4, description="SGD minibatches per rollout batch.")
+    net_arch: tuple[PositiveInt, ...] = Field(
+        (128, 128), description="Hidden layer widths (actor and critic)."
+    )
+    activation: Literal["tanh", "relu", "elu"] = "tanh"
+    normalize: bool = Field(True, description="Running mean/std of observations (exported) and rewards.")
+    # CPU and bookkeeping
+    torch_threads: Annotated[int, Field(ge=0, le=256)] = Field(
+        1, description="PyTorch threads (0: PyTorch's default); the sub-environments use the other cores."
+    )
+    checkpoint_every: Annotated[int, Field(ge=1)] = Field(50_000, description="Steps between checkpoints.")
+    keep_checkpoints: Annotated[int, Field(ge=1)] = 3
+
+    @property
+    def train_split(self) -> str:
+        return self.split or TRAIN_SPLIT[self.task]
+
+    @property
+    def robot_name(self) -> str:
+        return self.robot or ("quadruped" if self.task.startswith("loco") else "wheeled")
+
+    @property
+    def obs_keys(self) -> tuple[str, ...]:
+        return LOCO_KEYS if self.task.startswith("loco") else NAV_KEYS
+
+    @property
+    def batch_size(self) -> int:
+        """SGD minibatch size (samples)."""
+        return max(1, self.envs * self.n_steps // self.minibatches)
+
+
+def load_config(path: str | Path | None, **overrides) -> TrainConfig:
+    """The config of a file (TOML or JSON; none: the defaults) with ``overrides`` (the
+    command line's options that were given) on top; a :class:`~citygen.errors.SpecError`
+    naming the file and field when a value is wrong."""
+    import difflib
+
+    from citygen.errors import Problem, SpecError
+    from citygen.io import parse, read_document
+
+    file = str(path) if path is not None else "command line"
+    document = read_document(path) if path is not None else {}
+    if not isinstance(document, dict):
+        raise SpecError([Problem("$", "a table of TrainConfig fields", type(document).__name__)], file=file)
+    fields = list(TrainConfig.model_fields)
+    unknown = [
+        Problem(
+            f"$.{k}",
+            f"one of {', '.join(fields)}"
+            if not (m := difflib.get_close_matches(k, fields, 1))
+            else f"{m[0]!r} (misspelt?)",
+            f"unknown field {k!r}",
+        )
+        for k in document
+        if k not in fields
+    ]
+    if unknown:
+        raise SpecError(unknown, file=file)
+    document = {**document, **{k: v for k, v in overrides.items() if v is not None}}
+    return parse(TrainConfig, document, file=file)

@@ -1,0 +1,176 @@
+"""Learned policies without PyTorch: a trained SB3 PPO policy's MLP as a small ``.npz`` that
+numpy evaluates deterministically.
+
+An exported policy file holds (``np.load(path, allow_pickle=False)`` reads it):
+
+- ``meta``: one JSON string: ``format`` (:data:`FORMAT`), ``task``, ``robot``, ``keys`` (the
+  observation keys in the order the network reads them) with their ``shapes``, the action
+  space (``action_shape``, ``action_low``, ``action_high``), ``activation``, the
+  normalisation's ``clip_obs`` and ``epsilon``, and free-form ``train`` notes (steps,
+  seed, the command that made it);
+- ``obs_mean/<key>``, ``obs_var/<key>``: the running observation statistics (absent when
+  the run did not normalise observations);
+- ``w<i>``, ``b<i>``: the actor's hidden layers, then the action layer, as float32
+  ``(out, in)`` weights and ``(out,)`` biases; ``log_std`` for reference.
+
+:func:`act` computes what SB3's ``model.predict(obs, deterministic=True)`` computes for the
+same observation (after ``VecNormalize``): normalise and clip each key, flatten and
+concatenate in ``keys`` order, the hidden layers with their activation, the action layer's
+mean, clipped to the action bounds.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+#: The exported policy's format tag.
+FORMAT = "citygen.policy/1"
+
+_ACTIVATIONS = {
+    "tanh": np.tanh,
+    "relu": lambda x: np.maximum(x, 0.0),
+    "elu": lambda x: np.where(x > 0, x, np.expm1(np.minimum(x, 0.0))),
+}
+
+
+class NumpyPolicy:
+    """An exported policy (see the module docstring); ``reset(env)`` and ``act(obs)`` as the
+    runner's baselines."""
+
+    def __init__(self, meta: dict[str, Any], arrays: dict[str, np.ndarray]):
+        self.meta = meta
+        self.keys = tuple(meta["keys"])
+        self.shapes = {k: tuple(s) for k, s in zip(self.keys, meta["shapes"], strict=True)}
+        layers = sum(1 for k in arrays if k.startswith("w"))
+        self.weights = [arrays[f"w{i}"].astype(np.float32) for i in range(layers)]
+        self.biases = [arrays[f"b{i}"].astype(np.float32) for i in range(layers)]
+        self.norm = {
+            k: (arrays[f"obs_mean/{k}"].astype(np.float32), np.sqrt(arrays[f"obs_var/{k}"] + meta["epsilon"]))
+            for k in self.keys
+            if f"obs_mean/{k}" in arrays
+        }
+        self.activation = _ACTIVATIONS[meta["activation"]]
+        self.low = np.asarray(meta["action_low"], dtype=np.float32)
+        self.high = np.asarray(meta["action_high"], dtype=np.float32)
+
+    def features(self, obs: dict[str, Any]) -> np.ndarray:
+        """The network's input: a ``(batch, n)`` float32 array (``obs`` one observation or a batch)."""
+        parts = []
+        clip = float(self.meta["clip_obs"])
+        for k in self.keys:
+            x = np.asarray(obs[k], dtype=np.float32)
+            x = x.reshape(-1, *self.shapes[k])
+            if k in self.norm:
+                mean, std = self.norm[k]
+                x = np.clip((x - mean) / std.astype(np.float32), -clip, clip)
+            parts.append(x.reshape(x.shape[0], -1))
+        return np.concatenate(parts, axis=1)
+
+    def predict(self, obs: dict[str, Any]) -> np.ndarray:
+        """Deterministic actions, ``(batch, *action_shape)``."""
+        h = self.features(obs)
+        for w, b in zip(self.weights[:-1], self.biases[:-1], strict=True):
+            h = self.activation(h @ w.T + b)
+        mean = h @ self.weights[-1].T + self.biases[-1]
+        return np.clip(mean, self.low, self.high).reshape(-1, *self.meta["action_shape"])
+
+    # The runner's Policy protocol (citygen.runner.policies).
+    def reset(self, env: Any) -> None:
+        pass
+
+    def act(self, obs: dict[str, Any]) -> np.ndarray:
+        return self.predict(obs)[0]
+
+
+def policy_arrays(
+    model: Any,
+    obs_rms: dict[str, Any] | None,
+    *,
+    task: str,
+    robot: str,
+    clip_obs: float = 10.0,
+    epsilon: float = 1e-8,
+    activation: str = "tanh",
+    train: dict[str, Any] | None = None,
+) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """The metadata and arrays of an SB3 PPO ``model`` with an MLP actor (a
+    ``MultiInputPolicy`` over Box keys, whose feature extractor flattens and concatenates
+    them) and the ``VecNormalize`` statistics ``obs_rms`` (per key, or ``None``)."""
+    import torch
+
+    policy = model.policy
+    space = model.observation_space
+    keys = list(space.spaces)
+    linears = [m for m in policy.mlp_extractor.policy_net if isinstance(m, torch.nn.Linear)]
+    linears.append(policy.action_net)
+    arrays: dict[str, np.ndarray] = {}
+    for i, layer in enumerate(linears):
+        arrays[f"w{i}"] = layer.weight.detach().cpu().numpy().astype(np.float32)
+        arrays[f"b{i}"] = layer.bias.detach().cpu().numpy().astype(np.float32)
+    arrays["log_std"] = policy.log_std.detach().cpu().numpy().astype(np.float32)
+    if obs_rms is not None:
+        for k in keys:
+            arrays[f"obs_mean/{k}"] = np.asarray(obs_rms[k].mean, dtype=np.float64)
+            arrays[f"obs_var/{k}"] = np.asarray(obs_rms[k].var, dtype=np.float64)
+    act = model.action_space
+    meta = {
+        "format": FORMAT,
+        "task": task,
+        "robot": robot,
+        "keys": keys,
+        "shapes": [list(space[k].shape) for k in keys],
+        "action_shape": list(act.shape),
+        "action_low": np.asarray(act.low, dtype=float).ravel().tolist(),
+        "action_high": np.asarray(act.high, dtype=float).ravel().tolist(),
+        "activation": activation,
+        "clip_obs": float(clip_obs),
+        "epsilon": float(epsilon),
+        "train": train or {},
+    }
+    return meta, arrays
+
+
+def write_policy(path: str | Path, meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> Path:
+    """Write an exported policy (compressed ``.npz``) atomically, and its metadata beside it
+    as ``<name>.json`` for people to read."""
+    from citygen.io import write_atomic
+
+    path = Path(path)
+    buf = io.BytesIO()
+    np.savez_compressed(buf, meta=np.array(json.dumps(meta, sort_keys=True)), **arrays)
+    write_atomic(path, buf.getvalue())
+    write_atomic(path.with_suffix(".json"), (json.dumps(meta, indent=1, sort_keys=True) + "\n").encode())
+    return path
+
+
+def read_policy(path: str | Path) -> NumpyPolicy:
+    """An exported policy file, or a :class:`ValueError` saying what is wrong with it."""
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            arrays = {k: data[k] for k in data.files}
+    except Exception as exc:
+        raise ValueError(f"an .npz exported by `citygen train` ({type(exc).__name__}: {exc})") from None
+    if "meta" not in arrays:
+        raise ValueError("an .npz exported by `citygen train` (no 'meta' entry)")
+    try:
+        meta = json.loads(str(arrays.pop("meta")))
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"JSON metadata in its 'meta' entry ({exc})") from None
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        found = meta.get("format") if isinstance(meta, dict) else type(meta).__name__
+        raise ValueError(f"format {FORMAT!r} in its metadata, found {found!r}")
+    try:
+        policy = NumpyPolicy(meta, arrays)
+        width = sum(int(np.prod(s)) for s in policy.shapes.values())
+        probe = {k: np.zeros(s, dtype=np.float32) for k, s in policy.shapes.items()}
+        if policy.weights[0].shape[1] != width:
+            raise ValueError(f"a first layer reading {width} inputs, found {policy.weights[0].shape[1]}")
+        policy.predict(probe)
+    except (KeyError, TypeError, IndexError, ValueError) as exc:
+        raise ValueError(f"a complete exported policy ({type(exc).__name__}: {exc})") from None
+    return policy

@@ -1,0 +1,379 @@
+"""``citygen train``: PPO (Stable-Baselines3, CPU PyTorch) on citygen's vector environment.
+
+A run writes to its folder ``out``:
+
+- ``config.json``: the :class:`~citygen.runner.learn.config.TrainConfig` it ran with;
+- ``checkpoints/model_<steps>.zip`` + ``vecnormalize_<steps>.pkl`` every
+  ``checkpoint_every`` steps (the last ``keep_checkpoints`` kept) and on Ctrl-C;
+  ``--resume`` continues from the newest;
+- ``curve.csv`` (one row per rollout: steps, wall time, steps/s, episodes, success rate and
+  mean return of the last 100 episodes; appended across resumes) and ``curve.png``;
+- ``logs/run-<k>/``: SB3's own logs (losses; ``progress.csv``, and TensorBoard event files
+  when ``tensorboard`` is installed);
+- at the end ``model.zip`` + ``vecnormalize.pkl`` (SB3) and ``policy.npz`` + ``policy.json``
+  (the exported policy :mod:`citygen.runner.learn.export` runs without PyTorch).
+
+Seeded: the same config and seed give the same run as far as PyTorch's CPU kernels allow
+(:func:`torch.use_deterministic_algorithms` is on; the sub-environments are seeded
+``seed + i``).
+"""
+
+from __future__ import annotations
+
+import collections
+import contextlib
+import csv
+import json
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from citygen.errors import CitygenError
+from citygen.runner.learn.config import TrainConfig
+
+#: The one line printed when the optional dependencies are missing.
+MISSING = (
+    'citygen train needs the optional "train" extra (Stable-Baselines3 and PyTorch), which is not '
+    'installed: pip install -e ".[train]" (see the README\'s Training section for a CPU-only PyTorch)'
+)
+CURVE_FIELDS = ("steps", "seconds", "steps_per_s", "episodes", "success_rate", "return_mean")
+
+
+class TrainError(CitygenError):
+    """A training run that cannot start or continue."""
+
+
+def require_train() -> None:
+    """A one-line :class:`TrainError` naming the ``train`` extra when it is not installed."""
+    try:
+        import stable_baselines3  # noqa: F401
+        import torch  # noqa: F401
+    except ImportError:
+        raise TrainError(MISSING) from None
+
+
+@dataclass(frozen=True)
+class TrainResult:
+    out: Path
+    steps: int
+    seconds: float
+    success_rate: float | None
+    policy: Path
+
+
+def latest_checkpoint(out: Path) -> tuple[int, Path, Path] | None:
+    """``(steps, model.zip, vecnormalize.pkl)`` of the newest complete checkpoint in ``out``."""
+    found = []
+    for model in (out / "checkpoints").glob("model_*.zip"):
+        steps = model.stem.removeprefix("model_")
+        stats = model.with_name(f"vecnormalize_{steps}.pkl")
+        if steps.isdigit() and stats.exists():
+            found.append((int(steps), model, stats))
+    return max(found) if found else None
+
+
+class _Tracker:
+    """Episode outcomes and throughput, shared by the progress bar and the curve."""
+
+    def __init__(self, start_steps: int):
+        self.success: collections.deque[float] = collections.deque(maxlen=100)
+        self.returns: collections.deque[float] = collections.deque(maxlen=100)
+        self.episodes = 0
+        self.t0 = time.perf_counter()
+        self.start_steps = start_steps
+
+    def rate(self, steps: int) -> float:
+        return (steps - self.start_steps) / max(time.perf_counter() - self.t0, 1e-9)
+
+    def success_rate(self) -> float | None:
+        return 100.0 * sum(self.success) / len(self.success) if self.success else None
+
+
+def _callbacks(cfg: TrainConfig, out: Path, venv: Any, tracker: _Tracker, bar: Any, seconds0: float):
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class Callback(BaseCallback):
+        def _on_step(self) -> bool:
+            for done, info in zip(self.locals["dones"], self.locals["infos"], strict=True):
+                if done:
+                    tracker.episodes += 1
+                    tracker.success.append(float(info.get("is_success", False)))
+                    if "episode" in info:
+                        tracker.returns.append(float(info["episode"]["r"]))
+            n = self.model.num_timesteps
+            if bar is not None and self.n_calls % 10 == 0:
+                bar.update(n, tracker.rate(n), tracker.success_rate())
+            if n // cfg.checkpoint_every > (n - self.training_env.num_envs) // cfg.checkpoint_every:
+                save_checkpoint(self.model, venv, out, cfg.keep_checkpoints)
+                sr = tracker.success_rate()
+                print(
+                    f"{n:,} steps: success {'-' if sr is None else f'{sr:.1f} %'} (last 100 episodes), "
+                    f"{tracker.rate(n):.0f} steps/s, checkpoint saved",
+                    flush=True,
+                )
+            return True
+
+        def _on_rollout_end(self) -> None:
+            n = self.model.num_timesteps
+            row = {
+                "steps": n,
+                "seconds": round(seconds0 + time.perf_counter() - tracker.t0, 2),
+                "steps_per_s": round(tracker.rate(n), 1),
+                "episodes": tracker.episodes,
+                "success_rate": "" if tracker.success_rate() is None else round(tracker.success_rate(), 2),
+                "return_mean": round(sum(tracker.returns) / len(tracker.returns), 3)
+                if tracker.returns
+                else "",
+            }
+            path = out / "curve.csv"
+            new = not path.exists()
+            with open(path, "a", newline="") as f:
+                w = csv.DictWriter(f, CURVE_FIELDS)
+                if new:
+                    w.writeheader()
+                w.writerow(row)
+
+    return Callback()
+
+
+def save_checkpoint(model: Any, venv: Any, out: Path, keep: int) -> None:
+    """``checkpoints/model_<steps>.zip`` and its ``vecnormalize_<steps>.pkl``; older ones
+    beyond ``keep`` removed. Written to temporary names and renamed (never half a file)."""
+    folder = out / "checkpoints"
+    folder.mkdir(parents=True, exist_ok=True)
+    n = model.num_timesteps
+    stats = folder / f"vecnormalize_{n}.pkl"
+    venv.save(str(stats) + ".part")
+    Path(str(stats) + ".part").replace(stats)
+    model.save(folder / f"part-model_{n}.zip")
+    (folder / f"part-model_{n}.zip").replace(folder / f"model_{n}.zip")
+    steps = sorted(
+        int(p.stem.removeprefix("model_"))
+        for p in folder.glob("model_*.zip")
+        if p.stem.removeprefix("model_").isdigit()
+    )
+    for old in steps[:-keep]:
+        (folder / f"model_{old}.zip").unlink(missing_ok=True)
+        (folder / f"vecnormalize_{old}.pkl").unlink(missing_ok=True)
+
+
+class _Bar:
+    """The rich progress bar: steps, steps/s, success rate, ETA."""
+
+    def __init__(self, total: int, done: int):
+        from rich.console import Console
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+        self.progress = Progress(
+            TextColumn("training"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TextColumn("{task.fields[sps]} steps/s"),
+            TextColumn("success {task.fields[success]}"),
+            TimeRemainingColumn(),
+            console=Console(stderr=True),
+        )
+        self.task = self.progress.add_task("train", total=total, completed=done, sps="-", success="-")
+        self.progress.start()
+
+    def update(self, steps: int, rate: float, success: float | None) -> None:
+        self.progress.update(
+            self.task,
+            completed=steps,
+            sps=f"{rate:.0f}",
+            success="-" if success is None else f"{success:.1f} %",
+        )
+
+    def stop(self) -> None:
+        self.progress.stop()
+
+
+def plot_curve(out: Path) -> Path | None:
+    """``curve.png`` from ``curve.csv``: success rate and mean return against steps."""
+    path = out / "curve.csv"
+    if not path.exists():
+        return None
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    steps = [int(r["steps"]) for r in rows]
+    success = [float(r["success_rate"]) if r["success_rate"] else float("nan") for r in rows]
+    ret = [float(r["return_mean"]) if r["return_mean"] else float("nan") for r in rows]
+    fig, ax = plt.subplots(figsize=(7, 4), dpi=100)
+    ax.plot(steps, success, color="tab:green", label="success rate (%)")
+    ax.set_xlabel("environment steps")
+    ax.set_ylabel("success rate (%), last 100 episodes")
+    ax.set_ylim(0, 100)
+    ax2 = ax.twinx()
+    ax2.plot(steps, ret, color="tab:blue", alpha=0.6, label="mean return")
+    ax2.set_ylabel("mean episode return")
+    config = json.loads((out / "config.json").read_text()) if (out / "config.json").exists() else {}
+    ax.set_title(
+        f"PPO {config.get('task', '')} {config.get('robot_name', '')} on {config.get('train_split', '')}"
+    )
+    (h1, l1), (h2, l2) = ax.get_legend_handles_labels(), ax2.get_legend_handles_labels()
+    ax.legend(h1 + h2, l1 + l2, loc="upper left")
+    fig.tight_layout()
+    png = out / "curve.png"
+    fig.savefig(png)
+    plt.close(fig)
+    return png
+
+
+def _check_resume(cfg: TrainConfig, out: Path) -> None:
+    saved = json.loads((out / "config.json").read_text()) if (out / "config.json").exists() else None
+    if saved is None:
+        return
+    for key in ("task", "robot_name", "train_split"):
+        now = getattr(cfg, key)
+        if saved.get(key) != now:
+            raise TrainError(f"--resume: {out} holds a run of {key} {saved.get(key)!r}, not {now!r}")
+
+
+def train(
+    cfg: TrainConfig,
+    out: str | Path,
+    *,
+    resume: bool = False,
+    progress: bool | None = None,
+    command: str | None = None,
+) -> TrainResult:
+    """Train PPO as ``cfg`` says into the folder ``out`` (see the module docstring); resume
+    from its newest checkpoint with ``resume``. ``progress``: the rich bar (default: when
+    stderr is a terminal)."""
+    require_train()
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.logger import configure
+    from stable_baselines3.common.utils import set_random_seed
+    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+
+    from citygen.runner.learn.export import policy_arrays, write_policy
+    from citygen.runner.learn.vecenv import make_training_env
+
+    out = Path(out)
+    ckpt = latest_checkpoint(out)
+    if resume:
+        if ckpt is None:
+            raise TrainError(f"--resume: no checkpoint in {out / 'checkpoints'} to continue from")
+        _check_resume(cfg, out)
+    elif ckpt is not None or (out / "model.zip").exists():
+        raise TrainError(
+            f"--out: {out} already holds a training run; pass --resume to continue it, or another --out"
+        )
+    out.mkdir(parents=True, exist_ok=True)
+    doc = {**cfg.model_dump(mode="json"), "robot_name": cfg.robot_name, "train_split": cfg.train_split}
+    if command:
+        doc["command"] = command
+    (out / "config.json").write_text(json.dumps(doc, indent=1) + "\n")
+
+    if cfg.torch_threads:
+        torch.set_num_threads(cfg.torch_threads)
+    torch.use_deterministic_algorithms(True, warn_only=True)
+    set_random_seed(cfg.seed)
+    inner = VecMonitor(make_training_env(cfg))
+    if resume:
+        venv = VecNormalize.load(str(ckpt[2]), inner)
+        model = PPO.load(ckpt[1], env=venv, device="cpu")
+        print(f"resuming from {ckpt[1]} ({ckpt[0]:,} steps)", flush=True)
+    else:
+        venv = VecNormalize(inner, norm_obs=cfg.normalize, norm_reward=cfg.normalize, gamma=cfg.gamma)
+        activation = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU, "elu": torch.nn.ELU}[cfg.activation]
+        model = PPO(
+            "MultiInputPolicy",
+            venv,
+            n_steps=cfg.n_steps,
+            batch_size=cfg.batch_size,
+            n_epochs=cfg.n_epochs,
+            learning_rate=cfg.learning_rate,
+            gamma=cfg.gamma,
+            gae_lambda=cfg.gae_lambda,
+            clip_range=cfg.clip_range,
+            ent_coef=cfg.ent_coef,
+            vf_coef=cfg.vf_coef,
+            max_grad_norm=cfg.max_grad_norm,
+            seed=cfg.seed,
+            device="cpu",
+            verbose=0,
+            policy_kwargs={
+                "net_arch": {"pi": list(cfg.net_arch), "vf": list(cfg.net_arch)},
+                "activation_fn": activation,
+            },
+        )
+    runs = len(list((out / "logs").glob("run-*"))) if (out / "logs").exists() else 0
+    formats = ["csv"]
+    try:
+        import tensorboard  # noqa: F401
+
+        formats.append("tensorboard")
+    except ImportError:
+        pass
+    model.set_logger(configure(str(out / "logs" / f"run-{runs + 1}"), formats))
+
+    start = model.num_timesteps
+    seconds0 = 0.0
+    if resume and (out / "curve.csv").exists():
+        with open(out / "curve.csv", newline="") as f:
+            rows = [r for r in csv.DictReader(f) if int(r["steps"]) <= start]
+        seconds0 = float(rows[-1]["seconds"]) if rows else 0.0
+        with open(out / "curve.csv", "w", newline="") as f:  # drop rows past the checkpoint
+            w = csv.DictWriter(f, CURVE_FIELDS)
+            w.writeheader()
+            w.writerows(rows)
+    tracker = _Tracker(start)
+    show = sys.stderr.isatty() if progress is None else progress
+    bar = _Bar(cfg.steps, start) if show else None
+    try:
+        if cfg.steps > start:
+            model.learn(
+                total_timesteps=cfg.steps - start,
+                reset_num_timesteps=False,
+                callback=_callbacks(cfg, out, venv, tracker, bar, seconds0),
+            )
+    except KeyboardInterrupt:
+        if bar is not None:
+            bar.stop()
+            bar = None
+        save_checkpoint(model, venv, out, cfg.keep_checkpoints)
+        with contextlib.suppress(BaseException):  # workers that got the Ctrl-C too are gone already
+            venv.close()
+        raise TrainError(
+            f"interrupted at {model.num_timesteps:,} steps; checkpoint saved, "
+            f"continue with --resume --out {out}"
+        ) from None
+    except BaseException:
+        venv.close()  # no worker process outlives a failed run
+        raise
+    finally:
+        if bar is not None:
+            bar.stop()
+    model.save(out / "model.zip")
+    venv.save(str(out / "vecnormalize.pkl"))
+    venv.close()
+    train_notes = {
+        "steps": int(model.num_timesteps),
+        "seed": cfg.seed,
+        "split": cfg.train_split,
+        "success_rate_last_100": tracker.success_rate(),
+        "command": command,
+    }
+    meta, arrays = policy_arrays(
+        model,
+        venv.obs_rms if cfg.normalize else None,
+        task=cfg.task,
+        robot=cfg.robot_name,
+        clip_obs=venv.clip_obs,
+        epsilon=venv.epsilon,
+        activation=cfg.activation,
+        train=train_notes,
+    )
+    policy = write_policy(out / "policy.npz", meta, arrays)
+    plot_curve(out)
+    seconds = seconds0 + time.perf_counter() - tracker.t0
+    return TrainResult(out, int(model.num_timesteps), seconds, tracker.success_rate(), policy)

@@ -1,0 +1,198 @@
+"""The training environment: citygen's Gymnasium vector environment behind Stable-Baselines3's
+``VecEnv`` interface, with the scene sampling of the paper's scaling experiment.
+
+- :class:`SceneSchedule` (a Gymnasium wrapper of each sub-environment) picks the scene of
+  every reset among ``scenes`` distinct training scenes: ``async`` sampling draws one per
+  sub-environment from its own generator (the paper's asynchronous scene sampling);
+  ``sync`` gives every sub-environment the same scene, a new one every rollout (the
+  synchronous sampling of Isaac Lab: all scenes of a batch identical; an episode that runs
+  across a rollout boundary finishes in its old scene).
+- :class:`Sb3VecEnv` adapts a Gymnasium ``VectorEnv`` in ``SAME_STEP`` autoreset mode to
+  SB3: dict observations restricted to the policy's keys, ``terminal_observation``,
+  ``TimeLimit.truncated`` and ``is_success`` in the per-environment infos.
+- :func:`make_training_env` builds both from a :class:`~citygen.runner.learn.config.TrainConfig`.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+from typing import Any
+
+import gymnasium
+import numpy as np
+from stable_baselines3.common.vec_env import VecEnv
+
+from citygen.runner.learn.config import TrainConfig
+
+
+class SceneSchedule(gymnasium.Wrapper):
+    """Chooses the scene index of every reset (see the module docstring)."""
+
+    def __init__(
+        self, env: gymnasium.Env, *, scenes: int | None, sampling: str, seed: int, rank: int, period: int
+    ):
+        super().__init__(env)
+        source = env.unwrapped.source
+        if scenes is not None and scenes > source.size and len(getattr(source, "_parts", ())) == 1:
+            # More scenes than the split lists: the same config and seed derivation, further on.
+            source._parts = [source._parts[0].model_copy(update={"scenes": scenes})]
+            source.size = scenes
+        self.count = min(scenes or source.size, source.size)
+        self.sampling = sampling
+        self.period = period
+        self._rng = np.random.default_rng([seed, rank, 7919])
+        self._order = np.random.default_rng([seed, self.count, 104729]).permutation(self.count)
+        self._steps = 0
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        if seed is not None:
+            self._rng = np.random.default_rng([seed, 7919])
+        if options and "index" in options:
+            index = int(options["index"])
+        elif self.sampling == "sync":
+            index = int(self._order[(self._steps // self.period) % self.count])
+        else:
+            index = int(self._rng.integers(self.count))
+        return self.env.reset(seed=seed, options={**(options or {}), "index": index})
+
+    def step(self, action):
+        self._steps += 1
+        return self.env.step(action)
+
+
+def _sub_env(
+    task: str, split: str, robot: str, scenes: int | None, sampling: str, seed: int, rank: int, period: int
+) -> gymnasium.Env:
+    import multiprocessing
+    import signal
+
+    from citygen.runner.bench import make_env
+
+    if multiprocessing.parent_process() is not None:
+        # A worker of AsyncVectorEnv: Ctrl-C is the trainer's to handle (it saves a checkpoint
+        # and closes the workers), not a traceback in every worker.
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    env = make_env(task, split=split, robot=robot)
+    return SceneSchedule(env, scenes=scenes, sampling=sampling, seed=seed, rank=rank, period=period)
+
+
+def _unbatch(info: dict[str, Any], i: int) -> dict[str, Any]:
+    """Sub-environment ``i``'s entries of a Gymnasium vector info dict (masks ``_key``)."""
+    out: dict[str, Any] = {}
+    for key, value in info.items():
+        if key.startswith("_"):
+            continue
+        mask = info.get("_" + key)
+        if mask is not None and not mask[i]:
+            continue
+        out[key] = _unbatch(value, i) if isinstance(value, dict) else value[i]
+    return out
+
+
+def _final(infos: dict[str, Any], key: str, i: int) -> Any:
+    """Sub-environment ``i``'s ``final_obs`` or ``final_info``: Gymnasium batches them as an
+    object array of per-environment dicts, or as a dict of batched arrays."""
+    value = infos.get(key)
+    if value is None:
+        return None
+    if isinstance(value, dict):
+        return _unbatch(value, i)
+    return value[i]
+
+
+class Sb3VecEnv(VecEnv):
+    """A Gymnasium ``VectorEnv`` (autoreset ``SAME_STEP``) as an SB3 ``VecEnv``."""
+
+    def __init__(self, venv: Any, keys: tuple[str, ...], seed: int = 0):
+        mode = venv.metadata.get("autoreset_mode")
+        if mode is not None and getattr(mode, "value", mode) != "SameStep":
+            raise ValueError(f"vector env: expected autoreset_mode SAME_STEP, got {mode}")
+        space = venv.single_observation_space
+        obs_space = gymnasium.spaces.Dict({k: space[k] for k in keys})
+        self.venv = venv
+        super().__init__(venv.num_envs, obs_space, venv.single_action_space)
+        self.keys = tuple(obs_space.spaces)
+        self._seed = seed
+        self._actions = None
+
+    def _obs(self, obs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        return {k: np.asarray(obs[k]) for k in self.keys}
+
+    def reset(self):
+        obs, infos = self.venv.reset(seed=self._seed)
+        self._seed = None  # only the first reset is seeded; later ones continue the generators
+        self.reset_infos = [_unbatch(infos, i) for i in range(self.num_envs)]
+        return self._obs(obs)
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = actions
+
+    def step_wait(self):
+        obs, rewards, terminated, truncated, infos = self.venv.step(self._actions)
+        dones = np.logical_or(terminated, truncated)
+        out = []
+        for i in range(self.num_envs):
+            if not dones[i]:
+                out.append({})
+                continue
+            final, final_obs = _final(infos, "final_info", i) or {}, _final(infos, "final_obs", i)
+            info = {
+                "terminal_observation": {k: np.asarray(final_obs[k]) for k in self.keys},
+                "TimeLimit.truncated": bool(truncated[i] and not terminated[i]),
+                "is_success": bool(final.get("is_success", False)),
+            }
+            if "metrics" in final:
+                info["metrics"] = final["metrics"]
+            out.append(info)
+        return self._obs(obs), np.asarray(rewards, dtype=np.float32), dones, out
+
+    def close(self) -> None:
+        self.venv.close()
+
+    def seed(self, seed: int | None = None):
+        self._seed = seed
+        return [None if seed is None else seed + i for i in range(self.num_envs)]
+
+    # The rest of VecEnv's interface reaches the sub-environments through the vector env.
+    def get_attr(self, attr_name: str, indices=None) -> list[Any]:
+        values = self.venv.get_attr(attr_name)
+        return [values[i] for i in self._get_indices(indices)]
+
+    def set_attr(self, attr_name: str, value: Any, indices=None) -> None:
+        self.venv.set_attr(attr_name, value)
+
+    def env_method(self, method_name: str, *args, indices=None, **kwargs) -> list[Any]:
+        values = self.venv.call(method_name, *args, **kwargs)
+        return [values[i] for i in self._get_indices(indices)]
+
+    def env_is_wrapped(self, wrapper_class, indices=None) -> list[bool]:
+        return [False for _ in self._get_indices(indices)]
+
+
+def make_training_env(cfg: TrainConfig) -> Sb3VecEnv:
+    """The SB3 vector environment of a training run: ``cfg.envs`` sub-environments of
+    ``cfg.task`` on ``cfg.train_split``, one process each or all in this one
+    (:attr:`TrainConfig.processes`)."""
+    from gymnasium.vector import AsyncVectorEnv, AutoresetMode, SyncVectorEnv
+
+    fns = [
+        functools.partial(
+            _sub_env,
+            cfg.task,
+            cfg.train_split,
+            cfg.robot_name,
+            cfg.scenes,
+            cfg.sampling,
+            cfg.seed,
+            rank,
+            cfg.n_steps,
+        )
+        for rank in range(cfg.envs)
+    ]
+    processes = cfg.processes if cfg.processes is not None else int((os.cpu_count() or 1) > 1)
+    if processes and cfg.envs > 1:
+        venv = AsyncVectorEnv(fns, shared_memory=False, autoreset_mode=AutoresetMode.SAME_STEP)
+    else:
+        venv = SyncVectorEnv(fns, autoreset_mode=AutoresetMode.SAME_STEP)
+    return Sb3VecEnv(venv, cfg.obs_keys, seed=cfg.seed)

@@ -1,0 +1,190 @@
+"""The ego-centric local map of the navigation observation (``obs["local_map"]``).
+
+What a robot's mapping stack would give a navigation policy: a ``(2, H, W)`` float32 array
+over a :data:`LOCAL_MAP` window (6.4 m x 6.4 m every 0.2 m: 32 x 32 cells) centred on the
+robot and turned with its yaw. Row ``i`` is the forward distance ``u`` (ascending, behind
+the robot first), column ``j`` the leftward distance ``v`` (ascending, right first):
+
+- channel 0, **elevation** (m) of the highest thing in the cell relative to the ground
+  under the robot: the terrain, static objects (their catalog height, buildings and
+  anything taller clipped at :data:`MAX_ELEVATION`), and moving people and vehicles as
+  discs of their radius (:data:`AGENT_HEIGHT` tall);
+- channel 1, **walkability**: 1 where every part of the cell is walkable ground without an
+  object or a moving agent on it, 0 elsewhere (also outside the scene).
+
+Cheap per step: :func:`static_layers` rasterises the scene once per compiled scene (the
+occupancy map's 0.05 m cells max-pooled to :data:`POOL_CELL`, so a thin pole is never lost
+between samples) and :class:`LocalMap` samples it at 2 x 2 points per output cell with the
+robot's pose (one vectorised gather), then stamps the agents' discs.
+
+>>> ground = StaticLayers(np.zeros((100, 100), np.float32), np.ones((100, 100), bool), 0.0, 0.0, 0.1)
+>>> grid = LocalMap()(with_margin(ground), (5.0, 5.0, 0.0), ground=0.0)
+>>> grid.shape, float(grid[1].min())
+((2, 32, 32), 1.0)
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, NamedTuple
+
+import numpy as np
+
+#: Window: forward extent, lateral extent and cell side (m), centred on the robot.
+LOCAL_MAP = (6.4, 6.4, 0.2)
+#: Pooled cell side (m) of the per-scene static layers.
+POOL_CELL = 0.1
+#: Elevations (m) are clipped to this (a building and a bus shelter both block the way).
+MAX_ELEVATION = 2.0
+#: Height (m) of a moving agent's disc (a person; a vehicle blocks the same way).
+AGENT_HEIGHT = 1.7
+#: Height (m) of an object whose height the catalog does not know (a mesh file).
+UNKNOWN_OBJECT_HEIGHT = 1.0
+
+
+class StaticLayers(NamedTuple):
+    """A scene's pooled static layers: absolute ``elevation`` (m, float32) and ``walkable``
+    (bool), ``(rows, cols)`` cells of ``cell`` m from ``(x0, y0)``."""
+
+    elevation: np.ndarray
+    walkable: np.ndarray
+    x0: float
+    y0: float
+    cell: float
+
+
+def _object_heights(scene: Any, occ: Any) -> np.ndarray:
+    """Height (m) above the ground of the object standing on each occupancy cell (0 where
+    none): each catalog placement's base painted with its height, tallest last."""
+    from shapely.geometry import Polygon
+
+    from citygen.assets import resolve
+    from citygen.geometry.raster import paint
+
+    out = np.zeros(occ.shape, dtype=np.float32)
+    items = []
+    for pl in scene.placements:
+        if pl.is_mesh:
+            continue
+        try:
+            asset = resolve(pl.asset)
+        except Exception:  # an unknown id: the occupancy map's obstacle label still marks it
+            continue
+        c, s = math.cos(pl.yaw), math.sin(pl.yaw)
+        ring = np.asarray(asset.base.exterior.coords) * pl.scale
+        xy = ring @ np.array([[c, s], [-s, c]]) + np.asarray(pl.position[:2])
+        items.append((float(asset.height) * pl.scale, Polygon(xy)))
+    for height, shape in sorted(items, key=lambda item: item[0]):
+        paint(occ.grid, out, shape, height)
+    blocked = occ.obstacle_mask()
+    out[blocked & (out <= 0)] = UNKNOWN_OBJECT_HEIGHT
+    out[~blocked] = 0.0
+    return out
+
+
+def static_layers(scene: Any, occ: Any, margin: float = 5.0) -> StaticLayers:
+    """The scene's static layers from its occupancy map ``occ``
+    (:class:`~citygen.exporters.occupancy.OccupancyMap`), pooled to about :data:`POOL_CELL`:
+    the maximum elevation and "all walkable" of the fine cells in each pooled cell, with a
+    ``margin`` (m) of non-walkable cells around (the edge's elevation), so a window around
+    a robot inside the scene never reads outside the arrays."""
+    k = max(1, round(POOL_CELL / occ.resolution))
+    elev = occ.heights.astype(np.float32) + np.minimum(_object_heights(scene, occ), MAX_ELEVATION)
+    walk = occ.walkable_mask()
+    rows, cols = -(-elev.shape[0] // k), -(-elev.shape[1] // k)
+    pad = ((0, rows * k - elev.shape[0]), (0, cols * k - elev.shape[1]))
+    elev = np.pad(elev, pad, mode="edge").reshape(rows, k, cols, k).max(axis=(1, 3))
+    walk = np.pad(walk, pad, constant_values=False).reshape(rows, k, cols, k).all(axis=(1, 3))
+    return with_margin(StaticLayers(elev, walk, occ.grid.x0, occ.grid.y0, occ.resolution * k), margin)
+
+
+def with_margin(layers: StaticLayers, margin: float = 5.0) -> StaticLayers:
+    """``layers`` grown by ``margin`` (m) of non-walkable cells at the edge's elevation:
+    :class:`LocalMap` reads a window around the robot without bounds checks."""
+    m = math.ceil(margin / layers.cell)
+    elev = np.pad(layers.elevation, m, mode="edge")
+    walk = np.pad(layers.walkable, m, constant_values=False)
+    return StaticLayers(elev, walk, layers.x0 - m * layers.cell, layers.y0 - m * layers.cell, layers.cell)
+
+
+class LocalMap:
+    """Samples :class:`StaticLayers` (with a margin, :func:`with_margin`) around a pose (see
+    the module docstring)."""
+
+    def __init__(self, window: tuple[float, float, float] = LOCAL_MAP):
+        hx, hy, step = window
+        self.shape = (round(hx / step), round(hy / step))
+        u = -hx / 2 + (np.arange(self.shape[0]) + 0.5) * step
+        v = -hy / 2 + (np.arange(self.shape[1]) + 0.5) * step
+        self.step = step
+        self.u, self.v = (a.ravel() for a in np.meshgrid(u, v, indexing="ij"))  # cell centres
+        q = step / 4  # 2 x 2 sub-samples per cell, a pooled cell apart
+        su = (self.u[:, None] + np.array([-q, -q, q, q])).ravel()
+        sv = (self.v[:, None] + np.array([-q, q, -q, q])).ravel()
+        self._sub = (su, sv)
+
+    def __call__(
+        self,
+        layers: StaticLayers,
+        pose: tuple[float, float, float],
+        ground: float,
+        agents: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> np.ndarray:
+        """The ``(2, H, W)`` map at ``pose = (x, y, yaw)``; elevations relative to ``ground``
+        (m); ``agents`` are ``(xy (n, 2), radius (n,))`` of moving people and vehicles."""
+        x, y, yaw = pose
+        c, s = math.cos(yaw), math.sin(yaw)
+        su, sv = self._sub
+        inv = 1.0 / layers.cell
+        col = ((x - layers.x0) * inv + (c * inv) * su - (s * inv) * sv).astype(np.int64)
+        row = ((y - layers.y0) * inv + (s * inv) * su + (c * inv) * sv).astype(np.int64)
+        # Inside the margin of static_layers, indices are never negative (astype truncates).
+        flat = row * layers.elevation.shape[1] + col
+        n = self.u.size
+        elev = np.take(layers.elevation, flat, mode="clip").reshape(n, 4).max(axis=1) - np.float32(ground)
+        walk = np.take(layers.walkable, flat, mode="clip").reshape(n, 4).all(axis=1)
+        if agents is not None and len(agents[0]):
+            xy, radius = agents
+            du, dv = xy[:, 0] - x, xy[:, 1] - y
+            au, av = c * du + s * dv, -s * du + c * dv
+            near = (np.abs(au) < self.shape[0] * self.step) & (np.abs(av) < self.shape[1] * self.step)
+            if np.any(near):
+                d2 = (self.u[None, :] - au[near, None]) ** 2 + (self.v[None, :] - av[near, None]) ** 2
+                hit = np.any(d2 <= (radius[near, None] + self.step / 2) ** 2, axis=0)
+                elev[hit] = np.maximum(elev[hit], AGENT_HEIGHT)
+                walk[hit] = False
+        out = np.empty((2, *self.shape), dtype=np.float32)
+        out[0] = np.clip(elev, -MAX_ELEVATION, MAX_ELEVATION).reshape(self.shape)
+        out[1] = walk.reshape(self.shape)
+        return out
+
+
+_LAYERS: Any = None
+_DEFAULT = LocalMap()
+
+
+def space():
+    """The Gymnasium space of ``obs["local_map"]``."""
+    from gymnasium import spaces
+
+    return spaces.Box(-MAX_ELEVATION, MAX_ELEVATION, (2, *_DEFAULT.shape), np.float32)
+
+
+def observe(env: Any, x: float, y: float, yaw: float, ground: float) -> np.ndarray:
+    """``obs["local_map"]`` of a navigation environment (:class:`~citygen.runner.envs.NavEnv`)
+    at the robot's pose; the scene's static layers are built on first use and kept as long as
+    its compiled scene (:class:`~citygen.runner.scenes.Prepared`) lives."""
+    import weakref
+
+    global _LAYERS
+    if _LAYERS is None:
+        _LAYERS = weakref.WeakKeyDictionary()
+    prepared = env.prepared
+    layers = _LAYERS.get(prepared)
+    if layers is None:
+        layers = _LAYERS[prepared] = static_layers(prepared.scene, prepared.occupancy)
+    agents = None
+    if env.crowd is not None or env.traffic is not None:
+        xy, _, radius = env.others()
+        agents = (xy, radius)
+    return _DEFAULT(layers, (x, y, yaw), ground, agents)

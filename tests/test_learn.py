@@ -1,0 +1,277 @@
+"""Learned policies: ``citygen train`` (interrupted and resumed), the exported numpy policy
+against PyTorch, ``citygen bench --policy FILE|ppo`` and its one-line errors, scene sampling.
+
+These tests need the ``train`` extra (Stable-Baselines3 and PyTorch); CI installs it."""
+
+from __future__ import annotations
+
+import csv
+import json
+import pickle
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from citygen.runner.learn.policy import resolve_policy, shipped
+from citygen.runner.learn.train import latest_checkpoint
+from citygen.runner.policies import POLICIES
+from tests.conftest import ROOT
+
+pytestmark = pytest.mark.filterwarnings("ignore::citygen.exporters.ExportWarning")
+
+#: A tiny PPO: 2 sub-environments of 50 steps per rollout, a checkpoint every 100 steps.
+TINY = """
+n_steps = 50
+minibatches = 2
+n_epochs = 2
+net_arch = [32, 32]
+checkpoint_every = 100
+"""
+
+
+def _train(*args, timeout: float = 300):
+    cmd = [
+        sys.executable,
+        "-m",
+        "citygen",
+        "train",
+        "--task",
+        "nav-clear",
+        "--envs",
+        "2",
+        "--processes",
+        "0",
+        *map(str, args),
+    ]
+    return subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=timeout)
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    """A tiny run killed after its first checkpoint, then resumed to 400 steps."""
+    folder = tmp_path_factory.mktemp("train")
+    config = folder / "tiny.toml"
+    config.write_text(TINY)
+    out = folder / "run"
+    cmd = [
+        sys.executable,
+        "-m",
+        "citygen",
+        "train",
+        "--task",
+        "nav-clear",
+        "--envs",
+        "2",
+        "--processes",
+        "0",
+        "--steps",
+        "100000",
+        "--config",
+        str(config),
+        "--out",
+        str(out),
+        "--seed",
+        "3",
+    ]
+    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 300
+    try:
+        while latest_checkpoint(out) is None:
+            assert proc.poll() is None, proc.stderr.read()
+            assert time.monotonic() < deadline, "no checkpoint within 300 s"
+            time.sleep(0.2)
+    finally:
+        proc.send_signal(signal.SIGKILL)
+        proc.communicate()
+    killed_at = latest_checkpoint(out)[0]
+    resumed = _train("--steps", 400, "--config", config, "--out", out, "--seed", 3, "--resume")
+    return {"out": out, "killed_at": killed_at, "resumed": resumed, "config": config}
+
+
+@pytest.mark.slow
+def test_an_interrupted_run_resumes_from_its_last_checkpoint(run):
+    out, r = run["out"], run["resumed"]
+    assert r.returncode == 0, r.stderr
+    last = run["killed_at"]
+    assert last < 400
+    assert f"resuming from {out / 'checkpoints' / f'model_{last}.zip'} ({last:,} steps)" in r.stdout
+    from stable_baselines3 import PPO
+
+    assert PPO.load(out / "model.zip").num_timesteps == 400
+    with open(out / "curve.csv", newline="") as f:
+        steps = [int(row["steps"]) for row in csv.DictReader(f)]
+    assert steps == sorted(set(steps)) and steps[-1] == 400  # continued, no row twice
+    assert (out / "curve.png").stat().st_size > 1000
+    meta = json.loads((out / "policy.json").read_text())
+    assert meta["task"] == "nav-clear" and meta["robot"] == "wheeled" and meta["train"]["steps"] == 400
+
+
+@pytest.mark.slow
+def test_the_trained_model_is_evaluated_by_citygen_bench(run, cli):
+    for model in ("policy.npz", "model.zip"):
+        r = cli(
+            "bench", "--task", "nav-clear", "--policy", run["out"] / model, "--episodes", "1", "--jobs", "1"
+        )
+        assert r.code == 0, r.err
+        assert "Success Rate" in r.out and model in r.out
+
+
+@pytest.mark.slow
+def test_numpy_policy_gives_the_actions_of_torch(run):
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from citygen.runner.bench import make_env
+    from citygen.runner.learn import read_policy
+
+    out = run["out"]
+    model = PPO.load(out / "model.zip", device="cpu")
+    with open(out / "vecnormalize.pkl", "rb") as f:
+        stats = pickle.load(f)
+    policy = read_policy(out / "policy.npz")
+    env = make_env("nav-clear", split="urban-nav-1-test")
+    obs, _ = env.reset(seed=1)
+    batch = []
+    for k in range(30):
+        batch.append({key: obs[key] for key in policy.keys})
+        obs, *_ = env.step(np.array([0.8, 0.3 * np.sin(k)], dtype=np.float32))
+    stacked = {key: np.stack([o[key] for o in batch]) for key in policy.keys}
+    assert isinstance(stats, VecNormalize)
+    torch_actions, _ = model.predict(stats.normalize_obs(stacked), deterministic=True)
+    numpy_actions = policy.predict(stacked)
+    assert np.abs(numpy_actions).max() > 1e-3  # a real network, not zeros
+    np.testing.assert_allclose(numpy_actions, torch_actions, atol=1e-5)
+
+
+@pytest.mark.slow
+def test_a_seeded_run_is_reproducible(tmp_path):
+    config = tmp_path / "tiny.toml"
+    config.write_text(TINY)
+    arrays = []
+    for name in ("a", "b"):
+        r = _train("--steps", 100, "--config", config, "--out", tmp_path / name, "--seed", 5)
+        assert r.returncode == 0, r.stderr
+        with np.load(tmp_path / name / "policy.npz") as data:
+            arrays.append({k: data[k] for k in data.files if k != "meta"})
+    assert arrays[0].keys() == arrays[1].keys()
+    for k in arrays[0]:
+        np.testing.assert_array_equal(arrays[0][k], arrays[1][k])
+
+
+# --- one-line errors ------------------------------------------------------------------------
+
+
+def test_missing_train_extra_is_one_line_naming_it(cli, monkeypatch):
+    monkeypatch.setitem(sys.modules, "stable_baselines3", None)  # import fails as if not installed
+    r = cli("train", "--task", "nav-clear", "--steps", "10")
+    assert r.code == 2
+    assert r.err.count("\n") == 1 and 'pip install -e ".[train]"' in r.err
+
+
+def test_a_bad_config_or_a_used_run_folder_is_one_line(cli, tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("learning_rat = 0.1\n")
+    r = cli("train", "--config", bad, "--out", tmp_path / "x")
+    assert r.code == 2 and r.err.count("\n") == 1 and "learning_rate" in r.err
+    used = tmp_path / "used"
+    (used / "checkpoints").mkdir(parents=True)
+    (used / "checkpoints" / "model_100.zip").write_bytes(b"x")
+    (used / "checkpoints" / "vecnormalize_100.pkl").write_bytes(b"x")
+    r = cli("train", "--task", "nav-clear", "--out", used)
+    assert r.code == 2 and r.err.count("\n") == 1 and "--resume" in r.err
+    r = cli("train", "--task", "nav-clear", "--out", tmp_path / "empty", "--resume")
+    assert r.code == 2 and r.err.count("\n") == 1 and "no checkpoint" in r.err
+
+
+@pytest.mark.parametrize("name", ["bad.npz", "bad.zip"])
+def test_a_corrupt_model_file_is_one_line(cli, tmp_path, name):
+    path = tmp_path / name
+    path.write_bytes(b"this is not a model")
+    r = cli("bench", "--task", "nav-clear", "--policy", path, "--episodes", "1", "--jobs", "1")
+    assert r.code == 2, r.err
+    assert r.err.count("\n") == 1 and name in r.err and "Traceback" not in r.err
+
+
+def test_a_model_of_another_tasks_spaces_is_one_line(cli):
+    nav = next(iter(shipped().values()))
+    r = cli(
+        "bench",
+        "--task",
+        "loco-flat",
+        "--robot",
+        "quadruped",
+        "--policy",
+        nav,
+        "--episodes",
+        "1",
+        "--jobs",
+        "1",
+    )
+    assert r.code == 2
+    assert r.err.count("\n") == 1 and "loco-flat" in r.err and "Traceback" not in r.err
+
+
+def test_a_missing_shipped_baseline_lists_those_that_exist(cli):
+    r = cli("bench", "--task", "nav-dynamic", "--robot", "wheelchair", "--policy", "ppo", "--episodes", "1")
+    assert r.code == 2 and r.err.count("\n") == 1
+    assert "no shipped baseline for nav-dynamic with robot wheelchair" in r.err
+    assert all(f"{task} {robot}" in r.err for task, robot in shipped())
+
+
+# --- shipped baselines ----------------------------------------------------------------------
+
+SHIPPED = sorted(shipped())
+
+
+def test_at_least_one_baseline_ships():
+    assert SHIPPED
+
+
+@pytest.mark.parametrize(("task", "robot"), SHIPPED)
+def test_policy_ppo_resolves_and_runs_for_every_shipped_baseline(cli, task, robot):
+    path = resolve_policy("ppo", task, robot, POLICIES)
+    assert path.endswith(f"{task}-{robot}.npz")
+    meta = json.loads((ROOT / "citygen/runner/learn/baselines" / f"{task}-{robot}.json").read_text())
+    assert meta["train"]["command"].startswith("citygen train")  # each made by a documented command
+    r = cli("bench", "--task", task, "--robot", robot, "--policy", "ppo", "--episodes", "1", "--jobs", "1")
+    assert r.code == 0, r.err
+    assert "Success Rate" in r.out
+
+
+# --- scene sampling -------------------------------------------------------------------------
+
+
+def test_sync_sampling_gives_every_sub_env_the_same_scene_and_async_does_not():
+    from citygen.runner.learn.vecenv import _sub_env
+
+    def indices(sampling):
+        envs = [
+            _sub_env("nav-clear", "urban-nav-1-train", "wheeled", 16, sampling, 0, rank, 3)
+            for rank in range(3)
+        ]
+        first = [e.reset(seed=rank)[1]["index"] for rank, e in enumerate(envs)]
+        for e in envs:
+            for _ in range(3):
+                e.step(np.zeros(2, dtype=np.float32))
+        second = [e.reset()[1]["index"] for e in envs]
+        return first, second
+
+    first, second = indices("sync")
+    assert len(set(first)) == 1 and len(set(second)) == 1 and first != second  # a new scene per rollout
+    first, second = indices("async")
+    assert len(set(first + second)) > 2
+    assert all(0 <= i < 16 for i in first + second)
+
+
+def test_more_scenes_than_the_split_lists_continue_its_seed_derivation():
+    from citygen.runner.learn.vecenv import _sub_env
+
+    env = _sub_env("nav-clear", "urban-nav-1-train", "wheeled", 300, "async", 0, 0, 200)
+    source = env.unwrapped.source
+    assert source.size == 300
+    assert source.scene(280).meta.index == 280
+    assert source.scene(280).model_dump() != source.scene(280 - 256).model_dump()

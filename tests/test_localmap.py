@@ -1,0 +1,101 @@
+"""The navigation observation's ego-centric local map: orientation, objects, agents, walkability,
+and the ``info["is_success"]`` of the last step."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import citygen
+from citygen.runner import localmap
+from citygen.runner.bench import make_env
+from citygen.runner.localmap import AGENT_HEIGHT, LocalMap, StaticLayers, with_margin
+
+pytestmark = pytest.mark.filterwarnings("ignore::citygen.exporters.ExportWarning")
+
+
+def _layers():
+    """20 m x 20 m at 0.1 m, all walkable, with a 0.8 m box at x in [3, 4], y in [-0.5, 0.5]
+    (the world's origin at the grid's centre)."""
+    elev = np.zeros((200, 200), dtype=np.float32)
+    walk = np.ones((200, 200), dtype=bool)
+    xs = -10 + (np.arange(200) + 0.5) * 0.1
+    box = (xs[None, :] >= 3) & (xs[None, :] <= 4) & (np.abs(xs[:, None]) <= 0.5)
+    elev[box] = 0.8
+    walk[box] = False
+    return with_margin(StaticLayers(elev, walk, -10.0, -10.0, 0.1))
+
+
+def _cells(m: LocalMap, grid: np.ndarray) -> set[tuple[float, float]]:
+    """Centres ``(u, v)`` of the cells where ``grid`` is true."""
+    return {(round(u, 2), round(v, 2)) for u, v in zip(m.u.reshape(m.shape)[grid], m.v.reshape(m.shape)[grid],
+                                                       strict=True)}  # fmt: skip
+
+
+def test_an_object_ahead_shows_ahead_whichever_way_the_robot_faces():
+    m = LocalMap()
+    layers = _layers()
+    facing = m(layers, (0.0, 0.0, 0.0), 0.0)
+    assert facing.shape == (2, 32, 32) and facing.dtype == np.float32
+    high = _cells(m, facing[0] > 0.5)
+    assert high and all(3.0 <= u <= 4.0 and abs(v) <= 0.6 for u, v in high)
+    assert _cells(m, facing[1] == 0) == high  # not walkable exactly where the box stands
+    # Standing at (3.5, -3.5) facing +y (yaw 90 degrees), the box is 3.5 m ahead.
+    turned = m(layers, (3.5, -3.5, math.pi / 2), 0.0)
+    high = _cells(m, turned[0] > 0.5)
+    assert high and all(2.9 <= u <= 4.1 and abs(v) <= 0.6 for u, v in high)
+    # Elevations are relative to the ground under the robot.
+    assert m(layers, (0.0, 0.0, 0.0), 0.3)[0].min() == pytest.approx(-0.3)
+
+
+def test_moving_agents_are_discs_and_outside_the_scene_is_not_walkable():
+    m = LocalMap()
+    layers = _layers()
+    grid = m(layers, (-8.0, 0.0, 0.0), 0.0, agents=(np.array([[-7.0, 1.0]]), np.array([0.3])))
+    person = _cells(m, grid[0] >= AGENT_HEIGHT - 1e-6)
+    assert person and all(math.hypot(u - 1.0, v - 1.0) <= 0.3 + 0.15 for u, v in person)
+    # The scene ends 2 m behind the robot: no walkable cell there.
+    behind = m.u.reshape(m.shape) < -2.05
+    assert not grid[1][behind].any()
+    assert grid[1][~behind].mean() > 0.9
+
+
+def test_nav_static_observation_sees_the_scenes_objects():
+    scene = citygen.generate("urban-nav-2-test", index=0)
+    env = make_env("nav-static", scene, max_steps=3)
+    obs, _ = env.reset(seed=0)
+    assert env.observation_space["local_map"].contains(obs["local_map"])
+    assert obs["height_map"].shape == (17, 11)  # the paper's height map is kept
+    layers = localmap.static_layers(scene, env.prepared.occupancy)
+    occ = env.prepared.occupancy
+    # Every object's base is elevated in the static layer (relative to its ground).
+    obstacle = occ.obstacle_mask()
+    assert obstacle.any()
+    rows, cols = np.nonzero(obstacle)
+    x = occ.grid.x0 + (cols + 0.5) * occ.resolution
+    y = occ.grid.y0 + (rows + 0.5) * occ.resolution
+    r = ((y - layers.y0) / layers.cell).astype(int)
+    c = ((x - layers.x0) / layers.cell).astype(int)
+    assert np.all(layers.elevation[r, c] - occ.heights[rows, cols] > 0.05)
+    assert not layers.walkable[r, c].any()
+    # Step to the end: the last step says whether the goal was reached.
+    for _ in range(3):
+        obs, _, term, trunc, info = env.step(np.zeros(2, dtype=np.float32))
+        assert obs["local_map"].shape == (2, 32, 32)
+        if term or trunc:
+            break
+    assert info["is_success"] is False
+
+
+def test_nav_dynamic_local_map_marks_the_people():
+    env = make_env("nav-dynamic", split="urban-nav-3-test")
+    env.reset(seed=0, options={"index": 0})
+    xy, _, radius = env.others()
+    assert len(xy)
+    # Put the robot next to the first person: their disc appears in the map.
+    grid = localmap.observe(env, float(xy[0, 0]) - 1.0, float(xy[0, 1]), 0.0, 0.0)
+    m = localmap.LocalMap()
+    near = np.hypot(m.u - 1.0, m.v).reshape(m.shape) <= radius[0]
+    assert np.all(grid[0][near] >= AGENT_HEIGHT - 1e-6) and not grid[1][near].any()
