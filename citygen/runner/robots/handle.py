@@ -211,9 +211,10 @@ class RobotHandle:
         """Track forward speed ``v`` (m/s) and yaw rate ``w`` (rad/s), clipped to the
         robot's limits and approached at its acceleration limits. Call it once per feedback
         period ``dt`` (s; default one physics step): it feeds back the base's measured
-        motion (wheel robots: a PI correction of the wheel speeds; ideal locomotion: the
-        base servo's forces in ``data.xfrc_applied``) and its outputs hold until the next
-        call. The environments call it every :data:`DRIVE_DT`."""
+        motion (wheel robots: a PI correction of the wheel speeds, and the front wheels'
+        Ackermann angles with ``nav_mode == "ackermann"``, which turns on the spot by
+        K-turns; ideal locomotion: the base servo's forces in ``data.xfrc_applied``) and its
+        outputs hold until the next call. The environments call it every :data:`DRIVE_DT`."""
         r = self.robot
         dt = self._timestep if dt is None else float(dt)
         v = _clamp(float(v), r.max_speed)
@@ -267,6 +268,7 @@ class RobotHandle:
             ctrl[self._steer_ids] = 0.0
             return
         radius = (v if abs(v) >= 0.05 else 0.05) / w  # signed turn radius (m): + centre on the left
+        radius = math.copysign(max(abs(radius), r.track_width), radius)  # inner wheel's side kept
         left = math.atan(r.wheelbase / (radius - r.track_width / 2))
         right = math.atan(r.wheelbase / (radius + r.track_width / 2))
         ctrl[self._steer_ids[0]] = _clamp(left, r.max_steer)
