@@ -9,7 +9,8 @@ so a baseline may read privileged state such as the occupancy map and the agents
   radius, pure pursuit along the path, reactive avoidance of moving agents
   (:class:`citygen.runner.planning.Planner`);
 - ``stand``, ``trot`` (locomotion): the PD stand and trot controllers of
-  :mod:`citygen.runner.gaits`;
+  :mod:`citygen.runner.gaits`; for a biped (the ``humanoid``) the stand and the scripted
+  walk of :mod:`citygen.runner.gaits_biped`;
 - traverse control modes ``human``, ``ai``, ``shared-cautious``, ``shared-efficient``:
   who drives is decided at *decision points* (every :data:`DECISION_INTERVAL` m along the
   route) from the risk ahead (:func:`risk`); a person is a pluggable :class:`Driver`, with
@@ -95,7 +96,8 @@ class PlannerPolicy:
 
 
 class GaitPolicy:
-    """The PD stand or trot controller of :mod:`citygen.runner.gaits` as a policy."""
+    """The PD stand or trot controller of :mod:`citygen.runner.gaits` as a policy (a
+    biped's stand or walk of :mod:`citygen.runner.gaits_biped`)."""
 
     def __init__(self, gait: str):
         self.gait = gait
@@ -103,11 +105,14 @@ class GaitPolicy:
         self.env = None
 
     def reset(self, env: Any) -> None:
-        from citygen.runner import gaits
+        from citygen.runner import gaits, gaits_biped
 
         self.env = env
+        biped = len(env.robot.legs) == 2
         if self.gait == "stand":
-            self.controller = gaits.StandController()
+            self.controller = gaits_biped.BipedStand() if biped else gaits.StandController()
+        elif biped:
+            self.controller = gaits_biped.BipedWalk(command=tuple(env.command))
         else:
             self.controller = gaits.TrotController(command=tuple(env.command))
         self.t = 0.0

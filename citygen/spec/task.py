@@ -11,15 +11,22 @@ from citygen.spec import limits
 from citygen.spec.base import SpecModel, Vec2, Vec3, bounded_float
 from citygen.spec.blocks import Pose2
 
-Robot = Literal["wheeled", "quadruped", "wheeled_legged", "humanoid", "wheelchair"]
+Robot = Literal["wheeled", "quadruped", "wheeled_legged", "humanoid", "wheelchair", "scooter"]
 """The embodiments of the runner: a wheeled delivery robot, a Go2-like quadruped, a
-B2-W-like wheeled-legged robot, a G1-like humanoid, an electric wheelchair."""
+B2-W-like wheeled-legged robot, a G1-like humanoid, an electric wheelchair, a mobility scooter."""
 
 #: Radius (m) of the disc each embodiment occupies on the ground: what the task stage
 #: keeps clear at the start and goal and along a walkable path between them, and what
 #: the runner's planner inflates the occupancy map by.
 ROBOT_RADIUS = MappingProxyType(
-    {"wheeled": 0.35, "quadruped": 0.4, "wheeled_legged": 0.5, "humanoid": 0.3, "wheelchair": 0.45}
+    {
+        "wheeled": 0.35,
+        "quadruped": 0.4,
+        "wheeled_legged": 0.5,
+        "humanoid": 0.3,
+        "wheelchair": 0.45,
+        "scooter": 0.55,
+    }
 )
 
 

@@ -13,8 +13,13 @@ file here: every test and command that runs over robots picks it up):
   actuators (kp 50 N m/rad, kd 1 N m s/rad, Go2's torque limits), standing base height 0.30 m.
 - ``wheeled_legged``: B2-W-like, about 76 kg, the same 12 leg joints (kp 600, kd 12) plus a
   driven wheel at each foot (4 velocity actuators), standing base height about 0.60 m.
+- ``humanoid``: G1-like, 1.32 m tall, about 35 kg, 21 hinge joints (6 per leg, waist yaw,
+  4 per arm) with position actuators and box feet, base (pelvis) height 0.66 m; ideal
+  locomotion in navigation, a scripted walk (:mod:`citygen.runner.gaits_biped`) in locomotion.
 - ``wheelchair``: an electric wheelchair, 0.65 m wide, 1.1 m long, about 110 kg including
   a 70 kg seated person; differential drive on the rear wheels, frictionless front casters.
+- ``scooter``: a mobility scooter, 1.27 m x 0.63 m, about 140 kg with a 75 kg rider, 15 km/h;
+  Ackermann steering (``nav_mode == "ackermann"``): steered front wheels, driven rear wheels.
 
 Units: metres, kilograms, seconds, radians. Frames: a robot's base frame has +x forward,
 +z up; a pose is ``(x, y, ground_z, yaw)`` with ``ground_z`` the ground's height under the
@@ -25,8 +30,11 @@ robot and the base origin :attr:`Robot.stand_height` above it.
 wheel's velocity actuator gets the differential-drive wheel speed of the command,
 corrected by a proportional feedback on the measured base speed and yaw rate (it makes up
 for skid steering and slip; the four-wheel ``wheeled_legged`` turns by skidding). The legs
-of ``wheeled_legged`` hold the stand pose by their PD. The ``quadruped`` has no learned
-locomotion policy under the navigation policy, so it uses **ideal locomotion**
+of ``wheeled_legged`` hold the stand pose by their PD. The ``scooter`` steers its front
+wheels to the Ackermann angles of the command and drives its rear wheels with the same
+feedback; a turn tighter than its steering allows at low speed becomes a K-turn. The
+``quadruped`` and the ``humanoid`` have no learned
+locomotion policy under the navigation policy, so they use **ideal locomotion**
 (``nav_mode == "base"``): the legs hold the stand pose by PD while a servo of forces and
 torques on the base (``data.xfrc_applied``) carries the body's weight
 :data:`HOVER_CLEARANCE` above the stand height over the ground found by a ray under the

@@ -100,13 +100,21 @@ class Robot:
     its centre a radius away from steeper edges of the ground (stair risers, curbs)."""
     base_body: str = "base"
     nav_mode: str = "wheels"
-    """``"wheels"`` (differential drive on wheel actuators) or ``"base"`` (ideal locomotion)."""
+    """``"wheels"`` (differential drive on wheel actuators), ``"ackermann"`` (steered front
+    wheels, driven rear wheels) or ``"base"`` (ideal locomotion)."""
     left_wheels: tuple[str, ...] = ()
     """Velocity actuators of the left wheels (target in rad/s, positive rolls forward)."""
     right_wheels: tuple[str, ...] = ()
     wheel_radius: float = 0.0
     track_width: float = 0.0
     """Distance (m) between the left and right wheels' contact lines."""
+    steer_actuators: tuple[str, ...] = ()
+    """Ackermann steering: position actuators of the left and right front wheels' steering
+    hinges (target in rad, positive turns left)."""
+    wheelbase: float = 0.0
+    """Ackermann steering: distance (m) between the front and rear axles."""
+    max_steer: float = 0.0
+    """Ackermann steering: largest steering angle (rad) of the inner wheel."""
     leg_joints: tuple[str, ...] = ()
     """Hinge joints driven by :meth:`RobotHandle.joint_action`, in action order."""
     leg_actuators: tuple[str, ...] = ()

@@ -83,6 +83,9 @@ DRIVE_DT = 0.01
 _WHEEL_P, _WHEEL_I = 0.5, 3.0
 # Ideal-locomotion servo: planar velocity (1/s), height (1/s^2, 1/s), attitude (1/s^2, 1/s).
 _SERVO_V, _SERVO_W, _SERVO_KP, _SERVO_KD = 10.0, 10.0, 400.0, 40.0
+#: Ackermann steering's K-turn (see :meth:`RobotHandle.drive`): top speed (m/s) and the
+#: time (s) of each forward or backward leg.
+KTURN_SPEED, KTURN_PERIOD = 0.6, 1.5
 
 
 def yaw_of(quat: Any) -> float:
@@ -114,6 +117,7 @@ class RobotHandle:
             joints = [model.joint(prefix + n).id for n in robot.leg_joints]
             self.left = np.array([model.actuator(prefix + n).id for n in robot.left_wheels], dtype=int)
             self.right = np.array([model.actuator(prefix + n).id for n in robot.right_wheels], dtype=int)
+            self._steer_ids = [model.actuator(prefix + n).id for n in robot.steer_actuators]
         except KeyError as exc:
             raise CitygenError(
                 f"the model holds no robot {robot.name!r} under the prefix {prefix!r}: {exc}"
@@ -137,12 +141,13 @@ class RobotHandle:
         self._is_robot_geom[self.geom_ids] = True
         self._not_foot = self._is_robot_geom.copy()
         self._not_foot[self.foot_geom_ids] = False
-        wheels = robot.nav_mode == "wheels"
+        wheels = robot.nav_mode in ("wheels", "ackermann")
         self.drive_substeps = max(1, round(DRIVE_DT / model.opt.timestep)) if wheels else 1
         # Drive state: the integral of the speed and yaw-rate errors, the ramped reference.
         self._integral = (0.0, 0.0)
         self._ref = (0.0, 0.0)
         self._ground: float | None = None
+        self._kturn_time = 0.0  # s of the current K-turn (Ackermann steering)
         self._servo_age = math.inf  # s since the servo's inertia was computed
         self._servo_inertia = 0.0  # kg m^2
         # Constants of the drive, read once: plain floats and ids (the drive runs often).
@@ -175,10 +180,12 @@ class RobotHandle:
         data.qacc_warmstart[self.dof_ids] = 0.0
         data.ctrl[self.leg_act] = self.default
         data.ctrl[self.wheel_act] = 0.0
+        data.ctrl[self._steer_ids] = 0.0
         data.xfrc_applied[self.body_ids] = 0.0
         self._integral = (0.0, 0.0)
         self._ref = (0.0, 0.0)
         self._ground = z
+        self._kturn_time = 0.0
         self._servo_age = math.inf
         self._mj.mj_forward(m, data)
 
@@ -204,9 +211,10 @@ class RobotHandle:
         """Track forward speed ``v`` (m/s) and yaw rate ``w`` (rad/s), clipped to the
         robot's limits and approached at its acceleration limits. Call it once per feedback
         period ``dt`` (s; default one physics step): it feeds back the base's measured
-        motion (wheel robots: a PI correction of the wheel speeds; ideal locomotion: the
-        base servo's forces in ``data.xfrc_applied``) and its outputs hold until the next
-        call. The environments call it every :data:`DRIVE_DT`."""
+        motion (wheel robots: a PI correction of the wheel speeds, and the front wheels'
+        Ackermann angles with ``nav_mode == "ackermann"``, which turns on the spot by
+        K-turns; ideal locomotion: the base servo's forces in ``data.xfrc_applied``) and its
+        outputs hold until the next call. The environments call it every :data:`DRIVE_DT`."""
         r = self.robot
         dt = self._timestep if dt is None else float(dt)
         v = _clamp(float(v), r.max_speed)
@@ -218,9 +226,11 @@ class RobotHandle:
         rv += _clamp(v - rv, dt * r.max_accel)
         rw += _clamp(w - rw, dt * r.max_yaw_accel)
         self._ref = (rv, rw)
-        if r.nav_mode != "wheels":
+        if r.nav_mode == "base":
             self._servo(data, rv, rw, dt)
             return
+        if r.nav_mode == "ackermann":
+            rv = self._kturn(rv, rw, dt)
         vx, _, _, wz = self._velocity(data)
         ev, ew = rv - vx, rw - wz
         iv, iw = self._integral
@@ -230,10 +240,39 @@ class RobotHandle:
         wc = rw + _WHEEL_P * ew + _WHEEL_I * iw
         half = wc * r.track_width / 2
         ctrl = data.ctrl
+        if self._steer_ids:
+            self._steer(ctrl, vc, wc)
         for a in self._left_ids:
             ctrl[a] = (vc - half) / r.wheel_radius
         for a in self._right_ids:
             ctrl[a] = (vc + half) / r.wheel_radius
+
+    def _kturn(self, v: float, w: float, dt: float) -> float:
+        """Ackermann steering cannot turn on the spot: a yaw rate ``w`` (rad/s) asked at a
+        speed ``v`` (m/s) below both :data:`KTURN_SPEED` and the tightest turn's becomes a
+        K-turn (forward and back in turns of :data:`KTURN_PERIOD`, steering the other
+        way when reversing, so the yaw keeps its sign); the speed to drive."""
+        need = abs(w) * self.robot.wheelbase / math.tan(self.robot.max_steer)
+        if abs(v) >= min(need, KTURN_SPEED):
+            self._kturn_time = 0.0
+            return v
+        self._kturn_time += dt
+        forward = int(self._kturn_time / KTURN_PERIOD) % 2 == 0
+        return min(need, KTURN_SPEED) * (1.0 if forward else -1.0)
+
+    def _steer(self, ctrl: Any, v: float, w: float) -> None:
+        """Ackermann steering angles (rad) of the left and right front wheels for forward
+        speed ``v`` (m/s) and yaw rate ``w`` (rad/s) about the rear axle's centre."""
+        r = self.robot
+        if abs(w) < 1e-6:
+            ctrl[self._steer_ids] = 0.0
+            return
+        radius = (v if abs(v) >= 0.05 else 0.05) / w  # signed turn radius (m): + centre on the left
+        radius = math.copysign(max(abs(radius), r.track_width), radius)  # inner wheel's side kept
+        left = math.atan(r.wheelbase / (radius - r.track_width / 2))
+        right = math.atan(r.wheelbase / (radius + r.track_width / 2))
+        ctrl[self._steer_ids[0]] = _clamp(left, r.max_steer)
+        ctrl[self._steer_ids[1]] = _clamp(right, r.max_steer)
 
     def _ground_below(self, data: Any) -> float:
         """Height (m) of the first non-robot surface under the base origin."""

@@ -98,11 +98,6 @@ def load_robot(name_or_path: str | Path, adapter: str | Path | Mapping[str, Any]
         if adapter is not None:
             raise CitygenError(f"robot {name_or_path!r} is built in and takes no adapter")
         return _builtin(name_or_path)
-    if name_or_path == "humanoid":
-        raise CitygenError(
-            f"robot 'humanoid' is not built yet; the built-in robots are {', '.join(BUILTIN)} "
-            "(or pass an MJCF/URDF file and an adapter)"
-        )
     from citygen.runner.robots.custom import load_custom
 
     path = Path(name_or_path)
