@@ -24,18 +24,9 @@ KINDS = tuple(ENV_IDS.values())
 
 def make_env(task: str, scene: Scene | str | Path | None = None, **kwargs: Any):
     """The environment of a task kind (``"nav-static"``) on a scene or a split."""
-    from citygen.runner import envs
+    from citygen.runner.tasks import env_class
 
-    if task not in KINDS:
-        raise SpecError(f"task: expected one of {', '.join(KINDS)}, got {task!r}")
-    cls = (
-        envs.NavEnv
-        if task.startswith("nav")
-        else envs.LocoEnv
-        if task.startswith("loco")
-        else envs.TraverseEnv
-    )
-    return cls(task, scene, **kwargs)
+    return env_class(task)(task, scene, **kwargs)
 
 
 def run_episode(
