@@ -14,7 +14,6 @@ from typing import Any
 
 import numpy as np
 
-from citygen.errors import SpecError
 from citygen.runner import ENV_IDS
 from citygen.spec import Scene
 
@@ -99,17 +98,19 @@ def run_bench(
     episodes: int = 16,
     jobs: int | None = None,
     seed: int = 0,
-    progress: Callable[[int, int], None] | None = None,
+    progress: Callable[[int, int, dict[str, Any]], None] | None = None,
     **env_options: Any,
 ) -> list[dict[str, Any]]:
-    """``episodes`` episodes (scene ``i`` of ``split`` for episode ``i``) in ``jobs`` processes;
-    the per-episode metric rows, in episode order (the same for any ``jobs``)."""
-    from citygen.runner.policies import POLICIES
+    """``episodes`` episodes (scene ``i`` of ``split`` for episode ``i``, seed ``seed + i``) in
+    ``jobs`` processes; the per-episode metric rows, in episode order (the same for any
+    ``jobs``). ``progress(done, total, row)`` is called as each episode ends. A task, split,
+    robot or policy that do not fit together is a one-line :class:`SpecError` before any
+    episode runs (:mod:`citygen.runner.tasks`)."""
+    from citygen.runner.tasks import check_policy, check_robot, check_split, check_task
 
-    if policy not in POLICIES:
-        raise SpecError(f"policy: expected one of {', '.join(POLICIES)}, got {policy!r}")
-    if task not in KINDS:
-        raise SpecError(f"task: expected one of {', '.join(KINDS)}, got {task!r}")
+    check_task(task)
+    check_split(task, split)
+    check_policy(task, check_robot(task, robot, env_options.get("adapter")), policy)
     spec = BenchSpec(task, split, robot, policy, seed, tuple(sorted(env_options.items())))
     jobs = max(1, min(jobs or os.cpu_count() or 1, episodes))
     rows: list[dict[str, Any]] = [{}] * episodes
@@ -117,16 +118,14 @@ def run_bench(
         for i in range(episodes):
             rows[i] = _episode(spec, i)
             if progress:
-                progress(i + 1, episodes)
+                progress(i + 1, episodes, rows[i])
         return rows
     with ProcessPoolExecutor(jobs) as pool:
         futures = {pool.submit(_episode, spec, i): i for i in range(episodes)}
-        done = 0
-        for fut in as_completed(futures):
+        for done, fut in enumerate(as_completed(futures), start=1):
             rows[futures[fut]] = fut.result()
-            done += 1
             if progress:
-                progress(done, episodes)
+                progress(done, episodes, rows[futures[fut]])
     return rows
 
 

@@ -28,7 +28,8 @@ actions in [-1, 1] (targets around the robot's standing pose) every :data:`LOCO_
 the observation is the base's linear and angular velocity, the command, joint positions
 and velocities, the last action and the height map. Reward as in the paper: ``-100`` and
 the end of the episode when the robot's body (any part but its legs: trunk, head, torso,
-arms) presses on the ground with more than 1 N; ``exp(-|v_xy - c_xy|^2 / 0.25^2) + 0.5 exp(-(w_z - c_wz)^2 / 0.25^2)``
+arms) presses on the ground with more than 1 N;
+``exp(-|v_xy - c_xy|^2 / 0.25^2) + 0.5 exp(-(w_z - c_wz)^2 / 0.25^2)``
 for tracking the command; ``-2.0 v_z^2``; ``-0.01 |a_t - a_(t-1)|^2``. Horizon
 :data:`LOCO_HORIZON` steps.
 
@@ -770,7 +771,9 @@ class LocoEnv(_CitygenEnv):
         x, y = (float(v) for v in task.start.position)
         yaw = float(task.start.yaw)
         size = grid.tile_size if grid is not None else 0.0
-        self.region = None if grid is None else (int((y - grid.origin[1]) // size), int((x - grid.origin[0]) // size))
+        self.region = None
+        if grid is not None:
+            self.region = (int((y - grid.origin[1]) // size), int((x - grid.origin[0]) // size))
         if self.randomize and grid is not None:
             row, col = int(rng.integers(grid.rows)), int(rng.integers(grid.cols))
             jitter = rng.uniform(-START_JITTER, START_JITTER, 2)
@@ -783,7 +786,8 @@ class LocoEnv(_CitygenEnv):
             row, col = (int(v) for v in options["region"])
             if not (0 <= row < grid.rows and 0 <= col < grid.cols):
                 raise SpecError(
-                    f"options.region: expected (row, col) inside the {grid.rows} x {grid.cols} grid, got {(row, col)}"
+                    f"options.region: expected (row, col) inside the {grid.rows} x {grid.cols} grid, "
+                    f"got {(row, col)}"
                 )
             x, y = grid.origin[0] + (col + 0.5) * size, grid.origin[1] + (row + 0.5) * size
             self.region = (row, col)

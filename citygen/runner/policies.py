@@ -104,7 +104,9 @@ class GaitPolicy:
 
     def reset(self, env: Any) -> None:
         from citygen.runner import gaits
+        from citygen.runner.tasks import check_policy
 
+        check_policy(env.task_kind, env.robot, self.gait)  # locomotion, a four-legged robot
         self.env = env
         if self.gait == "stand":
             self.controller = gaits.StandController()

@@ -12,10 +12,8 @@ or policy added later is offered (and refused) everywhere the same way.
 
 >>> policies_for("nav-static", "wheeled")
 ('random', 'planner')
->>> check_policy("loco-flat", "quadruped", "planner")
-Traceback (most recent call last):
-...
-citygen.errors.SpecError: --policy: 'planner' does not drive loco-flat with the quadruped robot; expected one of random, stand, trot
+>>> print(policies_for("loco-flat", "quadruped"), robots_for("loco-flat")[:2])
+('random', 'stand', 'trot') ('quadruped', 'wheeled_legged')
 """
 
 from __future__ import annotations
@@ -94,10 +92,17 @@ def env_class(task: str) -> type:
 
 
 def _robot(robot: Any, adapter: Any = None):
+    """A Robot from a name or file (a one-line error prefixed by ``--robot``), or as given."""
     if isinstance(robot, str | Path):
+        from citygen.errors import CitygenError
         from citygen.runner.robots import load_robot
 
-        return load_robot(robot, adapter)
+        try:
+            return load_robot(robot, adapter)
+        except SpecError:
+            raise
+        except CitygenError as exc:
+            raise SpecError(f"--robot: {exc}") from None
     return robot
 
 
@@ -137,7 +142,7 @@ def check_scene_task(task: str, scene_task: Any, where: str) -> None:
     names the scene or split) can run ``task``."""
     have = scene_family(scene_task)
     if have is None:
-        raise SpecError(f"{where}: $.task: expected a {family(task)} task to run {task}, got none")
+        raise SpecError(f"{where}: $.task: expected a task ({_WHAT[family(task)]}) to run {task}, got none")
     if have != family(task):
         raise SpecError(
             f"{where}: $.task: {task} needs a {_WHAT[family(task)]}, got a {scene_task.kind} task "
