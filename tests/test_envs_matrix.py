@@ -1,0 +1,87 @@
+"""Every registered environment with every built-in robot its task allows, as a new user
+would try them: a short episode under zero action, random action and each baseline policy
+that applies. Robots and policies come from :mod:`citygen.runner.tasks` (the registry and
+the one place that says what fits), so a robot added later is tried the day it is added.
+
+A run fails on an exception, on a non-finite observation, reward or metric, and on a
+termination the task's physics does not explain: nothing ends an episode on its first step
+(the robot starts standing on the ground, away from the bounds and the goal), and a robot
+given zero action or the stand controller stays up for the whole short episode.
+"""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+from citygen.runner import ENV_IDS
+from citygen.runner.policies import make_policy
+from citygen.runner.tasks import policies_for, robots_for
+
+#: Steps of each short episode (0.6 s of locomotion, 3 s of navigation).
+STEPS = 30
+#: Policies that hold the robot still: no termination at all is explained.
+STILL = ("zero", "stand")
+
+CASES = [(env_id, robot) for env_id, kind in ENV_IDS.items() for robot in robots_for(kind)]
+
+
+def _finite(obs) -> bool:
+    values = obs.values() if isinstance(obs, dict) else [obs]
+    return all(np.all(np.isfinite(np.asarray(v, dtype=np.float64))) for v in values)
+
+
+class _Zero:
+    def reset(self, env):
+        self.shape = env.action_space.shape
+
+    def act(self, obs):
+        return np.zeros(self.shape, dtype=np.float32)
+
+
+def _episode(env, name: str, seed: int) -> list[str]:
+    """Problems of one short episode of policy ``name`` (empty when it ran as it should)."""
+    problems = []
+    policy = _Zero() if name == "zero" else make_policy(name, seed=seed)
+    obs, info = env.reset(seed=seed)
+    if not _finite(obs):
+        problems.append("non-finite observation after reset")
+    policy.reset(env.unwrapped)
+    for t in range(1, STEPS + 1):
+        obs, reward, terminated, truncated, info = env.step(policy.act(obs))
+        if not _finite(obs) or not math.isfinite(reward):
+            problems.append(f"non-finite observation or reward at step {t}")
+        if terminated and (t == 1 or name in STILL):
+            problems.append(f"terminated at step {t}: {_why(info)}")
+        if terminated or truncated:
+            metrics = info.get("metrics")
+            if metrics is None:
+                problems.append(f"episode ended at step {t} without metrics")
+            elif not all(math.isfinite(v) for v in metrics.values() if isinstance(v, float)):
+                problems.append(f"non-finite metric {metrics}")
+            break
+    return problems
+
+
+def _why(info: dict) -> str:
+    keys = ("fallen", "success", "lost", "distance", "pose", "region", "index")
+    return ", ".join(f"{k}={info[k]}" for k in keys if k in info)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("env_id", "robot"), CASES, ids=[f"{e.split('/')[1]}-{r}" for e, r in CASES])
+def test_every_env_robot_and_policy_runs_a_short_episode(env_id, robot):
+    kind = ENV_IDS[env_id]
+    env = gym.make(env_id, robot=robot, max_steps=STEPS, disable_env_checker=True)
+    try:
+        problems = {}
+        for seed, name in enumerate(("zero", *policies_for(kind, robot))):
+            found = _episode(env, name, seed)
+            if found:
+                problems[name] = found
+    finally:
+        env.close()
+    assert not problems, f"{env_id} with {robot}: {problems}"
