@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 
 from citygen.runner.bench import make_env
-from citygen.runner.envs import COMMAND_RANGE
 from citygen.runner.robots import lowest_point
 from citygen.runner.tasks import robots_for
 
@@ -26,7 +25,9 @@ def test_seeds_draw_region_start_and_command(rough):
         _, info = rough.reset(seed=seed)
         x, y, _, yaw = rough.handle.pose(rough.data)
         starts.append((info["region"], round(x, 3), round(y, 3), round(yaw, 3), info["command"]))
-        assert all(lo <= c <= hi for c, (lo, hi) in zip(info["command"], COMMAND_RANGE, strict=True))
+        speed = np.hypot(*rough.scene.task.command[:2])
+        assert np.hypot(*info["command"][:2]) == pytest.approx(speed)  # fixed magnitude
+        assert info["command"][2] == rough.scene.task.command[2]
     assert len({s[0] for s in starts}) > 1, starts  # regions
     assert len({s[1:4] for s in starts}) == len(starts), starts  # poses
     assert len({s[4] for s in starts}) == len(starts), starts  # commands

@@ -74,10 +74,10 @@ HEIGHT_MAP = (1.6, 1.0, 0.1)
 RAY_COUNT, RAY_HEIGHT, RAY_RANGE = 32, 0.3, 8.0
 #: Contact force (N) on a non-foot part that counts as a fall in locomotion.
 FALL_FORCE = 1.0
-#: Locomotion: a seed's command ``(vx, vy, wz)`` (m/s, m/s, rad/s) is uniform in these ranges
-#: (the paper names none; these are Isaac Lab's velocity-tracking defaults, which URBAN-SIM's
-#: locomotion builds on).
-COMMAND_RANGE = ((-1.0, 1.0), (-1.0, 1.0), (-1.0, 1.0))
+#: Locomotion: a seed turns the scene's command ``(vx, vy, wz)`` to a direction uniform in
+#: this range (rad, about the robot's heading), keeping its speed and yaw rate: the paper's
+#: X-displacement is "in the velocity direction under fixed magnitude and random orientation".
+COMMAND_TURN = (-math.pi, math.pi)
 #: Locomotion: the start is up to this far (m, each axis) from its region's centre.
 START_JITTER = 0.25
 #: Spawning: clearance (m) between the ground and a robot part that would have touched it.
@@ -735,8 +735,9 @@ class LocoEnv(_CitygenEnv):
         """A new episode. With ``randomize`` (the default) the seed draws the test region
         (a tile of the Urban-Loc grid; ``options={"region": (row, col)}`` picks one), the
         start pose in it (:data:`START_JITTER` m around the tile's centre, any heading) and
-        the command (uniform in :data:`COMMAND_RANGE`; ``options={"command": (vx, vy, wz)}``
-        sets one); without, the scene's own start and command."""
+        the command's direction (the scene's command turned by an angle in
+        :data:`COMMAND_TURN`; ``options={"command": (vx, vy, wz)}`` sets one); without, the
+        scene's own start and command."""
         import mujoco
 
         super().reset(seed=seed)
@@ -780,7 +781,8 @@ class LocoEnv(_CitygenEnv):
             x = grid.origin[0] + (col + 0.5) * size + float(jitter[0])
             y = grid.origin[1] + (row + 0.5) * size + float(jitter[1])
             yaw = float(rng.uniform(-math.pi, math.pi))
-            command = tuple(float(rng.uniform(lo, hi)) for lo, hi in COMMAND_RANGE)
+            speed, turn = math.hypot(command[0], command[1]), float(rng.uniform(*COMMAND_TURN))
+            command = (speed * math.cos(turn), speed * math.sin(turn), float(command[2]))
             self.region = (row, col)
         if "region" in options and grid is not None:
             row, col = (int(v) for v in options["region"])
