@@ -81,7 +81,7 @@ COMMAND_TURN = (-math.pi, math.pi)
 #: Locomotion: the start is up to this far (m, each axis) from its region's centre.
 START_JITTER = 0.25
 #: Spawning: clearance (m) between the ground and a robot part that would have touched it.
-SPAWN_CLEARANCE = 0.02
+SPAWN_CLEARANCE = 0.01
 #: Traverse: seconds without getting closer to the next waypoint before a reset.
 STUCK_SECONDS = 15.0
 
@@ -239,29 +239,38 @@ class _CitygenEnv(gymnasium.Env):
         return self._around.ground, self._around.grid
 
     def _spawn(self, x: float, y: float, yaw: float) -> float:
-        """Put the robot standing at ``(x, y, yaw)`` (:meth:`RobotHandle.reset`), lifted just
-        clear of the ground under every part of it: on rough ground, stairs or a slope the
-        ground under a foot is not the ground under the base. Returns the lift (m)."""
+        """Put the robot standing at ``(x, y, yaw)`` (:meth:`RobotHandle.reset`) with its feet
+        on the ground under them and no part inside the ground: on rough ground, stairs or a
+        slope the ground under a foot is not the ground under the base. The feet are lifted
+        onto the ground :func:`height_at` gives under each; then MuJoCo's own contacts lift it
+        out of whatever it still penetrates, and :data:`SPAWN_CLEARANCE` is added. Returns
+        the lift (m) over the ground under the base."""
+        import mujoco
+
         from citygen.runner.robots import lowest_point
 
-        m, d = self.model, self.data
+        m, d, h = self.model, self.data, self.handle
         ground = self._ground_z(x, y)
-        self.handle.reset(d, (x, y, ground, yaw))
-        ids = self.handle.geom_ids
-        ids = ids[(m.geom_contype[ids] != 0) | (m.geom_conaffinity[ids] != 0)]
-        low = np.array([lowest_point(m, d, int(g)) for g in ids])
-        ring = np.linspace(0.0, 2 * np.pi, 8, endpoint=False)
-        du = np.concatenate([[0.0], np.cos(ring), 0.5 * np.cos(ring)])
-        dv = np.concatenate([[0.0], np.sin(ring), 0.5 * np.sin(ring)])
-        r = m.geom_rbound[ids][:, None]
-        xs = d.geom_xpos[ids, 0][:, None] + r * du
-        ys = d.geom_xpos[ids, 1][:, None] + r * dv
-        under = height_at(self.scene, xs.ravel(), ys.ravel()).reshape(xs.shape).max(axis=1)
-        lift = float(np.max(under - low))
+        h.reset(d, (x, y, ground, yaw))
+        feet = h.foot_geom_ids
+        under = height_at(self.scene, d.geom_xpos[feet, 0], d.geom_xpos[feet, 1])
+        low = np.array([lowest_point(m, d, int(g)) for g in feet])
+        lift = max(0.0, float(np.max(under - low))) if feet.size else 0.0
+        robot, ground_geoms = self._robot_geoms, self.prepared.ground_geoms
+        for _ in range(20):  # MuJoCo's contacts: what still penetrates the ground
+            if lift > 0.0:
+                h.reset(d, (x, y, ground + lift, yaw))
+            n = d.ncon
+            g1, g2, dist = d.contact.geom1[:n], d.contact.geom2[:n], d.contact.dist[:n]
+            inside = ((robot[g1] & ground_geoms[g2]) | (robot[g2] & ground_geoms[g1])) & (dist < 0)
+            if not inside.any():
+                break
+            lift += float(-dist[inside].min()) + 1e-3
         if lift <= 1e-6:
             return 0.0
         lift += SPAWN_CLEARANCE
-        self.handle.reset(d, (x, y, ground + lift, yaw))
+        h.reset(d, (x, y, ground + lift, yaw))
+        mujoco.mj_forward(m, d)
         return lift
 
     def _out_of_bounds(self, x: float, y: float) -> bool:
