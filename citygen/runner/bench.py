@@ -35,11 +35,13 @@ def run_episode(
     seed: int | None = None,
     index: int | None = None,
     on_step: Callable[[Any, int], None] | None = None,
+    options: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """One episode of ``policy`` in ``env`` (reset with ``seed`` and scene ``index``); returns
-    the task's metrics plus ``return``, ``steps``, ``scene`` and ``index``. ``on_step(env,
-    t)`` is called after the reset and after every step (to save frames)."""
-    options = None if index is None else {"index": index}
+    """One episode of ``policy`` in ``env`` (reset with ``seed``, scene ``index`` and any other
+    reset ``options``); returns the task's metrics plus ``return``, ``steps``, ``scene`` and
+    ``index``. ``on_step(env, t)`` is called after the reset and after every step (to save
+    frames)."""
+    options = {**(options or {}), **({} if index is None else {"index": index})} or None
     obs, info = env.reset(seed=seed, options=options)
     policy.reset(env.unwrapped)
     total, t = 0.0, 0
