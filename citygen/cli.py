@@ -444,7 +444,7 @@ def rebuild(
         generator_config = config_for(edited, config)
         result = rebuild_scene(edited, stage, generator_config, seed=seed)
     except SpecError as exc:
-        raise SpecError(exc.problems, file=exc.file or str(scene)) from None
+        raise SpecError(exc.message or exc.problems, file=exc.file or str(scene)) from None
     problems = citygen.validate(result, base_dir=target.parent)
     if problems:
         raise SpecError(problems, file=f"{scene} rebuilt from {stage}")

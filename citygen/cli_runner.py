@@ -4,6 +4,7 @@ the CLI starts without them."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import sys
 from pathlib import Path
@@ -18,10 +19,24 @@ from citygen.spec.task import Robot as RobotName  # the registry's BUILTIN (test
 TASKS = TASK_KINDS
 
 
-def _check(value: str, allowed: tuple[str, ...], what: str) -> str:
-    if value not in allowed:
-        raise typer.BadParameter(f"expected one of {', '.join(allowed)}, got {value!r}", param_hint=what)
-    return value
+def _robot_help() -> str:
+    return (
+        f"A built-in robot ({', '.join(get_args(RobotName))}; locomotion needs a legged one) "
+        "or an MJCF/URDF file (with --adapter).  [default: wheeled; quadruped for locomotion]"
+    )
+
+
+def _robot_and_policy(task: str, robot: str | None, policy: str | None, options: dict):
+    """The Robot and the policy to run (a baseline's name, or a learned model's file checked
+    against the task's environment); a one-line SpecError when they do not fit the task."""
+    from citygen.runner.learn.policy import is_model, resolve_policy
+    from citygen.runner.tasks import check_policy, check_robot, default_policy
+
+    loaded = check_robot(task, robot, options.get("adapter"))
+    policy = policy or default_policy(task)
+    if is_model(policy):
+        return loaded, resolve_policy(policy, task, robot, (), **options)
+    return loaded, check_policy(task, loaded, policy)
 
 
 def bench(
@@ -32,27 +47,20 @@ def bench(
         str | None,
         typer.Option("--split", "-s", help="Split to sample scenes from.  [default: the task's test split]"),
     ] = None,
-    robot: Annotated[
-        str | None,
-        typer.Option(
-            "--robot",
-            "-r",
-            help=f"{', '.join(get_args(RobotName))}, or an MJCF/URDF file (with --adapter).  "
-            "[default: wheeled; quadruped for locomotion]",
-        ),
-    ] = None,
+    robot: Annotated[str | None, typer.Option("--robot", "-r", help=_robot_help())] = None,
     adapter: Annotated[
         Path | None, typer.Option("--adapter", help="Adapter config (TOML/JSON) of a --robot file.")
     ] = None,
     policy: Annotated[
-        str,
+        str | None,
         typer.Option(
             "--policy",
             "-p",
-            help="random, planner, stand, trot, human, ai, shared-cautious, shared-efficient; "
-            "ppo (the shipped learned baseline) or a model file of `citygen train` (.npz, .zip).",
+            help="random, planner (navigation, traverse), stand, trot (legged locomotion), human, ai, "
+            "shared-cautious, shared-efficient (traverse); ppo (the shipped learned baseline) or a model "
+            "file of `citygen train` (.npz, .zip).  [default: planner; trot for locomotion; ai for the traverse]",
         ),
-    ] = "planner",
+    ] = None,
     episodes: Annotated[
         int, typer.Option("--episodes", "-n", min=1, help="Episodes (episode i runs scene i).")
     ] = 16,
@@ -65,24 +73,33 @@ def bench(
     ] = None,
 ) -> None:
     """Run a baseline on a split and print the URBAN-BENCH table (mean and standard error per metric)."""
-    from citygen.runner.bench import run_bench, summary_json
+    from citygen.runner.bench import run_bench
     from citygen.runner.envs import DEFAULT_SPLIT
-    from citygen.runner.learn.policy import resolve_policy
-    from citygen.runner.metrics import format_table
-    from citygen.runner.policies import POLICIES
+    from citygen.runner.tasks import check_split, check_task
 
-    _check(task, TASKS, "--task")
-    split = split or DEFAULT_SPLIT[task]
+    check_task(task)
+    split = check_split(task, split or DEFAULT_SPLIT[task])
     options = {} if adapter is None else {"adapter": str(adapter)}
-    policy = resolve_policy(policy, task, robot, POLICIES, **options)  # a name, or a model file's path
-    robot_arg = robot
+    loaded, policy = _robot_and_policy(task, robot, policy, options)
     if output is not None and output.exists() and output.is_dir():
         raise SpecError(f"{output}: expected a file path for --output, got a folder")
-    with _progress(episodes) as advance:
-        rows = run_bench(task, split, robot=robot_arg, policy=policy, episodes=episodes, jobs=jobs, seed=seed,
+    with progress_bar(episodes, _bar_enabled()) as advance:
+        rows = run_bench(task, split, robot=robot, policy=policy, episodes=episodes, jobs=jobs, seed=seed,
                          progress=advance, **options)  # fmt: skip
-    doc = summary_json(rows, task=task, split=split, robot=robot or "default", policy=policy, seed=seed)
-    title = f"{task} on {split}: {robot or 'default robot'}, {policy} policy, {episodes} episodes"
+    _print_table(rows, task=task, split=split, robot=loaded.name, policy=policy, seed=seed, output=output)
+
+
+def _print_table(rows: list, *, output: Path | None = None, **header) -> None:
+    """The URBAN-BENCH table of ``rows`` (and the JSON document at ``output``)."""
+    from citygen.runner.bench import summary_json
+    from citygen.runner.metrics import format_table
+
+    doc = summary_json(rows, **header)
+    n = len(rows)
+    title = (
+        f"{header['task']} on {header['split']}: {header['robot']} robot, {header['policy']} policy, "
+        f"{n} episode{'s' if n != 1 else ''}"
+    )
     typer.echo(format_table(doc["summary"], title))
     if output is not None:
         from citygen.io import write_atomic
@@ -91,26 +108,53 @@ def bench(
         typer.echo(f"wrote {output}")
 
 
-class _progress:
-    def __init__(self, total: int):
-        self.total = total
-        self._bar = None
+def _bar_enabled() -> bool:
+    return sys.stderr.isatty()
 
-    def __enter__(self):
-        if not sys.stderr.isatty() or self.total < 2:
-            return lambda done, total: None
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
 
-        self._bar = Progress(
-            "episodes", BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(), transient=True
-        )
-        self._bar.start()
-        task = self._bar.add_task("episodes", total=self.total)
-        return lambda done, total: self._bar.update(task, completed=done)
+@contextlib.contextmanager
+def progress_bar(episodes: int, enabled: bool, horizon: int | None = None):
+    """A rich progress bar on stderr like ``citygen generate``'s: episodes (or, for one
+    episode, its steps against the horizon), steps so far, success so far, elapsed and ETA.
+    Yields ``advance(done, total, row)`` (an episode's row when one ends, else None)."""
+    if not enabled:
+        yield lambda done, total, row=None: None
+        return
+    from rich.console import Console
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
 
-    def __exit__(self, *exc):
-        if self._bar is not None:
-            self._bar.stop()
+    columns = (
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("{task.fields[steps]} steps"),
+        TextColumn("success {task.fields[success]}"),
+        TimeElapsedColumn(),
+        TextColumn("ETA"),
+        TimeRemainingColumn(),
+    )
+    unit = "steps" if horizon else "episodes"
+    with Progress(*columns, console=Console(stderr=True), transient=False) as bar:
+        job = bar.add_task(unit, total=horizon or episodes, steps=0, success="-")
+        tally = {"steps": 0, "success": 0.0, "ended": 0}
+
+        def advance(done: int, total: int, row: dict | None = None) -> None:
+            if row is not None:
+                tally["steps"] += int(row.get("steps", 0))
+                tally["success"] += float(row.get("success_rate", row.get("balance", 0.0)))
+                tally["ended"] += 1
+            steps = done if horizon else tally["steps"]
+            rate = f"{tally['success'] / tally['ended']:.0f} %" if tally["ended"] else "-"
+            bar.update(job, completed=done, total=total, steps=steps, success=rate)
+
+        yield advance
 
 
 def run(
@@ -118,12 +162,23 @@ def run(
     task: Annotated[
         str | None, typer.Option("--task", "-t", help="Task kind.  [default: the scene's own task]")
     ] = None,
-    robot: Annotated[str | None, typer.Option("--robot", "-r", help="As for `citygen bench`.")] = None,
+    robot: Annotated[str | None, typer.Option("--robot", "-r", help=_robot_help())] = None,
     adapter: Annotated[
         Path | None, typer.Option("--adapter", help="Adapter config of a --robot file.")
     ] = None,
-    policy: Annotated[str, typer.Option("--policy", "-p", help="As for `citygen bench`.")] = "planner",
-    seed: Annotated[int, typer.Option("--seed", min=0)] = 0,
+    policy: Annotated[
+        str | None,
+        typer.Option("--policy", "-p", help="As for `citygen bench`.  [default: by task, as there]"),
+    ] = None,
+    seed: Annotated[
+        int,
+        typer.Option(
+            "--seed",
+            min=0,
+            help="Seed of the episode: the random policy's actions, the people's motion; in locomotion "
+            "also the region, start pose and command.",
+        ),
+    ] = 0,
     frames: Annotated[
         Path | None, typer.Option("--frames", help="Save every step's picture as PNG here.")
     ] = None,
@@ -131,35 +186,47 @@ def run(
         Path | None, typer.Option("--animation", help="Save the episode as an animated GIF.")
     ] = None,
     every: Annotated[int, typer.Option("--every", min=1, help="Keep every k-th frame.")] = 1,
+    output: Annotated[
+        Path | None, typer.Option("--output", "-o", help="Write the table and the episode as JSON.")
+    ] = None,
 ) -> None:
-    """Run one episode on a scene and print its metrics; optionally save frames or an animation."""
+    """Run one episode on a scene and print its URBAN-BENCH table (as `citygen bench` does); optionally
+    save frames or an animation."""
     from citygen.io import load_scene
     from citygen.runner.bench import make_env, run_episode
-    from citygen.runner.learn.policy import resolve_policy
-    from citygen.runner.policies import POLICIES, make_policy
+    from citygen.runner.policies import make_policy
+    from citygen.runner.tasks import check_scene_task, check_task
 
     spec = load_scene(scene)
     kind = task or (spec.task.kind if spec.task is not None else None)
     if kind is None:
-        raise SpecError(f"{scene}: $.task: expected a task in the scene, or give --task")
-    _check(kind, TASKS, "--task")
+        raise SpecError(
+            f"{scene}: $.task: expected a task in the scene, or give --task (one of {', '.join(TASKS)})"
+        )
+    check_task(kind)
+    check_scene_task(kind, spec.task, str(scene))
     options = {} if adapter is None else {"adapter": str(adapter)}
-    policy = resolve_policy(policy, kind, robot, POLICIES, **options)  # a name, or a model file's path
+    loaded, policy = _robot_and_policy(kind, robot, policy, options)
     want_pictures = frames is not None or animation is not None
     env = make_env(kind, spec, robot=robot, adapter=None if adapter is None else str(adapter),
                    render_mode="rgb_array" if want_pictures else None)  # fmt: skip
     pictures: list = []
+    horizon = int(getattr(env, "horizon", 0)) or None
 
-    def keep(e, t: int) -> None:
-        if want_pictures and t % every == 0:
-            pictures.append(e.render())
+    with progress_bar(1, _bar_enabled() and horizon is not None, horizon=horizon) as advance:
 
-    try:
-        result = run_episode(env, make_policy(policy, seed=seed), seed=seed, on_step=keep)
-    finally:
-        env.close()
-    for key, value in result.items():
-        typer.echo(f"{key}: {value:.4g}" if isinstance(value, float) else f"{key}: {value}")
+        def keep(e, t: int) -> None:
+            if want_pictures and t % every == 0:
+                pictures.append(e.render())
+            advance(t, max(horizon or 1, t))
+
+        try:
+            result = run_episode(env, make_policy(policy, seed=seed), seed=seed, on_step=keep)
+        finally:
+            env.close()
+        advance(result["steps"], result["steps"], result)
+    header = {"task": kind, "split": str(scene), "robot": loaded.name, "policy": policy, "seed": seed}
+    _print_table([result], output=output, **header)
     if frames is not None:
         _write_frames(frames, pictures)
         typer.echo(f"wrote {len(pictures)} frames to {frames}/")

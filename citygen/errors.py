@@ -9,6 +9,8 @@ escaping is a bug in citygen, not in the user's input.
 '$.placements[3].position: expected 3 numbers [x, y, z] in metres, got [1.0, 2.0]'
 >>> str(SpecError([p], file="scene.json"))
 'scene.json: $.placements[3].position: expected 3 numbers [x, y, z] in metres, got [1.0, 2.0]'
+>>> str(SpecError("--policy: expected one of stand, trot, got 'planner'"))
+"--policy: expected one of stand, trot, got 'planner'"
 """
 
 from __future__ import annotations
@@ -42,14 +44,19 @@ class CitygenError(Exception):
 
 
 class SpecError(CitygenError):
-    """A scene, config or manifest document is malformed or inconsistent."""
+    """A scene, config or manifest document is malformed or inconsistent: a list of
+    :class:`Problem` (each located by its JSON path), or one message already written as a
+    line (an option or a combination of options that does not fit)."""
 
-    def __init__(self, problems: Iterable[Problem], file: str | None = None) -> None:
-        self.problems = list(problems)
+    def __init__(self, problems: Iterable[Problem] | str, file: str | None = None) -> None:
+        self.message = problems if isinstance(problems, str) else None
+        self.problems = [] if isinstance(problems, str) else list(problems)
         self.file = file
         super().__init__("\n".join(self.lines()))
 
     def lines(self) -> list[str]:
+        if self.message is not None:
+            return [f"{self.file}: {self.message}" if self.file else self.message]
         return [p.line(self.file) for p in self.problems]
 
 

@@ -14,7 +14,6 @@ from typing import Any
 
 import numpy as np
 
-from citygen.errors import SpecError
 from citygen.runner import ENV_IDS
 from citygen.spec import Scene
 
@@ -24,18 +23,9 @@ KINDS = tuple(ENV_IDS.values())
 
 def make_env(task: str, scene: Scene | str | Path | None = None, **kwargs: Any):
     """The environment of a task kind (``"nav-static"``) on a scene or a split."""
-    from citygen.runner import envs
+    from citygen.runner.tasks import env_class
 
-    if task not in KINDS:
-        raise SpecError(f"task: expected one of {', '.join(KINDS)}, got {task!r}")
-    cls = (
-        envs.NavEnv
-        if task.startswith("nav")
-        else envs.LocoEnv
-        if task.startswith("loco")
-        else envs.TraverseEnv
-    )
-    return cls(task, scene, **kwargs)
+    return env_class(task)(task, scene, **kwargs)
 
 
 def run_episode(
@@ -45,11 +35,13 @@ def run_episode(
     seed: int | None = None,
     index: int | None = None,
     on_step: Callable[[Any, int], None] | None = None,
+    options: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """One episode of ``policy`` in ``env`` (reset with ``seed`` and scene ``index``); returns
-    the task's metrics plus ``return``, ``steps``, ``scene`` and ``index``. ``on_step(env,
-    t)`` is called after the reset and after every step (to save frames)."""
-    options = None if index is None else {"index": index}
+    """One episode of ``policy`` in ``env`` (reset with ``seed``, scene ``index`` and any other
+    reset ``options``); returns the task's metrics plus ``return``, ``steps``, ``scene`` and
+    ``index``. ``on_step(env, t)`` is called after the reset and after every step (to save
+    frames)."""
+    options = {**(options or {}), **({} if index is None else {"index": index})} or None
     obs, info = env.reset(seed=seed, options=options)
     policy.reset(env.unwrapped)
     total, t = 0.0, 0
@@ -108,17 +100,21 @@ def run_bench(
     episodes: int = 16,
     jobs: int | None = None,
     seed: int = 0,
-    progress: Callable[[int, int], None] | None = None,
+    progress: Callable[[int, int, dict[str, Any]], None] | None = None,
     **env_options: Any,
 ) -> list[dict[str, Any]]:
-    """``episodes`` episodes (scene ``i`` of ``split`` for episode ``i``) in ``jobs`` processes;
-    the per-episode metric rows, in episode order (the same for any ``jobs``)."""
-    from citygen.runner.policies import POLICIES
+    """``episodes`` episodes (scene ``i`` of ``split`` for episode ``i``, seed ``seed + i``) in
+    ``jobs`` processes; the per-episode metric rows, in episode order (the same for any
+    ``jobs``). ``progress(done, total, row)`` is called as each episode ends. A task, split,
+    robot or policy that do not fit together is a one-line :class:`SpecError` before any
+    episode runs (:mod:`citygen.runner.tasks`)."""
+    from citygen.runner.learn.policy import is_model
+    from citygen.runner.tasks import check_policy, check_robot, check_split, check_task
 
-    if policy not in POLICIES and not policy.lower().endswith((".npz", ".zip")):  # a learned model's file
-        raise SpecError(f"policy: expected one of {', '.join(POLICIES)}, got {policy!r}")
-    if task not in KINDS:
-        raise SpecError(f"task: expected one of {', '.join(KINDS)}, got {task!r}")
+    check_task(task)
+    check_split(task, split)
+    if not is_model(policy):  # a learned model's file is checked against the env when loaded
+        check_policy(task, check_robot(task, robot, env_options.get("adapter")), policy)
     spec = BenchSpec(task, split, robot, policy, seed, tuple(sorted(env_options.items())))
     jobs = max(1, min(jobs or os.cpu_count() or 1, episodes))
     rows: list[dict[str, Any]] = [{}] * episodes
@@ -126,16 +122,14 @@ def run_bench(
         for i in range(episodes):
             rows[i] = _episode(spec, i)
             if progress:
-                progress(i + 1, episodes)
+                progress(i + 1, episodes, rows[i])
         return rows
     with ProcessPoolExecutor(jobs) as pool:
         futures = {pool.submit(_episode, spec, i): i for i in range(episodes)}
-        done = 0
-        for fut in as_completed(futures):
+        for done, fut in enumerate(as_completed(futures), start=1):
             rows[futures[fut]] = fut.result()
-            done += 1
             if progress:
-                progress(done, episodes)
+                progress(done, episodes, rows[futures[fut]])
     return rows
 
 

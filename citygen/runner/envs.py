@@ -29,8 +29,9 @@ NavStatic the scene's agents are removed.
 actions in [-1, 1] (targets around the robot's standing pose) every :data:`LOCO_DT` s;
 the observation is the base's linear and angular velocity, the command, joint positions
 and velocities, the last action and the height map. Reward as in the paper: ``-100`` and
-the end of the episode when a robot part other than a foot or wheel presses on the ground
-with more than 1 N; ``exp(-|v_xy - c_xy|^2 / 0.25^2) + 0.5 exp(-(w_z - c_wz)^2 / 0.25^2)``
+the end of the episode when the robot's body (any part but its legs: trunk, head, torso,
+arms) presses on the ground with more than 1 N;
+``exp(-|v_xy - c_xy|^2 / 0.25^2) + 0.5 exp(-(w_z - c_wz)^2 / 0.25^2)``
 for tracking the command; ``-2.0 v_z^2``; ``-0.01 |a_t - a_(t-1)|^2``. Horizon
 :data:`LOCO_HORIZON` steps.
 
@@ -76,6 +77,14 @@ HEIGHT_MAP = (1.6, 1.0, 0.1)
 RAY_COUNT, RAY_HEIGHT, RAY_RANGE = 32, 0.3, 8.0
 #: Contact force (N) on a non-foot part that counts as a fall in locomotion.
 FALL_FORCE = 1.0
+#: Locomotion: a seed turns the scene's command ``(vx, vy, wz)`` to a direction uniform in
+#: this range (rad, about the robot's heading), keeping its speed and yaw rate: the paper's
+#: X-displacement is "in the velocity direction under fixed magnitude and random orientation".
+COMMAND_TURN = (-math.pi, math.pi)
+#: Locomotion: the start is up to this far (m, each axis) from its region's centre.
+START_JITTER = 0.25
+#: Spawning: clearance (m) between the ground and a robot part that would have touched it.
+SPAWN_CLEARANCE = 0.01
 #: Traverse: seconds without getting closer to the next waypoint before a reset.
 STUCK_SECONDS = 15.0
 
@@ -231,6 +240,41 @@ class _CitygenEnv(gymnasium.Env):
         z = height_at(self.scene, xs, ys)
         self._around = _Around(self.scene, x, y, yaw, float(z[-1]), z[:-1])
         return self._around.ground, self._around.grid
+
+    def _spawn(self, x: float, y: float, yaw: float) -> float:
+        """Put the robot standing at ``(x, y, yaw)`` (:meth:`RobotHandle.reset`) with its feet
+        on the ground under them and no part inside the ground: on rough ground, stairs or a
+        slope the ground under a foot is not the ground under the base. The feet are lifted
+        onto the ground :func:`height_at` gives under each; then MuJoCo's own contacts lift it
+        out of whatever it still penetrates, and :data:`SPAWN_CLEARANCE` is added. Returns
+        the lift (m) over the ground under the base."""
+        import mujoco
+
+        from citygen.runner.robots import lowest_point
+
+        m, d, h = self.model, self.data, self.handle
+        ground = self._ground_z(x, y)
+        h.reset(d, (x, y, ground, yaw))
+        feet = h.foot_geom_ids
+        under = height_at(self.scene, d.geom_xpos[feet, 0], d.geom_xpos[feet, 1])
+        low = np.array([lowest_point(m, d, int(g)) for g in feet])
+        lift = max(0.0, float(np.max(under - low))) if feet.size else 0.0
+        robot, ground_geoms = self._robot_geoms, self.prepared.ground_geoms
+        for _ in range(20):  # MuJoCo's contacts: what still penetrates the ground
+            if lift > 0.0:
+                h.reset(d, (x, y, ground + lift, yaw))
+            n = d.ncon
+            g1, g2, dist = d.contact.geom1[:n], d.contact.geom2[:n], d.contact.dist[:n]
+            inside = ((robot[g1] & ground_geoms[g2]) | (robot[g2] & ground_geoms[g1])) & (dist < 0)
+            if not inside.any():
+                break
+            lift += float(-dist[inside].min()) + 1e-3
+        if lift <= 1e-6:
+            return 0.0
+        lift += SPAWN_CLEARANCE
+        h.reset(d, (x, y, ground + lift, yaw))
+        mujoco.mj_forward(m, d)
+        return lift
 
     def _out_of_bounds(self, x: float, y: float) -> bool:
         """Outside the scene's bounds."""
@@ -680,11 +724,14 @@ class LocoEnv(_CitygenEnv):
     def __init__(self, task: str = "loco-flat", scene: Scene | str | Path | None = None, **kwargs: Any):
         if not task.startswith("loco"):
             raise SpecError(f"task: expected a locomotion task kind, got {task!r}")
+        self.randomize = bool(kwargs.pop("randomize", True))
         super().__init__(task, scene, **kwargs)
+        from citygen.runner.tasks import check_robot
+
+        check_robot(task, self.robot)
         n = len(self.robot.leg_joints)
-        if n == 0:
-            raise SpecError(f"robot: {self.robot.name} has no leg joints; locomotion needs a legged robot")
         self.n_joints = n
+        self._fall_model = None
         self.action_space = spaces.Box(-1.0, 1.0, (n,), np.float32)
         obs = {
             "base_lin_vel": spaces.Box(-np.inf, np.inf, (3,), np.float32),
@@ -700,35 +747,97 @@ class LocoEnv(_CitygenEnv):
         self.horizon = self.max_steps or LOCO_HORIZON
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """A new episode. With ``randomize`` (the default) the seed draws the test region
+        (a tile of the Urban-Loc grid; ``options={"region": (row, col)}`` picks one), the
+        start pose in it (:data:`START_JITTER` m around the tile's centre, any heading) and
+        the command's direction (the scene's command turned by an angle in
+        :data:`COMMAND_TURN`; ``options={"command": (vx, vy, wz)}`` sets one); without, the
+        scene's own start and command."""
         import mujoco
 
         super().reset(seed=seed)
+        options = options or {}
         self._load(self._pick_index(options))
         task = self.scene.task
         if task is None or not task.kind.startswith("loco"):
-            raise SpecError(f"{self.source.name}: task: expected a locomotion task, got {task!r}")
-        self.command = np.asarray(task.command, dtype=np.float64)
-        x, y = task.start.position
-        yaw = task.start.yaw
-        self.handle.reset(self.data, (x, y, self._ground_z(x, y), yaw))
+            raise SpecError(
+                f"{self.source.name}: $.task: expected a locomotion task, got "
+                f"{'none' if task is None else task.kind}"
+            )
+        x, y, yaw, command = self._draw_start(task, options)
+        self.command = np.asarray(command, dtype=np.float64)
         for mocap in self.prepared.agent_bodies.values():
             self.data.mocap_pos[mocap] = (0.0, 0.0, -100.0)
+        self._spawn(x, y, yaw)
         mujoco.mj_forward(self.model, self.data)
+        self._fall_geoms_for_model()
         self.steps = 0
         self.last_action = np.zeros(self.n_joints)
         heading = yaw + math.atan2(self.command[1], self.command[0])
         self.recorder = M.LocoEpisode(start_xy=(float(x), float(y)), target_heading=heading, dt=self.dt)
         obs = self._observation()
-        return obs, {"scene": self.source.name, "index": self._index}
+        info = {"scene": self.source.name, "index": self._index, "region": self.region}
+        return obs, {**info, "command": tuple(float(c) for c in self.command)}
+
+    def _draw_start(self, task: Any, options: dict) -> tuple[float, float, float, tuple]:
+        """Start ``(x, y, yaw)`` and command of the episode (see :meth:`reset`)."""
+        grid = self.scene.terrain
+        rng = self.np_random
+        command = tuple(task.command)
+        x, y = (float(v) for v in task.start.position)
+        yaw = float(task.start.yaw)
+        size = grid.tile_size if grid is not None else 0.0
+        self.region = None
+        if grid is not None:
+            self.region = (int((y - grid.origin[1]) // size), int((x - grid.origin[0]) // size))
+        if self.randomize and grid is not None:
+            row, col = int(rng.integers(grid.rows)), int(rng.integers(grid.cols))
+            jitter = rng.uniform(-START_JITTER, START_JITTER, 2)
+            x = grid.origin[0] + (col + 0.5) * size + float(jitter[0])
+            y = grid.origin[1] + (row + 0.5) * size + float(jitter[1])
+            yaw = float(rng.uniform(-math.pi, math.pi))
+            speed, turn = math.hypot(command[0], command[1]), float(rng.uniform(*COMMAND_TURN))
+            command = (speed * math.cos(turn), speed * math.sin(turn), float(command[2]))
+            self.region = (row, col)
+        if "region" in options and grid is not None:
+            row, col = (int(v) for v in options["region"])
+            if not (0 <= row < grid.rows and 0 <= col < grid.cols):
+                raise SpecError(
+                    f"options.region: expected (row, col) inside the {grid.rows} x {grid.cols} grid, "
+                    f"got {(row, col)}"
+                )
+            x, y = grid.origin[0] + (col + 0.5) * size, grid.origin[1] + (row + 0.5) * size
+            self.region = (row, col)
+        if "command" in options:
+            command = tuple(float(c) for c in options["command"])
+        return x, y, yaw, command
+
+    def _fall_geoms_for_model(self) -> None:
+        """The robot geoms whose pressing on the ground is a fall: the body, not the legs.
+        A leg is every link from a foot (or wheel) up to the base, so a knee brushing a
+        knee-high bump is not a fall, the trunk, head, torso or an arm touching down is (the
+        base-contact termination of Isaac Lab's locomotion tasks, on which URBAN-SIM's are
+        built). Computed once per compiled model."""
+        if self._fall_model is self.model:
+            return
+        m, h = self.model, self.handle
+        legs: set[int] = set()
+        for body in m.geom_bodyid[h.foot_geom_ids].tolist():
+            while body != h.base_id and body > 0 and body not in legs:
+                legs.add(body)
+                body = int(m.body_parentid[body])
+        self._fall_geoms = self._robot_geoms & ~np.isin(m.geom_bodyid, sorted(legs))
+        self._fall_model = self.model
 
     def _ground_force(self) -> float:
-        """Largest normal force (N) of a contact between a non-foot robot part and the ground."""
+        """Largest normal force (N) of a contact between the ground and a robot part that
+        must not touch it (:meth:`_fall_geoms_for_model`)."""
         import mujoco
 
         g1, g2 = self._contacts()
         if g1.size == 0:
             return 0.0
-        body = self._robot_geoms & ~self._foot_geoms
+        body = self._fall_geoms
         ground = self.prepared.ground_geoms
         hits = np.flatnonzero((body[g1] & ground[g2]) | (body[g2] & ground[g1]))
         force = np.zeros(6)

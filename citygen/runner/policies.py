@@ -106,7 +106,9 @@ class GaitPolicy:
 
     def reset(self, env: Any) -> None:
         from citygen.runner import gaits, gaits_biped
+        from citygen.runner.tasks import check_policy
 
+        check_policy(env.task_kind, env.robot, self.gait)  # locomotion, a robot a gait drives
         self.env = env
         biped = len(env.robot.legs) == 2
         if self.gait == "stand":

@@ -1,0 +1,104 @@
+"""Locomotion episodes as the paper's test: a seed draws the region of the Urban-Loc grid,
+the start pose in it and the command; the robot starts standing on the ground under every
+part of it (rough bumps, stair edges), and only its body touching down is a fall."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from citygen.geometry.terrain import height_at
+from citygen.runner.bench import make_env, run_episode
+from citygen.runner.policies import make_policy
+from citygen.runner.robots import lowest_point
+from citygen.runner.tasks import robots_for
+
+
+def _grid(task: str, n: int):
+    """An n x n Urban-Loc grid of the task's test ranges (row n - 1 the hardest)."""
+    from citygen.generate import generate
+    from citygen.generate.splits import resolve
+    from citygen.runner.envs import DEFAULT_SPLIT
+
+    cfg = resolve(DEFAULT_SPLIT[task])[0].config
+    terrain = cfg.terrain.model_copy(update={"grid": (n, n)})
+    return generate(cfg.model_copy(update={"size": (8.0 * n, 8.0 * n), "terrain": terrain}), seed=1)
+
+
+@pytest.fixture(scope="module")
+def rough():
+    env = make_env("loco-rough", robot="quadruped")
+    yield env
+    env.close()
+
+
+def test_seeds_draw_region_start_and_command(rough):
+    starts = []
+    for seed in range(6):
+        _, info = rough.reset(seed=seed)
+        x, y, _, yaw = rough.handle.pose(rough.data)
+        starts.append((info["region"], round(x, 3), round(y, 3), round(yaw, 3), info["command"]))
+        speed = np.hypot(*rough.scene.task.command[:2])
+        assert np.hypot(*info["command"][:2]) == pytest.approx(speed)  # fixed magnitude
+        assert info["command"][2] == rough.scene.task.command[2]
+    assert len({s[0] for s in starts}) > 1, starts  # regions
+    assert len({s[1:4] for s in starts}) == len(starts), starts  # poses
+    assert len({s[4] for s in starts}) == len(starts), starts  # commands
+    _, again = rough.reset(seed=3)
+    assert (again["region"], again["command"]) == (starts[3][0], starts[3][4])
+
+
+def test_options_pick_region_and_command(rough):
+    obs, info = rough.reset(seed=0, options={"region": (15, 2), "command": (0.5, 0.0, 0.2)})
+    assert info["region"] == (15, 2)
+    np.testing.assert_allclose(obs["command"], (0.5, 0.0, 0.2))
+    x, y, _, _ = rough.handle.pose(rough.data)
+    assert (int(y // 8), int(x // 8)) == (15, 2)
+
+
+def test_without_randomize_the_scene_start_and_command_hold():
+    env = make_env("loco-flat", robot="quadruped", randomize=False)
+    try:
+        for seed in (0, 1):
+            obs, _ = env.reset(seed=seed)
+            np.testing.assert_allclose(obs["command"], env.scene.task.command)
+            np.testing.assert_allclose(env.handle.pose(env.data)[:2], env.scene.task.start.position)
+    finally:
+        env.close()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("task", ["loco-rough", "loco-stair"])
+@pytest.mark.parametrize("robot", robots_for("loco-rough"))
+def test_spawn_puts_the_robot_down_on_the_ground_and_it_stands(task, robot):
+    """The LocoRough regression (a fall on step 1 of every episode): on any row, the hardest
+    too, the robot starts with no part inside the ground and nothing of its body touching
+    it; on the easier half of the grid the stand controller keeps it up."""
+    env = make_env(task, _grid(task, 4), robot=robot, max_steps=50)
+    try:
+        for seed in range(4):
+            for row in (3, seed):  # the hardest row, then each
+                env.reset(seed=seed, options={"region": (row, seed)})
+                m, d = env.model, env.data
+                feet = env.handle.foot_geom_ids  # on (not in) the ground under them
+                low = np.array([lowest_point(m, d, int(g)) for g in feet])
+                ground = height_at(env.scene, d.geom_xpos[feet, 0], d.geom_xpos[feet, 1])
+                assert np.all(low >= ground - 0.01), (seed, row, low - ground)
+                if task == "loco-rough":  # not dropped from high (a stair pit may not fit a big robot)
+                    assert np.min(low - ground) <= 0.1, (seed, row, low - ground)
+                n = d.ncon
+                assert not np.any(env._fall_geoms[d.contact.geom1[:n]] | env._fall_geoms[d.contact.geom2[:n]])
+                assert np.all(d.contact.dist[:n] >= -1e-3), (seed, row, d.contact.dist[:n])
+            if seed > 1:  # the easier half of the grid
+                continue
+            result = run_episode(env, make_policy("stand"), seed=seed, options={"region": (seed, seed)})
+            assert result["balance"] == 100.0, (task, robot, seed, result)
+    finally:
+        env.close()
+
+
+def test_a_fall_is_the_body_not_the_legs(rough):
+    rough.reset(seed=0)
+    names = {rough.model.geom(int(g)).name.removeprefix("robot/") for g in np.flatnonzero(rough._fall_geoms)}
+    assert {"trunk", "head"} <= names
+    assert not any(n.startswith(("FR_", "FL_", "RR_", "RL_")) for n in names), names
