@@ -71,6 +71,8 @@ LOCO_HORIZON = 1000
 HEIGHT_MAP = (1.6, 1.0, 0.1)
 #: Horizontal rays of the ``rays`` observation, their height above the feet and range (m).
 RAY_COUNT, RAY_HEIGHT, RAY_RANGE = 32, 0.3, 8.0
+#: Scenes whose MjData and robot handle an environment keeps for coming back to them.
+LIVE_SCENES = 8
 #: Contact force (N) on a non-foot part that counts as a fall in locomotion.
 FALL_FORCE = 1.0
 #: Traverse: seconds without getting closer to the next waypoint before a reset.
@@ -151,6 +153,7 @@ class _CitygenEnv(gymnasium.Env):
         self.handle = None
         self._renderer = None
         self._index = -1
+        self._live: dict[int, tuple] = {}  # id(Prepared) -> _bind's tuple, oldest first
         self._around: _Around | None = None  # the last _terrain_around
         hx, hy, step = HEIGHT_MAP
         nx, ny = round(hx / step) + 1, round(hy / step) + 1
@@ -178,26 +181,39 @@ class _CitygenEnv(gymnasium.Env):
     # --- scenes and the model ------------------------------------------------------------
 
     def _load(self, index: int) -> None:
-        import mujoco
-
-        from citygen.runner.robots import RobotHandle
-
         prepared = process_cache().get(self.source, index, self.robot)
         if prepared is not self.prepared:
-            self.prepared = prepared
+            # A scene this environment ran lately keeps its MjData and robot handle: coming
+            # back to it swaps a few references instead of allocating them again.
+            live = self._live.pop(id(prepared), None)
+            if live is None or live[0] is not prepared:
+                live = self._bind(prepared)
+            self._live[id(prepared)] = live
+            while len(self._live) > LIVE_SCENES:
+                self._live.pop(next(iter(self._live)))
+            self.prepared, self.data, self.handle, self._robot_geoms, self._foot_geoms = live
             self.model = prepared.model
-            self.data = mujoco.MjData(self.model)
-            self.handle = RobotHandle(self.model, self.robot)
-            self._robot_geoms = np.zeros(self.model.ngeom, dtype=bool)
-            self._robot_geoms[self.handle.geom_ids] = True
-            self._foot_geoms = np.zeros(self.model.ngeom, dtype=bool)
-            self._foot_geoms[self.handle.foot_geom_ids] = True
             self._substeps = max(1, round(self.dt / self.model.opt.timestep))
             if self._renderer is not None:
                 self._renderer.close()
                 self._renderer = None
         self._index = index
         self.scene = prepared.scene
+
+    def _bind(self, prepared: Prepared) -> tuple:
+        """What running ``prepared`` needs in this environment: its MjData, the robot's
+        handle and the robot's (and its feet's) geoms as masks over the model's geoms."""
+        import mujoco
+
+        from citygen.runner.robots import RobotHandle
+
+        model = prepared.model
+        handle = RobotHandle(model, self.robot)
+        robot_geoms = np.zeros(model.ngeom, dtype=bool)
+        robot_geoms[handle.geom_ids] = True
+        foot_geoms = np.zeros(model.ngeom, dtype=bool)
+        foot_geoms[handle.foot_geom_ids] = True
+        return prepared, mujoco.MjData(model), handle, robot_geoms, foot_geoms
 
     def _pick_index(self, options: dict | None) -> int:
         if options and "index" in options:

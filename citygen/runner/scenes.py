@@ -219,7 +219,7 @@ class SceneCache:
         self.misses = 0
 
     def get(self, source: SceneSource, index: int, robot: Any) -> Prepared:
-        key = (source.key(index), robot.name, hashlib.sha256(robot.xml.encode()).hexdigest())
+        key = (source.key(index), robot.name, robot.timestep, hashlib.sha256(robot.xml.encode()).hexdigest())
         item = self._items.get(key)
         if item is not None:
             self.hits += 1
