@@ -34,10 +34,16 @@ CACHE_SIZE = 64
 
 
 class SceneSource:
-    """Scenes by index: one fixed scene, or the scenes of a split (generated on demand)."""
+    """Scenes by index: one fixed scene, or the scenes of a split (generated on demand);
+    ``pool``: only the split's first ``pool`` scenes (a training set small enough for every
+    process's cache to hold, so that resets stop compiling)."""
 
     def __init__(
-        self, scene: Scene | str | Path | None = None, split: str | None = None, seed: int | None = None
+        self,
+        scene: Scene | str | Path | None = None,
+        split: str | None = None,
+        seed: int | None = None,
+        pool: int | None = None,
     ):
         if (scene is None) == (split is None):
             raise SpecError(
@@ -60,6 +66,10 @@ class SceneSource:
             parts = resolve(split, seed=seed)
             self._parts = parts
             self.size = sum(p.scenes for p in parts)
+            if pool is not None:
+                if pool < 1:
+                    raise SpecError(f"scene_pool: expected a number of scenes >= 1, got {pool}")
+                self.size = min(self.size, int(pool))  # the split's first `pool` scenes
 
     @property
     def name(self) -> str:
