@@ -77,3 +77,15 @@ def test_worker_errors_reach_the_caller():
         venv.step(np.zeros((3, 2), dtype=np.float32))  # three actions for two environments
     venv.close()
     assert venv.closed
+
+
+def test_scene_pool_limits_the_scenes_drawn():
+    from citygen.errors import SpecError
+    from citygen.runner.bench import make_env
+
+    with pytest.raises(SpecError, match="scene_pool"):
+        make_env("nav-static", split=SPLIT, scene_pool=0)
+    env = make_env("nav-static", split=SPLIT, scene_pool=2)
+    seen = {env.reset(seed=s)[1]["index"] for s in range(6)}
+    assert seen == {0, 1}
+    env.close()

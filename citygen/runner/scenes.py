@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from citygen.errors import SpecError
+from citygen.errors import Problem, SpecError
 from citygen.io import dumps, load_scene
 from citygen.spec import Scene
 
@@ -68,7 +68,7 @@ class SceneSource:
             self.size = sum(p.scenes for p in parts)
             if pool is not None:
                 if pool < 1:
-                    raise SpecError(f"scene_pool: expected a number of scenes >= 1, got {pool}")
+                    raise SpecError([Problem("scene_pool", "a number of scenes >= 1", repr(pool))])
                 self.size = min(self.size, int(pool))  # the split's first `pool` scenes
 
     @property
