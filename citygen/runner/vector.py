@@ -196,7 +196,11 @@ class VectorEnv(gymnasium.vector.VectorEnv):
             child.close()
             self._conns.append(parent)
             self._procs.append(proc)
-        self._collect()
+        try:
+            self._collect()
+        except BaseException:
+            self.close_extras()  # the workers that did start stop with the one that failed
+            raise
 
     # --- plumbing ------------------------------------------------------------------------
 
