@@ -70,8 +70,8 @@ def compose(scene_mjcf: MJCF, robot: Robot, pose: tuple[float, float, float, flo
 
 #: Period (s) of the wheel drive's feedback loop as the environments run it: they call
 #: :meth:`RobotHandle.drive` of a wheeled robot once per period and hold its wheel speed
-#: targets for the physics steps in between (100 Hz: every physics step of a wheeled robot's
-#: 10 ms, every 2 of a wheel-legged robot's 5 ms (:attr:`Robot.timestep`); real wheel
+#: targets for the physics steps in between (100 Hz: every 2 physics steps of the built-in
+#: robots' 5 ms, every 5 of the default 2 ms (:attr:`Robot.timestep`); real wheel
 #: controllers run at 100-1000 Hz). The wheels' velocity actuators and the legs' PD act at
 #: every physics step inside MuJoCo. The ideal-locomotion servo (``nav_mode == "base"``)
 #: stands in for a locomotion policy with stiff force feedback and runs at every physics
