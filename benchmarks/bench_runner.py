@@ -297,7 +297,7 @@ def main(argv: list[str] | None = None) -> int:
     # workers: they start before this process opens a renderer.
     rounds = args.rounds
     per_round = max(1, args.steps // rounds)
-    # The wheeled runs compile the pool here first: the workers forked after them inherit it.
+    # The vector envs' workers compile the pool themselves (VectorRun) before timing.
     base = EnvRun()
     runs: dict[str, EnvRun | None] = {
         "state + height map": base,

@@ -89,3 +89,21 @@ def test_scene_pool_limits_the_scenes_drawn():
     seen = {env.reset(seed=s)[1]["index"] for s in range(6)}
     assert seen == {0, 1}
     env.close()
+
+
+def test_depth_images_from_workers_match_one_process_and_survive_scene_swaps():
+    from citygen.runner.bench import make_env
+
+    kw = {"depth": True, "image_size": 32, "scene_pool": 2}
+    env = make_env("nav-static", split=SPLIT, **kw)
+    first = env.reset(seed=0, options={"index": 0})[0]["depth"]
+    env.reset(seed=0, options={"index": 1})  # another scene, another model to render
+    again = env.reset(seed=0, options={"index": 0})[0]["depth"]
+    np.testing.assert_array_equal(first, again)  # the kept renderer draws the scene it is given
+    assert np.isfinite(first).all() and first.min() > 0 and np.ptp(first) > 0
+    env.close()
+    venv = make_vector_env("nav-static", split=SPLIT, num_envs=2, **kw)
+    obs, _ = venv.reset(seed=0, options={"index": 0})
+    np.testing.assert_array_equal(obs["depth"][0], first)
+    np.testing.assert_array_equal(obs["depth"][1], first)
+    venv.close()

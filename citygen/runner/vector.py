@@ -26,6 +26,7 @@ import traceback
 from collections.abc import Callable, Sequence
 from typing import Any
 
+import cloudpickle
 import gymnasium
 import numpy as np
 from gymnasium.vector import AutoresetMode
@@ -108,11 +109,12 @@ def _views(raw: dict[str, Any], obs_space, act_space, n: int) -> dict[str, Any]:
     }
 
 
-def _worker(make: Callable[[], gymnasium.Env], index: int, raw, spaces, n: int, step_infos: bool, conn):
-    """A worker process's loop: one sub-environment, commands from ``conn``."""
+def _worker(make: bytes, index: int, raw, spaces, n: int, step_infos: bool, conn):
+    """A worker process's loop: one sub-environment (``make``: its function, cloudpickled),
+    commands from ``conn``."""
     env = None
     try:
-        env = make()
+        env = pickle.loads(make)()
         slot = _Slot(env, index, _views(raw, *spaces, n), step_infos)
         conn.send_bytes(_OK)
         while True:
@@ -148,7 +150,8 @@ def _worker(make: Callable[[], gymnasium.Env], index: int, raw, spaces, n: int, 
 class VectorEnv(gymnasium.vector.VectorEnv):
     """``len(env_fns)`` sub-environments, each built by its function, batched (see the module
     docstring). ``processes``: one worker process per sub-environment (``context``: the
-    multiprocessing start method, default the platform's); ``copy``: return copies of the
+    multiprocessing start method, default ``"forkserver"``: a worker starts from a fresh
+    interpreter, so its scene cache starts empty); ``copy``: return copies of the
     observation buffers (False: views that the next step overwrites)."""
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP}
@@ -183,15 +186,16 @@ class VectorEnv(gymnasium.vector.VectorEnv):
             return
         first.close()
         self._slots = []
-        ctx = mp.get_context(context)
+        # A fresh interpreter per worker (forkserver): forking a process that holds a GL
+        # context (a renderer) leaves the child's EGL hanging.
+        methods = mp.get_all_start_methods()
+        ctx = mp.get_context(context or ("forkserver" if "forkserver" in methods else "spawn"))
         raw = _buffers(*spaces, n, ctx)
         self._bufs = _views(raw, *spaces, n)
         for i, fn in enumerate(env_fns):
             parent, child = ctx.Pipe()
-            proc = ctx.Process(
-                target=_worker, args=(fn, i, raw, spaces, n, step_infos, child), daemon=True,
-                name=f"citygen-vector-{i}",
-            )  # fmt: skip
+            args = (cloudpickle.dumps(fn), i, raw, spaces, n, step_infos, child)
+            proc = ctx.Process(target=_worker, args=args, daemon=True, name=f"citygen-vector-{i}")
             proc.start()
             child.close()
             self._conns.append(parent)
