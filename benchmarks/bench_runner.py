@@ -1,27 +1,29 @@
-"""The runner's speed, as ratios against baselines measured in the same run.
+"""The runner's speed (issue 17's targets), as ratios against baselines measured in the same run.
 
-1. NavStatic (urban-nav-2-test, wheeled robot, random actions) environment steps per second
-   with the default observation (state + height map) on one environment in this process,
-   and in asynchronous vector environments of 2 and 4 (one process each, every
-   sub-environment on its own scenes), each environment doing the same number of steps
-   (``runner_envs``, ``runner_envs_steps_per_s``).
-2. The raw ``mj_step`` rate of the same compiled model (the robot at rest at its start):
-   *runner cost over physics cost* (``runner_over_physics``) is the CPU time of one
-   environment step over the CPU time of the ``mj_step`` calls it contains at that rate (the
-   physics floor). A driving robot makes MuJoCo's solver work harder than one at rest, so
-   ``runner_over_physics_in_env`` also gives the step's CPU time over the CPU time spent
-   inside its physics loop (``mj_step`` plus the 100 Hz drive) during the same run.
-3. One environment with each observation option (``runner_obs``): the default; ``rays=True``
-   (32 horizontal rays); ``depth=True`` and ``rgb=True`` with ``image_size=64`` (MuJoCo's
-   offscreen renderer, ``MUJOCO_GL=egl``): steps/s (wall) and the same physics-floor ratio
-   (``runner_obs_physics_floor_ratio``, CPU). An option whose renderer fails on this machine
-   is ``None`` with the reason under ``runner_obs_note``.
-4. MetaDrive's headless steps per second where it is installed (``benchmarks/
+1. NavStatic (urban-nav-2-test, random actions) environment steps per second with the default
+   observation (state + height map), resets included, each environment on its own scenes:
+   one wheeled environment in this process; :func:`make_vector_env` with 2 workers (wheeled,
+   quadruped, and 64 x 64 depth), beside Gymnasium's ``AsyncVectorEnv`` of the same 2
+   environments (the previous ``make_vector_env``) and one environment at the old 2 ms
+   physics step. Steady state: the environments draw from the split's first
+   :data:`POOL` scenes (``scene_pool``), which every process has compiled before the
+   measurement, so a reset swaps a cached scene; ``*_cold_*`` figures draw from the whole
+   split, where most resets compile a new scene.
+2. *Runner cost over physics cost*: CPU time of an environment step over the CPU time of the
+   ``mj_step`` calls inside it (``runner_over_mj_step``, timed around each call), and over
+   the raw ``mj_step`` rate of the same model with the robot at rest
+   (``runner_over_physics``).
+3. Resets: to a scene of the process's cache (``reset_cached_ms``, median) and to a scene
+   never seen by the process (``first_visit_ms``, median; ``scene_generate_ms``: the
+   generation part of it, the scene spec from the seed).
+4. One environment with each observation option (``runner_obs``): the default;
+   ``rays=True``; depth and RGB at 64 x 64 and depth at 128 x 128 (MuJoCo's offscreen
+   renderer, ``MUJOCO_GL=egl``, one per process and model, reused).
+5. MetaDrive's headless steps per second where it is installed (``benchmarks/
    metadrive_baseline.py``; set ``CITYGEN_METADRIVE_PYTHON`` to an interpreter that has it).
-5. ORCA: citygen's vectorised ORCA against the reference RVO2 library (``pyrvo``) at 100
-   agents, cost per agent-step (``benchmarks/bench_orca.py``).
+6. ORCA against RVO2 (``pyrvo``) at 100 agents, cost per agent-step (``bench_orca.py``).
 
-``python benchmarks/bench_runner.py [--steps 600]`` (about 1 minute on 2 cores); the last line
+``python benchmarks/bench_runner.py [--steps 1200]`` (a few minutes on 2 cores); the last line
 is one JSON object of figures.
 """
 
@@ -41,79 +43,114 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 TASK, SPLIT = "nav-static", "urban-nav-2-test"
+#: Scenes of the split the steady-state runs draw from (every process compiles them first).
+POOL = 8
 #: Observation options of the ``runner_obs`` series: label -> make_env keyword arguments.
 OBS = {
     "state + height map": {},
     "+ rays": {"rays": True},
     "+ depth 64x64": {"depth": True, "image_size": 64},
     "+ RGB 64x64": {"rgb": True, "image_size": 64},
+    "+ depth 128x128": {"depth": True, "image_size": 128},
 }
-VECTOR_ENVS = (2, 4)
+#: Vector environments: label -> (implementation, make_env keyword arguments).
+VECTORS = {
+    "citygen 2 workers": ("citygen", {}),
+    "gymnasium async 2 workers": ("gymnasium", {}),
+    "citygen 2 workers, quadruped": ("citygen", {"robot": "quadruped"}),
+    "citygen 2 workers, depth 64x64": ("citygen", {"depth": True, "image_size": 64}),
+    "citygen 2 workers, cold": ("citygen", {"scene_pool": None}),
+}
+N_VEC = 2
 
 
 def _env(**kwargs):
     from citygen.runner.bench import make_env
 
-    return make_env(TASK, split=SPLIT, **kwargs)
+    return make_env(TASK, split=SPLIT, **{"scene_pool": POOL, **kwargs})
+
+
+def _warm(env) -> None:
+    """Compile the pool's scenes in this environment's process (and visit each once)."""
+    for i in range(POOL):
+        env.reset(seed=i, options={"index": i})
+
+
+class _MjTimer:
+    """CPU seconds spent inside ``mujoco.mj_step`` while installed (wraps the module function
+    the environments call; about a microsecond of wrapper per call counts as physics)."""
+
+    def __init__(self) -> None:
+        import mujoco
+
+        self.mj, self.inner, self.cpu = mujoco, mujoco.mj_step, 0.0
+
+        def timed(*args, **kwargs):
+            c = time.process_time()
+            self.inner(*args, **kwargs)
+            self.cpu += time.process_time() - c
+
+        self.timed = timed
+
+    def __enter__(self):
+        self.mj.mj_step = self.timed
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.mj.mj_step = self.inner
 
 
 class EnvRun:
-    """One NavStatic environment (``make_env`` keyword arguments ``kwargs``) driven by random
-    actions in chunks of steps. Each chunk keeps its steps, the wall and CPU seconds of its
-    ``step`` calls, the CPU seconds inside their physics loop (``mj_step`` and the drive),
-    and its resets (count, wall and CPU seconds: a reset draws a new scene, compiled unless
-    this process's scene cache holds it)."""
+    """One NavStatic environment (``make_env`` keyword arguments ``kwargs``; ``timestep``:
+    the robot's physics step replaced) driven by random actions in chunks of steps. Each
+    chunk keeps its steps, the wall and CPU seconds of its ``step`` calls, the CPU seconds
+    inside their ``mj_step`` calls, and its resets (count, wall and CPU seconds)."""
 
-    def __init__(self, **kwargs) -> None:
+    def __init__(self, timestep: float | None = None, **kwargs) -> None:
+        import dataclasses
+
         self.env = _env(**kwargs)
+        u = self.env.unwrapped
+        if timestep is not None:
+            u.robot = dataclasses.replace(u.robot, timestep=timestep)
+        _warm(self.env)
         self.env.reset(seed=0)
         self.rng = np.random.default_rng(0)
         self.chunks: list[tuple[float, ...]] = []
-        self.physics = 0.0
-        u = self.env.unwrapped
-        inner = u._physics
-
-        def timed(command):
-            c = time.process_time()
-            inner(command)
-            self.physics += time.process_time() - c
-
         for a in self.rng.uniform(-1, 1, (20, 2)).astype(np.float32):  # warm-up: the renderer
             _, _, term, trunc, _ = self.env.step(a)
             if term or trunc:
                 self.env.reset()
-        u._physics = timed
         self.substeps, self.model = u._substeps, u.model
 
     def run(self, n: int) -> None:
         step_wall = step_cpu = reset_wall = reset_cpu = 0.0
-        resets, p0 = 0, self.physics
-        for a in self.rng.uniform(-1, 1, (n, 2)).astype(np.float32):
-            t0, c0 = time.perf_counter(), time.process_time()
-            _, _, term, trunc, _ = self.env.step(a)
-            t1, c1 = time.perf_counter(), time.process_time()
-            step_wall, step_cpu = step_wall + t1 - t0, step_cpu + c1 - c0
-            if term or trunc:
-                self.env.reset()
-                resets += 1
-                reset_wall, reset_cpu = (
-                    reset_wall + time.perf_counter() - t1,
-                    reset_cpu + time.process_time() - c1,
-                )
-        self.chunks.append((n, step_wall, step_cpu, self.physics - p0, resets, reset_wall, reset_cpu))
+        resets = 0
+        with _MjTimer() as mj:
+            for a in self.rng.uniform(-1, 1, (n, 2)).astype(np.float32):
+                t0, c0 = time.perf_counter(), time.process_time()
+                _, _, term, trunc, _ = self.env.step(a)
+                t1, c1 = time.perf_counter(), time.process_time()
+                step_wall, step_cpu = step_wall + t1 - t0, step_cpu + c1 - c0
+                if term or trunc:
+                    self.env.reset()
+                    resets += 1
+                    reset_wall += time.perf_counter() - t1
+                    reset_cpu += time.process_time() - c1
+        self.chunks.append((n, step_wall, step_cpu, mj.cpu, resets, reset_wall, reset_cpu))
 
     def rates(self) -> dict:
         """``steps_per_s``, ``cpu_steps_per_s``: medians over the chunks of steps per wall and
-        CPU second of ``step`` calls; ``physics_cpu_share``: the physics loop's share of their
+        CPU second of ``step`` calls; ``mj_cpu_share``: the ``mj_step`` calls' share of their
         CPU time; ``with_resets_per_s``, ``cpu_with_resets_per_s``: all steps over all time,
         resets included; ``resets``, ``reset_ms``: their number and mean wall time."""
-        n, wall, cpu, phys, resets, rwall, rcpu = (
+        n, wall, cpu, mj, resets, rwall, rcpu = (
             np.array(c, dtype=float) for c in zip(*self.chunks, strict=True)
         )
         return {
             "steps_per_s": float(np.median(n / wall)),
             "cpu_steps_per_s": float(np.median(n / cpu)),
-            "physics_cpu_share": float(phys.sum() / cpu.sum()),
+            "mj_cpu_share": float(mj.sum() / cpu.sum()),
             "with_resets_per_s": float(n.sum() / (wall.sum() + rwall.sum())),
             "cpu_with_resets_per_s": float(n.sum() / (cpu.sum() + rcpu.sum())),
             "resets": int(resets.sum()),
@@ -125,15 +162,28 @@ class EnvRun:
 
 
 class VectorRun:
-    """An asynchronous vector env of ``num_envs`` NavStatic environments (one process each)
-    stepped in chunks; environment steps per wall second over all chunks (resets included:
-    the workers reset a finished sub-environment inside ``step``)."""
+    """A vector env of :data:`N_VEC` NavStatic environments (``impl``: ``"citygen"``, the one
+    :func:`make_vector_env` returns, or ``"gymnasium"``'s ``AsyncVectorEnv`` of the same
+    environments) stepped in chunks; environment steps per wall second over all chunks,
+    resets included (a finished sub-environment resets on its next step)."""
 
-    def __init__(self, num_envs: int) -> None:
-        from citygen.runner.bench import make_vector_env
+    def __init__(self, impl: str, **kwargs) -> None:
+        import functools
 
-        self.n = num_envs
-        self.venv = make_vector_env(TASK, split=SPLIT, num_envs=num_envs)
+        import gymnasium
+
+        from citygen.runner.bench import make_env, make_vector_env
+
+        kw = {"scene_pool": POOL, **kwargs}
+        self.n = N_VEC
+        if impl == "citygen":
+            self.venv = make_vector_env(TASK, split=SPLIT, num_envs=self.n, **kw)
+        else:
+            fns = [functools.partial(make_env, TASK, split=SPLIT, **kw) for _ in range(self.n)]
+            self.venv = gymnasium.vector.AsyncVectorEnv(fns, shared_memory=False)
+        if kw["scene_pool"] is not None:
+            for i in range(POOL):  # every worker compiles the pool first
+                self.venv.reset(seed=i, options={"index": i})
         self.venv.reset(seed=0)
         self.rng = np.random.default_rng(0)
         self.steps, self.wall = 0, 0.0
@@ -154,6 +204,38 @@ class VectorRun:
 
     def close(self) -> None:
         self.venv.close()
+
+
+def reset_times(new: int = 6, cached: int = 30) -> dict:
+    """Median wall ms of a reset to a cached scene and of a first visit (a scene this process
+    never compiled), and of generating such a scene's spec alone."""
+    from citygen.runner.bench import make_env
+
+    env = make_env(TASK, split=SPLIT)
+    size = env.unwrapped.source.size
+    fresh = [size - 1 - 7 * k for k in range(2 * new)]  # far from the pool's and the runs' scenes
+    first = []
+    for i in fresh[:new]:
+        t0 = time.perf_counter()
+        env.reset(seed=i, options={"index": i})
+        first.append(time.perf_counter() - t0)
+    hits = []
+    for k in range(cached):
+        i = fresh[k % new]
+        t0 = time.perf_counter()
+        env.reset(seed=k, options={"index": i})
+        hits.append(time.perf_counter() - t0)
+    gen = []
+    for i in fresh[new:]:
+        t0 = time.perf_counter()
+        env.unwrapped.source.scene(i)
+        gen.append(time.perf_counter() - t0)
+    env.close()
+    return {
+        "first_visit_ms": 1e3 * float(np.median(first)),
+        "reset_cached_ms": 1e3 * float(np.median(hits)),
+        "scene_generate_ms": 1e3 * float(np.median(gen)),
+    }
 
 
 def mj_rate(model, steps: int) -> tuple[float, float]:
@@ -215,9 +297,13 @@ def main(argv: list[str] | None = None) -> int:
     # workers: they start before this process opens a renderer.
     rounds = args.rounds
     per_round = max(1, args.steps // rounds)
-    vectors = {n: VectorRun(n) for n in VECTOR_ENVS}
+    # The vector envs' workers compile the pool themselves (VectorRun) before timing.
     base = EnvRun()
-    runs: dict[str, EnvRun | None] = {"state + height map": base}
+    runs: dict[str, EnvRun | None] = {
+        "state + height map": base,
+        "old 2 ms physics step": EnvRun(timestep=0.002),
+    }
+    vectors = {label: VectorRun(impl, **kw) for label, (impl, kw) in VECTORS.items()}
     notes: list[str] = []
 
     def failed(label: str, exc: Exception) -> None:  # a renderer failing here is a figure, not a crash
@@ -231,56 +317,79 @@ def main(argv: list[str] | None = None) -> int:
             failed(label, exc)
     mj: list[tuple[float, float]] = []
     for _ in range(rounds):
-        for v in vectors.values():
-            v.run(per_round)
+        for label, v in vectors.items():
+            v.run(max(10, per_round // 3) if "depth" in label else per_round // N_VEC)
         for label, run in list(runs.items()):
-            images = "depth" in OBS[label] or "rgb" in OBS[label]
+            images = "depth" in label or "RGB" in label
             try:
                 if run is not None:
                     run.run(max(10, per_round // 3) if images else per_round)
             except Exception as exc:
                 failed(label, exc)
-        mj.append(mj_rate(base.model, 2000))
-    vec = {n: v.rate() for n, v in vectors.items()}
+        mj.append(mj_rate(base.model, 1000))
+    vec = {label: v.rate() for label, v in vectors.items()}
     for v in vectors.values():
         v.close()
     obs = {label: None if run is None else run.rates() for label, run in runs.items()}
     for run in runs.values():
         if run is not None:
             run.close()
-    state = obs["state + height map"]
+    resets = reset_times()
+    state, old = obs["state + height map"], obs["old 2 ms physics step"]
     substeps = base.substeps
     raw, raw_cpu = float(np.median([m[0] for m in mj])), float(np.median([m[1] for m in mj]))
     physics_cpu = substeps / raw_cpu  # CPU seconds of one step's mj_step calls, at rest
     md, md_note = metadrive_rate()
     orca = orca_figures()
 
-    obs_rates = [None if r is None else r["steps_per_s"] for r in obs.values()]
-    obs_ratios = [None if r is None else (1.0 / r["cpu_steps_per_s"]) / physics_cpu for r in obs.values()]
-    runner_over_physics = obs_ratios[0]
+    labels = [k for k in obs if k != "old 2 ms physics step"]
+    obs_rates = [None if obs[k] is None else obs[k]["steps_per_s"] for k in labels]
+    obs_ratios = [None if obs[k] is None else (1.0 / obs[k]["cpu_steps_per_s"]) / physics_cpu for k in labels]
     one = state["with_resets_per_s"]  # like the vector environments: resets included
-    envs_rates = [one, *(vec[n] for n in VECTOR_ENVS)]
+    v2, gym2 = vec["citygen 2 workers"], vec["gymnasium async 2 workers"]
+    quad2, depth2 = vec["citygen 2 workers, quadruped"], vec["citygen 2 workers, depth 64x64"]
+    cold2 = vec["citygen 2 workers, cold"]
+    over_mj = 1.0 / state["mj_cpu_share"]
     depth = obs["+ depth 64x64"]
 
+    old_one = old["with_resets_per_s"]
+    floor_ratio = obs_ratios[0]
+    ms = 1e3 * base.model.opt.timestep
+    print(f"NavStatic ({SPLIT}, random actions), {args.steps} steps per env in {rounds} rounds;")
     print(
-        f"NavStatic ({SPLIT}, wheeled robot, random actions), {args.steps} steps per env in {rounds} rounds"
+        f"steady state: scenes drawn from the split's first {POOL}, compiled before timing; resets included"
     )
-    cpu_one = state["cpu_with_resets_per_s"]
-    print(f"  1 env, resets included:        {one:8.1f} steps/s ({cpu_one:.1f} per CPU s)")
-    for n in VECTOR_ENVS:
-        print(f"  {n} envs, {n} processes (async):   {vec[n]:8.1f} steps/s ({vec[n] / one:.2f}x one env)")
-    print(f"  resets (new scene drawn):      {state['resets']:8d}, {state['reset_ms'] or 0:.0f} ms each")
-    print(f"  raw mj_step of the same model: {raw:8.0f} /s (at rest); {substeps} per env step")
-    print(
-        f"  runner cost over physics cost: {runner_over_physics:8.2f}x (CPU: step over its mj_steps at rest)"
-    )
-    print(
-        f"  physics loop share of a step:  {state['physics_cpu_share']:8.2f} "
-        f"(step over its physics loop in the env: {1.0 / state['physics_cpu_share']:.2f}x)"
-    )
+    rows = [
+        ("1 env, wheeled", one, "steps/s", f"2 ms physics step: {old_one:.1f} ({one / old_one:.2f}x)"),
+        (
+            "make_vector_env, 2 workers",
+            v2,
+            "steps/s",
+            f"gymnasium AsyncVectorEnv: {gym2:.1f} ({v2 / gym2:.2f}x); one env: {v2 / one:.2f}x",
+        ),
+        ("  quadruped", quad2, "steps/s", f"wheeled: {quad2 / v2:.2f}x"),
+        ("  depth 64x64", depth2, "steps/s", f"state only: {depth2 / v2:.2f}x"),
+        ("  cold: whole split", cold2, "steps/s", "most resets compile a new scene"),
+        (
+            "reset to a cached scene",
+            resets["reset_cached_ms"],
+            "ms",
+            f"first visit {resets['first_visit_ms']:.0f} ms",
+        ),
+        (
+            "first visit to a scene",
+            resets["first_visit_ms"],
+            "ms",
+            f"generating its spec alone: {resets['scene_generate_ms']:.0f} ms",
+        ),
+        ("step CPU over its mj_step calls", over_mj, "x", "1.0 = nothing but physics"),
+        ("step CPU over raw mj_step at rest", floor_ratio, "x", f"{substeps} x {ms:g} ms steps, {raw:.0f}/s"),
+    ]
+    for label, value, unit, baseline in rows:
+        print(f"  {label:<34} {value:9.2f} {unit:<8} baseline: {baseline}")
     print("  1 env by observation, steps only: steps/s   CPU over physics floor")
-    for (label, r), q in zip(obs.items(), obs_ratios, strict=True):
-        text = "failed" if r is None else f"{r['steps_per_s']:8.1f}   {q:6.2f}x"
+    for label, r, q in zip(labels, obs_rates, obs_ratios, strict=True):
+        text = "failed" if r is None else f"{r:8.1f}   {q:6.2f}x"
         print(f"    {label:<28} {text}")
     for note in notes:
         print(f"    note: {note}")
@@ -290,26 +399,36 @@ def main(argv: list[str] | None = None) -> int:
     figures = {
         "bench": "runner",
         "navstatic_steps_per_s": round(one, 1),
-        "navstatic_cpu_steps_per_s": round(cpu_one, 1),
-        "navstatic_2proc_steps_per_s": round(vec[2], 1),
-        "navstatic_2proc_speedup": round(vec[2] / one, 3),
+        "navstatic_cpu_steps_per_s": round(state["cpu_with_resets_per_s"], 1),
+        "navstatic_2ms_steps_per_s": round(old_one, 1),
+        "navstatic_over_2ms": round(one / old_one, 3),
+        "navstatic_2proc_steps_per_s": round(v2, 1),
+        "navstatic_2proc_gym_async_steps_per_s": round(gym2, 1),
+        "navstatic_2proc_over_gym_async": round(v2 / gym2, 3),
+        "navstatic_2proc_speedup": round(v2 / one, 3),
+        "navstatic_2proc_cold_steps_per_s": round(cold2, 1),
+        "quadruped_2proc_steps_per_s": round(quad2, 1),
+        "depth64_2proc_steps_per_s": round(depth2, 1),
+        "reset_cached_ms": round(resets["reset_cached_ms"], 2),
+        "first_visit_ms": round(resets["first_visit_ms"], 1),
+        "scene_generate_ms": round(resets["scene_generate_ms"], 1),
         "navstatic_resets": state["resets"],
-        "navstatic_reset_ms": _r(state["reset_ms"], 1),
+        "navstatic_reset_ms": _r(state["reset_ms"], 2),
         "mj_step_per_s": round(raw, 0),
         "mj_step_cpu_per_s": round(raw_cpu, 0),
         "substeps_per_env_step": substeps,
-        "runner_over_physics": round(runner_over_physics, 3),
-        "runner_over_physics_in_env": round(1.0 / state["physics_cpu_share"], 3),
+        "runner_over_mj_step": round(over_mj, 3),
+        "runner_over_physics": _r(obs_ratios[0], 3),
         "depth64_steps_per_s": None if depth is None else round(depth["steps_per_s"], 1),
         "depth64_over_state": None if depth is None else round(depth["steps_per_s"] / obs_rates[0], 3),
-        "runner_envs": [1, *VECTOR_ENVS],
-        "runner_envs_steps_per_s": [round(r, 1) for r in envs_rates],
-        "runner_obs": list(obs),
+        "runner_envs": [1, N_VEC],
+        "runner_envs_steps_per_s": [round(one, 1), round(v2, 1)],
+        "runner_obs": labels,
         "runner_obs_steps_per_s": [_r(r, 1) for r in obs_rates],
         "runner_obs_physics_floor_ratio": [_r(q, 3) for q in obs_ratios],
         **({"runner_obs_note": "; ".join(notes)} if notes else {}),
         "metadrive_steps_per_s": None if md is None else round(md, 1),
-        "navstatic_vs_metadrive_cpu": None if md is None else round(cpu_one / md, 3),
+        "navstatic_vs_metadrive_cpu": None if md is None else round(state["cpu_with_resets_per_s"] / md, 3),
         **{k: v for k, v in orca.items() if not isinstance(v, dict | list)},
     }
     print(json.dumps(figures))

@@ -141,18 +141,18 @@ def make_vector_env(
     asynchronous: bool = True,
     **kwargs: Any,
 ):
-    """A Gymnasium vector environment of ``num_envs`` (default: one per core) environments of
-    ``task`` sampling ``split``: every sub-environment draws its own scene on every reset (from
-    its own generator, seeded ``seed + i`` by Gymnasium) out of its process's cache of compiled
-    scenes -- asynchronous scene sampling. ``asynchronous=True`` runs one process per
-    sub-environment."""
-    import gymnasium
+    """A Gymnasium vector environment (:class:`citygen.runner.vector.VectorEnv`) of ``num_envs``
+    (default: one per core) environments of ``task`` sampling ``split``: every sub-environment
+    draws its own scene on every reset (from its own generator, seeded ``seed + i``) out of its
+    process's cache of compiled scenes -- asynchronous scene sampling. Batched: an array of
+    actions in, arrays of observations out. ``asynchronous=True`` steps each sub-environment
+    in its own process (shared-memory buffers, nothing pickled per step); False steps them in
+    this process. ``kwargs`` go to :func:`make_env`."""
+    from citygen.runner.vector import VectorEnv
 
     n = num_envs or os.cpu_count() or 1
     fns = [functools.partial(make_env, task, split=split, **kwargs) for _ in range(n)]
-    if asynchronous:
-        return gymnasium.vector.AsyncVectorEnv(fns, shared_memory=False)
-    return gymnasium.vector.SyncVectorEnv(fns)
+    return VectorEnv(fns, processes=asynchronous)
 
 
 def summary_json(rows: Sequence[dict[str, Any]], **header: Any) -> dict[str, Any]:

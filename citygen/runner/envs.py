@@ -5,7 +5,8 @@ MuJoCo by :mod:`citygen.exporters.mjcf`. It is built from a scene (``scene=`` a
 :class:`~citygen.spec.Scene` or a scene file) or from a split to sample from (``split=``,
 default the task's Urban-Nav / Urban-Loc / Urban-Tra test split): then every
 :meth:`reset` draws a scene index from the environment's generator (``options={"index": i}``
-picks one), and compiled scenes come from a per-process cache.
+picks one; ``scene_pool=k`` draws from the split's first ``k`` scenes only), and compiled
+scenes come from a per-process cache.
 
 **Navigation** (:class:`NavEnv`; NavClear, NavStatic, NavDynamic), as in the paper's
 appendix: the action is ``[v, w]`` in [-1, 1], scaled to the robot's maximum forward speed
@@ -48,6 +49,7 @@ metrics of its task (:mod:`citygen.runner.metrics`).
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -75,6 +77,10 @@ LOCO_HORIZON = 1000
 HEIGHT_MAP = (1.6, 1.0, 0.1)
 #: Horizontal rays of the ``rays`` observation, their height above the feet and range (m).
 RAY_COUNT, RAY_HEIGHT, RAY_RANGE = 32, 0.3, 8.0
+#: Scenes whose MjData and robot handle an environment keeps for coming back to them.
+LIVE_SCENES = 8
+#: Offscreen renderers (one per model and size) a process keeps.
+RENDERERS = 8
 #: Contact force (N) on a non-foot part that counts as a fall in locomotion.
 FALL_FORCE = 1.0
 #: Locomotion: a seed turns the scene's command ``(vx, vy, wz)`` to a direction uniform in
@@ -105,6 +111,27 @@ def _yaw_rotate(vx: np.ndarray, vy: np.ndarray, yaw: float) -> tuple[np.ndarray,
     """World vectors into the frame turned by ``yaw``."""
     c, s = math.cos(yaw), math.sin(yaw)
     return c * vx + s * vy, -s * vx + c * vy
+
+
+_RENDERERS: OrderedDict[tuple[int, int, int], tuple[Any, Any]] = OrderedDict()
+
+
+def _renderer(model: Any, width: int, height: int) -> Any:
+    """A ``mujoco.Renderer`` of ``model`` at ``width`` x ``height``, kept for the process: the
+    environments of a process share it, and a reset back to a cached scene finds its renderer
+    (and GL context) ready. The :data:`RENDERERS` most recently used are kept."""
+    import mujoco
+
+    key = (id(model), width, height)
+    hit = _RENDERERS.pop(key, None)
+    if hit is None or hit[0] is not model:
+        if hit is not None:
+            hit[1].close()
+        hit = (model, mujoco.Renderer(model, height=height, width=width))
+    _RENDERERS[key] = hit
+    while len(_RENDERERS) > RENDERERS:
+        _RENDERERS.popitem(last=False)[1][1].close()
+    return hit[1]
 
 
 class _Around(NamedTuple):
@@ -141,6 +168,7 @@ class _CitygenEnv(gymnasium.Env):
         image_size: int = 128,
         render_mode: str | None = None,
         max_steps: int | None = None,
+        scene_pool: int | None = None,
     ):
         from citygen.runner.robots import load_robot
 
@@ -151,7 +179,7 @@ class _CitygenEnv(gymnasium.Env):
         if scene is None and split is None:
             split = DEFAULT_SPLIT[task]
         self.task_kind = task
-        self.source = SceneSource(scene, split, seed)
+        self.source = SceneSource(scene, split, seed, scene_pool)
         self.robot = load_robot(robot or self.default_robot, adapter)
         self.use_depth, self.use_rgb, self.use_rays = depth, rgb, rays
         self.image_size = int(image_size)
@@ -163,6 +191,7 @@ class _CitygenEnv(gymnasium.Env):
         self.handle = None
         self._renderer = None
         self._index = -1
+        self._live: dict[int, tuple] = {}  # id(Prepared) -> _bind's tuple, oldest first
         self._around: _Around | None = None  # the last _terrain_around
         hx, hy, step = HEIGHT_MAP
         nx, ny = round(hx / step) + 1, round(hy / step) + 1
@@ -190,26 +219,36 @@ class _CitygenEnv(gymnasium.Env):
     # --- scenes and the model ------------------------------------------------------------
 
     def _load(self, index: int) -> None:
+        prepared = process_cache().get(self.source, index, self.robot)
+        if prepared is not self.prepared:
+            # A scene this environment ran lately keeps its MjData and robot handle: coming
+            # back to it swaps a few references instead of allocating them again.
+            live = self._live.pop(id(prepared), None)
+            if live is None or live[0] is not prepared:
+                live = self._bind(prepared)
+            self._live[id(prepared)] = live
+            while len(self._live) > LIVE_SCENES:
+                self._live.pop(next(iter(self._live)))
+            self.prepared, self.data, self.handle, self._robot_geoms, self._foot_geoms = live
+            self.model = prepared.model
+            self._substeps = max(1, round(self.dt / self.model.opt.timestep))
+        self._index = index
+        self.scene = prepared.scene
+
+    def _bind(self, prepared: Prepared) -> tuple:
+        """What running ``prepared`` needs in this environment: its MjData, the robot's
+        handle and the robot's (and its feet's) geoms as masks over the model's geoms."""
         import mujoco
 
         from citygen.runner.robots import RobotHandle
 
-        prepared = process_cache().get(self.source, index, self.robot)
-        if prepared is not self.prepared:
-            self.prepared = prepared
-            self.model = prepared.model
-            self.data = mujoco.MjData(self.model)
-            self.handle = RobotHandle(self.model, self.robot)
-            self._robot_geoms = np.zeros(self.model.ngeom, dtype=bool)
-            self._robot_geoms[self.handle.geom_ids] = True
-            self._foot_geoms = np.zeros(self.model.ngeom, dtype=bool)
-            self._foot_geoms[self.handle.foot_geom_ids] = True
-            self._substeps = max(1, round(self.dt / self.model.opt.timestep))
-            if self._renderer is not None:
-                self._renderer.close()
-                self._renderer = None
-        self._index = index
-        self.scene = prepared.scene
+        model = prepared.model
+        handle = RobotHandle(model, self.robot)
+        robot_geoms = np.zeros(model.ngeom, dtype=bool)
+        robot_geoms[handle.geom_ids] = True
+        foot_geoms = np.zeros(model.ngeom, dtype=bool)
+        foot_geoms[handle.foot_geom_ids] = True
+        return prepared, mujoco.MjData(model), handle, robot_geoms, foot_geoms
 
     def _pick_index(self, options: dict | None) -> int:
         if options and "index" in options:
@@ -315,14 +354,13 @@ class _CitygenEnv(gymnasium.Env):
         if self.use_depth or self.use_rgb:
             renderer = self._get_renderer(self.image_size, self.image_size)
             cam = self._eye_camera(pose)
+            renderer.update_scene(self.data, camera=cam)  # one scene for both images
             if self.use_rgb:
                 renderer.disable_depth_rendering()
-                renderer.update_scene(self.data, camera=cam)
-                out["rgb"] = renderer.render().copy()
+                out["rgb"] = renderer.render()
             if self.use_depth:
                 renderer.enable_depth_rendering()
-                renderer.update_scene(self.data, camera=cam)
-                out["depth"] = renderer.render().astype(np.float32)
+                out["depth"] = renderer.render().astype(np.float32, copy=False)
                 renderer.disable_depth_rendering()
         return out
 
@@ -361,12 +399,8 @@ class _CitygenEnv(gymnasium.Env):
         return cam
 
     def _get_renderer(self, width: int, height: int):
-        import mujoco
-
-        if self._renderer is None or (self._renderer.width, self._renderer.height) != (width, height):
-            if self._renderer is not None:
-                self._renderer.close()
-            self._renderer = mujoco.Renderer(self.model, height=height, width=width)
+        """This process's renderer of the current model at that size (see :func:`_renderer`)."""
+        self._renderer = _renderer(self.model, width, height)
         return self._renderer
 
     def render(self):
@@ -391,9 +425,7 @@ class _CitygenEnv(gymnasium.Env):
         return cam
 
     def close(self):
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        self._renderer = None  # the process's renderers outlive an environment (_renderer)
 
     # --- contacts ------------------------------------------------------------------------
 

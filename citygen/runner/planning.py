@@ -28,7 +28,7 @@ import scipy.sparse
 import scipy.sparse.csgraph
 
 from citygen.exporters.occupancy import OccupancyMap
-from citygen.geometry.raster import erode, Grid, components
+from citygen.geometry.raster import Grid, components, erode
 
 Cell = tuple[int, int]
 

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from citygen.errors import SpecError
+from citygen.errors import Problem, SpecError
 from citygen.io import dumps, load_scene
 from citygen.spec import Scene
 
@@ -34,10 +34,16 @@ CACHE_SIZE = 64
 
 
 class SceneSource:
-    """Scenes by index: one fixed scene, or the scenes of a split (generated on demand)."""
+    """Scenes by index: one fixed scene, or the scenes of a split (generated on demand);
+    ``pool``: only the split's first ``pool`` scenes (a training set small enough for every
+    process's cache to hold, so that resets stop compiling)."""
 
     def __init__(
-        self, scene: Scene | str | Path | None = None, split: str | None = None, seed: int | None = None
+        self,
+        scene: Scene | str | Path | None = None,
+        split: str | None = None,
+        seed: int | None = None,
+        pool: int | None = None,
     ):
         if (scene is None) == (split is None):
             raise SpecError(
@@ -60,6 +66,10 @@ class SceneSource:
             parts = resolve(split, seed=seed)
             self._parts = parts
             self.size = sum(p.scenes for p in parts)
+            if pool is not None:
+                if pool < 1:
+                    raise SpecError([Problem("scene_pool", "a number of scenes >= 1", repr(pool))])
+                self.size = min(self.size, int(pool))  # the split's first `pool` scenes
 
     @property
     def name(self) -> str:
@@ -219,7 +229,7 @@ class SceneCache:
         self.misses = 0
 
     def get(self, source: SceneSource, index: int, robot: Any) -> Prepared:
-        key = (source.key(index), robot.name, hashlib.sha256(robot.xml.encode()).hexdigest())
+        key = (source.key(index), robot.name, robot.timestep, hashlib.sha256(robot.xml.encode()).hexdigest())
         item = self._items.get(key)
         if item is not None:
             self.hits += 1

@@ -43,7 +43,9 @@ touch flat ground; legs and trunk still collide with obstacles, curbs and agents
 open-loop trot of :mod:`citygen.runner.gaits` is the locomotion baseline, not the
 navigation drive (it is not precise enough to track a planner's commands).
 
-**Control timing**: :data:`TIMESTEP` (0.002 s) physics step, implicit-fast integrator.
+**Control timing**: each robot's :attr:`Robot.timestep` physics step (5 ms for the built-in
+robots; :data:`TIMESTEP`, 2 ms, for a user's robot), implicit-fast
+integrator.
 :meth:`RobotHandle.drive` reads the base's state and is a feedback loop: the environments
 run a wheel drive at :data:`DRIVE_DT` (100 Hz, every :attr:`RobotHandle.drive_substeps`
 physics steps, its outputs held in between, as a real wheel controller does) and the

@@ -12,7 +12,8 @@ import numpy as np
 
 from citygen.exporters.mjcf import ROBOT_BIT, ROBOT_CONAFFINITY
 
-#: Physics timestep (s) of a composed model.
+#: Physics timestep (s) of a composed model unless the robot asks for another
+#: (:attr:`Robot.timestep`).
 TIMESTEP = 0.002
 #: Friction-to-normal impedance ratio (with elliptic friction cones) of a composed model:
 #: MuJoCo's soft contacts otherwise let planted feet creep (0.3 m/s in a trot at 1).
@@ -128,6 +129,8 @@ class Robot:
     legs: tuple[Leg, ...] = ()
     """Leg geometry for the gaits (built-in legged robots; empty otherwise)."""
     timestep: float = TIMESTEP
+    """Physics step (s) of a model with this robot: the longest its drive, servo and contacts
+    behave the same at (planner success unchanged), since the step's cost is its physics."""
     assets: tuple[tuple[str, bytes], ...] = field(default=(), repr=False)
 
     @property

@@ -70,12 +70,13 @@ def compose(scene_mjcf: MJCF, robot: Robot, pose: tuple[float, float, float, flo
 
 #: Period (s) of the wheel drive's feedback loop as the environments run it: they call
 #: :meth:`RobotHandle.drive` of a wheeled robot once per period and hold its wheel speed
-#: targets for the physics steps in between (100 Hz: 5 physics steps of :data:`TIMESTEP`;
-#: real wheel controllers run at 100-1000 Hz). The wheels' velocity actuators and the legs'
-#: PD act at every physics step inside MuJoCo. The ideal-locomotion servo (``nav_mode ==
-#: "base"``) stands in for a locomotion policy with stiff force feedback and runs at every
-#: physics step (held 5 steps its attitude loop diverges); only its gain's composite
-#: inertia, which changes with the legs' pose alone, is recomputed once per period.
+#: targets for the physics steps in between (100 Hz: every 2 physics steps of the built-in
+#: robots' 5 ms, every 5 of the default 2 ms (:attr:`Robot.timestep`); real wheel
+#: controllers run at 100-1000 Hz). The wheels' velocity actuators and the legs' PD act at
+#: every physics step inside MuJoCo. The ideal-locomotion servo (``nav_mode == "base"``)
+#: stands in for a locomotion policy with stiff force feedback and runs at every physics
+#: step (held several steps its attitude loop diverges); only its gain's composite inertia,
+#: which changes with the legs' pose alone, is recomputed once per period.
 DRIVE_DT = 0.01
 
 # Drive feedback: wheel speeds get the command plus these gains (1) times the error of the

@@ -47,6 +47,7 @@ def _quadruped() -> Robot:
         leg_actuators=tuple(acts),
         default_pose=pose,
         action_scale=(0.5, 1.0, 1.0) * 4,
+        timestep=0.005,  # s: its legs' PD servos and feet need 5 ms steps (10 ms diverges)
         foot_geoms=tuple(feet),
         legs=legs,
     )

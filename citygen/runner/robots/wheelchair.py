@@ -72,5 +72,6 @@ def _wheelchair() -> Robot:
         right_wheels=("right_wheel",),
         wheel_radius=r,
         track_width=track,
+        timestep=0.005,  # s: planner success as at 2 ms (10 ms loses 3-4 points: contacts)
         foot_geoms=("left_wheel", "right_wheel", "left_caster", "right_caster"),
     )

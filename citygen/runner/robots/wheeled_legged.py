@@ -65,6 +65,7 @@ def _wheeled_legged() -> Robot:
         leg_actuators=tuple(acts),
         default_pose=pose,
         action_scale=(0.5, 1.0, 1.0) * 4,
+        timestep=0.005,  # s: its legs' PD servos hold the stance at 5 ms steps
         foot_geoms=tuple(feet),
         legs=legs,
     )

@@ -1,0 +1,302 @@
+"""A batched vector environment that scales with cores (DESIGN section 6).
+
+:class:`VectorEnv` runs ``num_envs`` citygen environments behind one Gymnasium
+:class:`gymnasium.vector.VectorEnv` interface: an array of actions in, a batch of
+observations, rewards, terminations and truncations out; every sub-environment runs its
+own scene and draws a new one on each of its resets (asynchronous scene sampling).
+
+With ``processes=True`` each sub-environment lives in a worker process and steps in
+parallel with the others. Actions, observations, rewards and done flags travel through
+shared memory; a step costs each worker one byte down a pipe and an empty message back, so
+nothing is pickled per step. A worker pickles its ``info`` only on the last step of an
+episode (it holds the task's metrics) and on resets, unless ``step_infos=True``. With
+``processes=False`` the sub-environments step one after another in this process, behind the
+same interface.
+
+Autoreset is Gymnasium's *next step* mode (``metadata["autoreset_mode"]``): the step after a
+sub-environment's episode ended resets it (reward 0, not done) and returns its first
+observation, so the last observation of an episode is the one returned with its end.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import pickle
+import traceback
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import cloudpickle
+import gymnasium
+import numpy as np
+from gymnasium.vector import AutoresetMode
+from gymnasium.vector.utils import batch_space, create_shared_memory, read_from_shared_memory
+
+_STEP, _RESET, _CALL, _CLOSE = b"s", b"r", b"c", b"q"
+_OK, _ERROR = b"o", b"e"
+
+
+class _Slot:
+    """One sub-environment and its rows of the shared buffers: the code that steps it is the
+    same in a worker process and in this one."""
+
+    def __init__(self, env: gymnasium.Env, index: int, buffers: dict[str, Any], step_infos: bool):
+        self.env, self.i, self.step_infos = env, index, step_infos
+        self.obs = buffers["obs"]
+        self.actions, self.rewards = buffers["actions"], buffers["rewards"]
+        self.terminated, self.truncated = buffers["terminated"], buffers["truncated"]
+        self.needs_reset = False
+
+    def _write(self, obs: dict[str, np.ndarray] | np.ndarray) -> None:
+        if isinstance(self.obs, dict):
+            for key, value in obs.items():
+                self.obs[key][self.i] = value
+        else:
+            self.obs[self.i] = obs
+
+    def reset(self, seed: int | None, options: dict | None) -> dict[str, Any]:
+        obs, info = self.env.reset(seed=seed, options=options)
+        self._write(obs)
+        self.rewards[self.i] = 0.0
+        self.terminated[self.i] = self.truncated[self.i] = False
+        self.needs_reset = False
+        return info
+
+    def step(self) -> dict[str, Any] | None:
+        """Step with this slot's action (or reset if its episode ended at the last step);
+        returns the info worth sending (the episode's last, or every one if asked)."""
+        if self.needs_reset:
+            info = self.reset(None, None)
+            return info if self.step_infos else None
+        obs, reward, term, trunc, info = self.env.step(self.actions[self.i])
+        self._write(obs)
+        self.rewards[self.i] = reward
+        self.terminated[self.i], self.truncated[self.i] = term, trunc
+        self.needs_reset = bool(term or trunc)
+        return info if (self.needs_reset or self.step_infos) else None
+
+
+def _buffers(obs_space, act_space, n: int, ctx) -> dict[str, Any]:
+    """Shared arrays (``ctx`` given) or plain ones: observations, actions, rewards, flags."""
+    if ctx is None:
+        from gymnasium.vector.utils import create_empty_array
+
+        obs = create_empty_array(obs_space, n)
+        return {
+            "obs": obs,
+            "actions": create_empty_array(act_space, n),
+            "rewards": np.zeros(n),
+            "terminated": np.zeros(n, dtype=bool),
+            "truncated": np.zeros(n, dtype=bool),
+        }
+    return {
+        "obs": create_shared_memory(obs_space, n, ctx),
+        "actions": create_shared_memory(act_space, n, ctx),
+        "rewards": ctx.Array("d", n, lock=False),
+        "terminated": ctx.Array("b", n, lock=False),
+        "truncated": ctx.Array("b", n, lock=False),
+    }
+
+
+def _views(raw: dict[str, Any], obs_space, act_space, n: int) -> dict[str, Any]:
+    """Numpy views of :func:`_buffers`' shared arrays."""
+    return {
+        "obs": read_from_shared_memory(obs_space, raw["obs"], n),
+        "actions": read_from_shared_memory(act_space, raw["actions"], n),
+        "rewards": np.frombuffer(raw["rewards"], dtype=np.float64),
+        "terminated": np.frombuffer(raw["terminated"], dtype=bool),
+        "truncated": np.frombuffer(raw["truncated"], dtype=bool),
+    }
+
+
+def _worker(make: bytes, index: int, raw, spaces, n: int, step_infos: bool, conn):
+    """A worker process's loop: one sub-environment (``make``: its function, cloudpickled),
+    commands from ``conn``."""
+    env = None
+    try:
+        env = pickle.loads(make)()
+        slot = _Slot(env, index, _views(raw, *spaces, n), step_infos)
+        conn.send_bytes(_OK)
+        while True:
+            msg = conn.recv_bytes()
+            cmd = msg[:1]
+            try:
+                if cmd == _STEP:
+                    info = slot.step()
+                    conn.send_bytes(_OK if info is None else _OK + pickle.dumps(info))
+                elif cmd == _RESET:
+                    seed, options = pickle.loads(msg[1:])
+                    conn.send_bytes(_OK + pickle.dumps(slot.reset(seed, options)))
+                elif cmd == _CALL:
+                    name, args, kwargs = pickle.loads(msg[1:])
+                    attr = getattr(env, name)
+                    out = attr(*args, **kwargs) if callable(attr) else attr
+                    conn.send_bytes(_OK + pickle.dumps(out))
+                else:
+                    conn.send_bytes(_OK)
+                    break
+            except Exception as exc:  # the parent re-raises it
+                conn.send_bytes(_ERROR + pickle.dumps((exc, traceback.format_exc())))
+    except Exception as exc:
+        conn.send_bytes(_ERROR + pickle.dumps((exc, traceback.format_exc())))
+    except KeyboardInterrupt:
+        pass
+    finally:
+        if env is not None:
+            env.close()
+        conn.close()
+
+
+class VectorEnv(gymnasium.vector.VectorEnv):
+    """``len(env_fns)`` sub-environments, each built by its function, batched (see the module
+    docstring). ``processes``: one worker process per sub-environment (``context``: the
+    multiprocessing start method, default ``"forkserver"``: a worker starts from a fresh
+    interpreter, so its scene cache starts empty); ``copy``: return copies of the
+    observation buffers (False: views that the next step overwrites)."""
+
+    metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP}
+
+    def __init__(
+        self,
+        env_fns: Sequence[Callable[[], gymnasium.Env]],
+        *,
+        processes: bool = True,
+        context: str | None = None,
+        copy: bool = True,
+        step_infos: bool = False,
+    ):
+        if not env_fns:
+            raise ValueError("VectorEnv: expected at least one environment function, got none")
+        n = self.num_envs = len(env_fns)
+        first = env_fns[0]()
+        self.single_observation_space = first.observation_space
+        self.single_action_space = first.action_space
+        self.metadata = {**first.metadata, "autoreset_mode": AutoresetMode.NEXT_STEP}
+        self.render_mode = first.render_mode
+        self.observation_space = batch_space(self.single_observation_space, n)
+        self.action_space = batch_space(self.single_action_space, n)
+        self.copy, self.closed = copy, False
+        spaces = (self.single_observation_space, self.single_action_space)
+        self._conns: list[Any] = []
+        self._procs: list[Any] = []
+        if not processes:
+            self._bufs = _buffers(*spaces, n, None)
+            self._slots = [_Slot(first, 0, self._bufs, step_infos)]
+            self._slots += [_Slot(fn(), i, self._bufs, step_infos) for i, fn in enumerate(env_fns[1:], 1)]
+            return
+        first.close()
+        self._slots = []
+        # A fresh interpreter per worker (forkserver): forking a process that holds a GL
+        # context (a renderer) leaves the child's EGL hanging.
+        methods = mp.get_all_start_methods()
+        ctx = mp.get_context(context or ("forkserver" if "forkserver" in methods else "spawn"))
+        raw = _buffers(*spaces, n, ctx)
+        self._bufs = _views(raw, *spaces, n)
+        for i, fn in enumerate(env_fns):
+            parent, child = ctx.Pipe()
+            args = (cloudpickle.dumps(fn), i, raw, spaces, n, step_infos, child)
+            proc = ctx.Process(target=_worker, args=args, daemon=True, name=f"citygen-vector-{i}")
+            proc.start()
+            child.close()
+            self._conns.append(parent)
+            self._procs.append(proc)
+        try:
+            self._collect()
+        except BaseException:
+            self.close_extras()  # the workers that did start stop with the one that failed
+            raise
+
+    # --- plumbing ------------------------------------------------------------------------
+
+    def _collect(self) -> list[Any]:
+        """Each worker's answer to the last command: the unpickled payload or None."""
+        out, error = [], None
+        for conn in self._conns:
+            msg = conn.recv_bytes()
+            if msg[:1] == _ERROR:
+                exc, tb = pickle.loads(msg[1:])
+                error = error or (exc, tb)
+                out.append(None)
+            else:
+                out.append(pickle.loads(msg[1:]) if len(msg) > 1 else None)
+        if error is not None:
+            exc, tb = error
+            exc.add_note(f"in a citygen vector-env worker:\n{tb}")
+            raise exc
+        return out
+
+    def _obs(self):
+        obs = self._bufs["obs"]
+        if not self.copy:
+            return obs
+        return {k: v.copy() for k, v in obs.items()} if isinstance(obs, dict) else obs.copy()
+
+    def _infos(self, infos: list[dict | None]) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for i, info in enumerate(infos):
+            if info:
+                out = self._add_info(out, info, i)
+        return out
+
+    # --- the Gymnasium interface ---------------------------------------------------------
+
+    def reset(self, *, seed: int | Sequence[int | None] | None = None, options: dict | None = None):
+        n = self.num_envs
+        if isinstance(seed, Sequence):
+            seeds = list(seed)
+        else:
+            seeds = [None if seed is None else seed + i for i in range(n)]
+        if len(seeds) != n:
+            raise ValueError(f"reset: expected {n} seeds, got {len(seeds)}")
+        if self._slots:
+            infos = [s.reset(sd, options) for s, sd in zip(self._slots, seeds, strict=True)]
+        else:
+            for conn, sd in zip(self._conns, seeds, strict=True):
+                conn.send_bytes(_RESET + pickle.dumps((sd, options)))
+            infos = self._collect()
+        return self._obs(), self._infos(infos)
+
+    def step(self, actions):
+        b = self._bufs
+        b["actions"][...] = np.asarray(actions).reshape(b["actions"].shape)
+        if self._slots:
+            infos = [s.step() for s in self._slots]
+        else:
+            for conn in self._conns:
+                conn.send_bytes(_STEP)
+            infos = self._collect()
+        return (
+            self._obs(),
+            b["rewards"].copy(),
+            b["terminated"].copy(),
+            b["truncated"].copy(),
+            self._infos(infos),
+        )
+
+    def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
+        """``name(*args, **kwargs)`` on every sub-environment (or the attribute's value)."""
+        if self._slots:
+            attrs = [getattr(s.env, name) for s in self._slots]
+            return tuple(a(*args, **kwargs) if callable(a) else a for a in attrs)
+        for conn in self._conns:
+            conn.send_bytes(_CALL + pickle.dumps((name, args, kwargs)))
+        return tuple(self._collect())
+
+    def get_attr(self, name: str) -> tuple[Any, ...]:
+        return self.call(name)
+
+    def close_extras(self, **kwargs: Any) -> None:
+        for s in self._slots:
+            s.env.close()
+        for conn in self._conns:
+            try:
+                conn.send_bytes(_CLOSE)
+                conn.recv_bytes()
+            except (OSError, EOFError):
+                pass
+            conn.close()
+        for proc in self._procs:
+            proc.join(timeout=5)
+            if proc.is_alive():
+                proc.terminate()
+        self._conns, self._procs, self._slots = [], [], []

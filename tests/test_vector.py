@@ -1,0 +1,109 @@
+"""The batched vector environment (citygen.runner.vector) behind make_vector_env."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from gymnasium.vector import AutoresetMode
+
+from citygen.runner.bench import make_vector_env
+
+SPLIT = "urban-nav-2-train"
+
+
+def _actions(n: int, steps: int) -> np.ndarray:
+    return np.random.default_rng(3).uniform(-1, 1, (steps, n, 2)).astype(np.float32)
+
+
+def _rollout(venv, actions):
+    obs, infos = venv.reset(seed=11)
+    trace = [(obs, None, None, None, infos)]
+    for a in actions:
+        trace.append(venv.step(a))
+    return trace
+
+
+@pytest.mark.slow
+def test_worker_processes_give_the_same_batches_as_one_process():
+    actions = _actions(2, 8)
+    runs = []
+    for asynchronous in (True, False):
+        venv = make_vector_env("nav-static", split=SPLIT, num_envs=2, asynchronous=asynchronous, max_steps=3)
+        assert venv.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
+        runs.append(_rollout(venv, actions))
+        venv.close()
+    for (o1, r1, t1, u1, _), (o2, r2, t2, u2, _) in zip(*runs, strict=True):
+        for key in o1:
+            np.testing.assert_array_equal(o1[key], o2[key])
+        if r1 is not None:
+            np.testing.assert_array_equal(r1, r2)
+            np.testing.assert_array_equal(t1 | u1, t2 | u2)
+
+
+@pytest.mark.slow
+def test_batches_fit_the_spaces_and_finished_sub_envs_reset_on_the_next_step():
+    venv = make_vector_env("nav-static", split=SPLIT, num_envs=2, max_steps=3)
+    obs, infos = venv.reset(seed=5)
+    assert venv.observation_space.contains(obs)
+    assert obs["height_map"].shape == (2, *venv.single_observation_space["height_map"].shape)
+    first = tuple(infos["index"])
+    assert first[0] != first[1]  # each sub-environment runs its own scene
+    seen = set(first)
+    ended = 0
+    for a in _actions(2, 12):
+        obs, reward, term, trunc, infos = venv.step(a)
+        assert venv.observation_space.contains(obs)
+        assert reward.shape == term.shape == trunc.shape == (2,)
+        done = term | trunc
+        if done.any():
+            ended += int(done.sum())
+            assert infos["_metrics"].tolist() == done.tolist()  # the episode's metrics with its end
+            after = venv.step(a)
+            assert not (after[2] | after[3])[done].any() and (after[1][done] == 0).all()
+    assert ended >= 4  # three-step episodes: every sub-environment finished several
+    indices = venv.get_attr("_index")
+    assert len(indices) == 2
+    seen |= set(indices)
+    assert len(seen) >= 3  # new scenes drawn on the resets
+    venv.close()
+
+
+def test_worker_errors_reach_the_caller():
+    venv = make_vector_env("nav-static", split=SPLIT, num_envs=2)
+    venv.reset(seed=0)
+    with pytest.raises(AttributeError):
+        venv.call("no_such_method")
+    with pytest.raises(ValueError):
+        venv.step(np.zeros((3, 2), dtype=np.float32))  # three actions for two environments
+    venv.close()
+    assert venv.closed
+
+
+def test_scene_pool_limits_the_scenes_drawn():
+    from citygen.errors import SpecError
+    from citygen.runner.bench import make_env
+
+    with pytest.raises(SpecError, match="scene_pool"):
+        make_env("nav-static", split=SPLIT, scene_pool=0)
+    env = make_env("nav-static", split=SPLIT, scene_pool=2)
+    seen = {env.reset(seed=s)[1]["index"] for s in range(6)}
+    assert seen == {0, 1}
+    env.close()
+
+
+def test_depth_images_from_workers_match_one_process_and_survive_scene_swaps():
+    from citygen.runner.bench import make_env
+
+    kw = {"depth": True, "image_size": 32, "scene_pool": 2}
+    env = make_env("nav-static", split=SPLIT, **kw)
+    first = env.reset(seed=0, options={"index": 0})[0]["depth"]
+    env.reset(seed=0, options={"index": 1})  # another scene, another model to render
+    again = env.reset(seed=0, options={"index": 0})[0]["depth"]
+    np.testing.assert_array_equal(first, again)  # the kept renderer draws the scene it is given
+    assert np.isfinite(first).all() and first.min() > 0 and np.ptp(first) > 0
+    env.close()
+    venv = make_vector_env("nav-static", split=SPLIT, num_envs=2, **kw)
+    obs, _ = venv.reset(seed=0, options={"index": 0})
+    np.testing.assert_array_equal(obs["depth"][0], first)
+    np.testing.assert_array_equal(obs["depth"][1], first)
+    venv.close()
