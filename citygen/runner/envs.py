@@ -32,10 +32,10 @@ with more than 1 N; ``exp(-|v_xy - c_xy|^2 / 0.25^2) + 0.5 exp(-(w_z - c_wz)^2 /
 for tracking the command; ``-2.0 v_z^2``; ``-0.01 |a_t - a_(t-1)|^2``. Horizon
 :data:`LOCO_HORIZON` steps.
 
-**Traverse** (:class:`TraverseEnv`): navigation along the task's route, waypoint by
-waypoint; a fall, leaving the bounds or :data:`STUCK_SECONDS` without progress puts the
-robot back at the last waypoint reached (an *attempt*) instead of ending the episode; it
-ends at the route's last point or the task's time limit. Who is driving is told by
+**Traverse** (:class:`TraverseEnv`, the quadruped by default): navigation along the task's
+route, waypoint by waypoint; a fall, leaving the bounds or :data:`STUCK_SECONDS` without
+progress puts the robot back at the last waypoint reached (an *attempt*) instead of ending
+the episode; it ends at the route's last point or the task's time limit. Who is driving is told by
 :meth:`TraverseEnv.set_operator` (the control modes of :mod:`citygen.runner.policies`).
 
 Each environment fills ``info["metrics"]`` on the last step of an episode with the paper's
