@@ -36,10 +36,10 @@ arms) presses on the ground with more than 1 N;
 for tracking the command; ``-2.0 v_z^2``; ``-0.01 |a_t - a_(t-1)|^2``. Horizon
 :data:`LOCO_HORIZON` steps.
 
-**Traverse** (:class:`TraverseEnv`): navigation along the task's route, waypoint by
-waypoint; a fall, leaving the bounds or :data:`STUCK_SECONDS` without progress puts the
-robot back at the last waypoint reached (an *attempt*) instead of ending the episode; it
-ends at the route's last point or the task's time limit. Who is driving is told by
+**Traverse** (:class:`TraverseEnv`, the quadruped by default): navigation along the task's
+route, waypoint by waypoint; a fall, leaving the bounds or :data:`STUCK_SECONDS` without
+progress puts the robot back at the last waypoint reached (an *attempt*) instead of ending
+the episode; it ends at the route's last point or the task's time limit. Who is driving is told by
 :meth:`TraverseEnv.set_operator` (the control modes of :mod:`citygen.runner.policies`).
 
 Each environment fills ``info["metrics"]`` on the last step of an episode with the paper's
@@ -651,11 +651,38 @@ class NavEnv(_CitygenEnv):
 
 
 class TraverseEnv(NavEnv):
-    """A route of waypoints to the end (see the module docstring)."""
+    """A route of waypoints to the end (see the module docstring).
+
+    The robot defaults to the quadruped, the robot both Urban-Tra scenes are set for (the
+    paper's traverse benchmark runs one): the wheeled robot cannot climb the track's stairs.
+
+    Progress for a caller that reports it (a progress bar on ``run_episode``'s
+    ``on_step(env, t)``): :attr:`progress` and, every step, ``info["waypoint"]``,
+    ``info["waypoints"]`` and ``info["attempts"]``."""
+
+    default_robot = "quadruped"
 
     def __init__(self, task: str = "traverse", scene: Scene | str | Path | None = None, **kwargs: Any):
         super().__init__(task, scene, **kwargs)
         self.human = False
+
+    @property
+    def progress(self) -> dict[str, float]:
+        """Where the run is: ``steps`` and ``horizon`` (control steps), ``waypoint`` (the
+        next one, 0-based) of ``waypoints``, ``attempts`` (resets so far) and ``done``, the
+        fraction of the route's waypoints reached (0 before the first :meth:`reset`)."""
+        if self.prepared is None or not hasattr(self, "route"):
+            return {"steps": 0, "horizon": 0, "waypoint": 0, "waypoints": 0, "attempts": 0, "done": 0.0}
+        n = len(self.route)
+        reached = n if self._finished else self.waypoint
+        return {
+            "steps": self.steps,
+            "horizon": self.horizon,
+            "waypoint": self.waypoint,
+            "waypoints": n,
+            "attempts": self.attempts,
+            "done": reached / n,
+        }
 
     def set_operator(self, human: bool) -> None:
         """Say who drives the next steps: a person (True) or the AI (False); the Labor Cost and
@@ -678,6 +705,7 @@ class TraverseEnv(NavEnv):
         self._best = math.inf
         self._since_progress = 0.0
         self.attempts = 0
+        self._finished = False
 
     def _goal(self) -> tuple[float, float]:
         return self.route[self.waypoint]
@@ -719,6 +747,7 @@ class TraverseEnv(NavEnv):
             reset = True
         if done:
             self.waypoint = len(self.route) - 1
+            self._finished = True
         reward = 2.0 * ((1.0 - math.tanh(d / 1.0)) + 0.2 * (1.0 - math.tanh(d / 0.2)))
         reward -= 0.5 * (not walkable) + 1.0 * collision + 100.0 * reset - 50.0 * done
         truncated = not done and self.steps >= self.horizon
@@ -735,11 +764,16 @@ class TraverseEnv(NavEnv):
         self._last_collision = collision
         obs = self._observation()
         info = self._info(
-            distance=d, waypoint=self.waypoint, attempts=self.attempts, collision=collision, success=done
-        )
+            distance=d, waypoint=self.waypoint, waypoints=len(self.route), attempts=self.attempts,
+            collision=collision, success=done,
+        )  # fmt: skip
         if done or truncated:
             self.recorder.finish()
-            info["metrics"] = {**M.traverse_metrics(self.recorder), "success_rate": 100.0 * done}
+            info["metrics"] = {
+                **M.traverse_metrics(self.recorder),
+                "success_rate": 100.0 * done,
+                "route_completion": 100.0 * self.progress["done"],
+            }
         return obs, float(reward), bool(done), bool(truncated), info
 
 

@@ -50,6 +50,7 @@ METRICS: Mapping[str, tuple[str, int]] = {
     "mcot": ("MCoT", 2),
     "speed": ("Speed (m/s)", 2),
     "collision_times": ("Collision Times", 2),
+    "time": ("Time (s)", 1),
 }
 
 
@@ -337,6 +338,7 @@ def traverse_metrics(ep: TraverseEpisode, *, min_speed: float = 0.1) -> dict[str
       step divided by the step's duration, for the m/s of its table. A step flagged ``reset``
       adds no distance (the robot is put back, it does not move there).
     - ``collision_times``: ``sum_t 1_collision(t)``.
+    - ``time`` (s): ``T dt``, the run's duration (every attempt's).
     """
     steps = len(ep.positions)
     _require_steps(ep, steps, "traverse_metrics")
@@ -361,6 +363,7 @@ def traverse_metrics(ep: TraverseEpisode, *, min_speed: float = 0.1) -> dict[str
         "mcot": mcot,
         "speed": float(step_len.sum()) / (steps * ep.dt),
         "collision_times": float(sum(ep.collision)),
+        "time": steps * ep.dt,
     }
 
 

@@ -87,6 +87,11 @@ _SERVO_V, _SERVO_W, _SERVO_KP, _SERVO_KD = 10.0, 10.0, 400.0, 40.0
 #: Ackermann steering's K-turn (see :meth:`RobotHandle.drive`): top speed (m/s) and the
 #: time (s) of each forward or backward leg.
 KTURN_SPEED, KTURN_PERIOD = 0.6, 1.5
+#: Ideal locomotion stands on the highest ground under its feet and this far (m) ahead of its
+#: front feet and behind its rear feet: the hover height rises before a foot meets a stair
+#: riser (the height loop needs ~0.2 s, 0.2 m at full speed) and falls once the last foot is
+#: past an edge, and no foot drags on a crest, a slope or a bump.
+SERVO_LOOKAHEAD = 0.25
 
 
 def yaw_of(quat: Any) -> float:
@@ -160,6 +165,7 @@ class RobotHandle:
         self._ray_point = np.zeros(3)
         self._ray_down = np.array([0.0, 0.0, -1.0])
         self._ray_geom = np.zeros(1, dtype=np.int32)
+        self._footprint_ground = -math.inf  # m: highest ground at the footprint's probes
 
     @property
     def n_joints(self) -> int:
@@ -187,6 +193,7 @@ class RobotHandle:
         self._ref = (0.0, 0.0)
         self._ground = z
         self._kturn_time = 0.0
+        self._footprint_ground = -math.inf
         self._servo_age = math.inf
         self._mj.mj_forward(m, data)
 
@@ -290,12 +297,46 @@ class RobotHandle:
             point[2] -= 1e-4
         return self._ground if self._ground is not None else 0.0
 
+    def _footprint_probe(self, data: Any) -> float:
+        """Highest ground (m) under the feet and :data:`SERVO_LOOKAHEAD` beyond them along
+        the heading (ahead of the front feet, behind the rear ones); -inf for a robot
+        without feet."""
+        if self.foot_geom_ids.size == 0:
+            return -math.inf
+        base = data.xpos[self.base_id]
+        qw, qx, qy, qz = data.qpos[self.qadr + 3 : self.qadr + 7].tolist()
+        yaw = math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
+        c, s = math.cos(yaw), math.sin(yaw)
+        feet = data.geom_xpos[self.foot_geom_ids]
+        along = (feet[:, 0] - base[0]) * c + (feet[:, 1] - base[1]) * s
+        ahead = np.where(along >= 0, SERVO_LOOKAHEAD, -SERVO_LOOKAHEAD)
+        xs = np.concatenate([feet[:, 0], feet[:, 0] + ahead * c]).tolist()
+        ys = np.concatenate([feet[:, 1], feet[:, 1] + ahead * s]).tolist()
+        top = float(base[2])
+        return max(self._ground_at(data, x, y, top) for x, y in zip(xs, ys, strict=True))
+
+    def _ground_at(self, data: Any, x: float, y: float, top: float) -> float:
+        """Height (m) of the first non-robot surface below ``(x, y, top)``; -inf if none."""
+        point, gid = self._ray_point, self._ray_geom
+        point[:] = (x, y, top)
+        for _ in range(8):
+            dist = self._mj.mj_ray(self.model, data, point, self._ray_down, None, 1, self.base_id, gid)
+            if dist < 0:
+                return -math.inf
+            point[2] -= dist
+            if not self._is_robot_geom[gid[0]]:
+                return float(point[2])
+            point[2] -= 1e-4
+        return -math.inf
+
     def _servo(self, data: Any, v: float, w: float, dt: float) -> None:
         """Ideal locomotion: base forces and torques (``data.xfrc_applied``) that carry the
         weight at the hover height, keep the trunk level and track ``(v, w)``; ``dt`` (s):
-        the time since the last call. The composite inertia is recomputed every
-        :data:`DRIVE_DT`; the ground under the base at every call (the hover height must
-        follow edges and objects as the base passes over them)."""
+        the time since the last call. The hover height stands on the highest of the ground
+        under the base (every call: it must follow edges and objects as the base passes over
+        them) and the ground under and beyond the feet (:meth:`_footprint_probe`, so that
+        they clear a stair riser, a crest or a slope); the probe and the composite inertia
+        are recomputed every :data:`DRIVE_DT`."""
         b = self.base_id
         self._servo_age += dt
         if self._servo_age >= DRIVE_DT - 1e-9:
@@ -304,8 +345,10 @@ class RobotHandle:
             d = data.xipos[self.body_ids] - data.subtree_com[b]
             inertia = float(self._body_masses @ (d[:, 0] ** 2 + d[:, 1] ** 2)) + self._half_inertia
             self._servo_inertia = inertia
+            self._footprint_ground = self._footprint_probe(data)
         inertia = self._servo_inertia
-        target = self._ground_below(data) + self.robot.stand_height + HOVER_CLEARANCE
+        ground = max(self._ground_below(data), self._footprint_ground)
+        target = ground + self.robot.stand_height + HOVER_CLEARANCE
         r = data.xmat[b].tolist()  # row-major 3x3 rotation of the base
         z, qw, qx, qy, qz = data.qpos[self.qadr + 2 : self.qadr + 7].tolist()
         lx, ly, lz, ax, ay, az = data.qvel[self.dadr : self.dadr + 6].tolist()

@@ -1,0 +1,91 @@
+"""The Traverse task with its defaults, on stretches of the Urban-Tra-Standard track.
+
+The full track is 1,200 m (``citygen bench --task traverse --policy ai``, minutes); these
+tests run short routes cut from it, through the terrain and the agents that stopped the
+defaults before (the stairs up from the even units, a crest between two slopes, the
+dynamic uneven unit), so that CI sees the same class of failure in under a minute.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import citygen
+from citygen.runner.bench import make_env, run_episode
+from citygen.runner.metrics import TraverseEpisode, traverse_metrics
+from citygen.runner.policies import make_policy
+from citygen.spec.blocks import Pose2
+
+
+@pytest.fixture(scope="module")
+def track():
+    return citygen.generate("urban-tra-standard", index=0)
+
+
+def _stretch(scene, start: tuple[float, float], route: list[tuple[float, float]], time_limit: float):
+    """The track with its traverse task cut to ``route`` from ``start`` (facing the route)."""
+    yaw = math.atan2(route[0][1] - start[1], route[0][0] - start[0])
+    task = scene.task.model_copy(
+        update={"start": Pose2(position=start, yaw=yaw), "route": tuple(route), "time_limit": time_limit}
+    )
+    return scene.model_copy(update={"task": task})
+
+
+def test_default_robot_is_the_tracks_quadruped(track):
+    env = make_env("traverse", track)
+    assert env.robot.name == track.task.robot == "quadruped"
+
+
+@pytest.mark.slow
+def test_ai_climbs_the_stairs_and_crosses_the_uneven_units(track):
+    # Up the 17 cm stairs at the start of unit 4 (x = 60 m), over rough tiles, up the second
+    # flight and down the slopes beyond: the quadruped's ideal locomotion stalled at the first
+    # riser and the wheeled robot cannot climb it.
+    scene = _stretch(track, (56.0, 2.5), [(66.0, 2.5), (76.0, 2.5), (86.0, 2.5)], time_limit=60.0)
+    env = make_env("traverse", scene)
+    heights = []
+
+    def base_height(e, t):
+        heights.append(e.unwrapped.handle.pose(e.unwrapped.data)[2])
+
+    result = run_episode(env, make_policy("ai"), seed=0, on_step=base_height)
+    assert result["success_rate"] == 100.0, result
+    assert result["route_completion"] == 100.0
+    assert result["attempts"] == 0.0
+    assert max(heights) - min(heights) > 0.9  # it climbed the two flights (1.03 m)
+    assert env.progress["done"] == 1.0 and env.progress["waypoints"] == 3
+
+
+@pytest.mark.slow
+def test_ai_passes_a_crest_between_two_slopes(track):
+    # The waypoint (94.5, 7.5) of the fourth lap's way back lies on a ridge where two slopes
+    # meet; the feet used to drag on it and the robot stood still until reset, forever.
+    scene = _stretch(track, (99.0, 7.5), [(94.5, 7.5), (91.0, 7.5)], time_limit=30.0)
+    result = run_episode(make_env("traverse", scene), make_policy("ai"), seed=0)
+    assert result["success_rate"] == 100.0, result
+    assert result["attempts"] == 0.0
+
+
+@pytest.mark.slow
+def test_human_oracle_needs_no_more_attempts_than_ai(track):
+    # The dynamic uneven unit: people, cyclists and scooters on slopes, stairs and rough tiles.
+    scene = _stretch(track, (99.0, 2.5), [(108.0, 2.5), (117.5, 2.5), (117.5, 7.5)], time_limit=120.0)
+    rows = {}
+    for mode in ("ai", "human"):
+        rows[mode] = run_episode(make_env("traverse", scene), make_policy(mode), seed=0)
+        assert rows[mode]["success_rate"] == 100.0, (mode, rows[mode])
+    assert rows["human"]["attempts"] <= rows["ai"]["attempts"]
+    assert rows["human"]["labor_cost"] == pytest.approx(rows["human"]["time"], rel=1e-6)
+    assert rows["ai"]["labor_cost"] == 0.0
+
+
+def test_traverse_metrics_time_is_the_runs_duration():
+    ep = TraverseEpisode(start_xy=(0.0, 0.0), dt=0.1, mass=10.0)
+    for k in range(7):
+        ep.record_step((0.1 * k, 0.0), torques=[1.0], joint_velocities=[1.0], body_speed=1.0)
+    ep.finish()
+    assert traverse_metrics(ep)["time"] == pytest.approx(0.7)
+    assert np.isfinite(traverse_metrics(ep)["speed"])
