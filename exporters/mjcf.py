@@ -41,6 +41,9 @@ What the model holds (metres, radians, Z up; ``<compiler angle="radian"/>``):
   ``task:command`` (vx, vy in m/s, yaw rate in rad/s).
 - **Cameras.** ``top`` (orthographic, straight down, covering the scene) and
   ``perspective`` (from the south-west, above, looking at the scene's centre).
+- **Limits.** ``<size memory>`` is sized from the number of geoms (:func:`arena_mb`), so
+  the first step of a city works; heightfields stay within ``lod.BUDGETS["mjcf"]``
+  samples unless a ``resolution`` is given (:mod:`citygen.exporters.lod`).
 
 Contact filtering (MuJoCo collides two geoms when ``contype1 & conaffinity2`` or
 ``contype2 & conaffinity1``): every static geom has ``contype`` :data:`STATIC_BIT` and
@@ -99,7 +102,7 @@ from shapely.geometry import box as rect
 
 from citygen.assets import Box, Capsule, ConvexMesh, Cylinder, UnknownAsset, resolve
 from citygen.errors import DependencyMissing, ExportError, Problem, SpecError
-from citygen.exporters import ZONE_COLORS, ExportWarning, as_scene, output_name, shared_file
+from citygen.exporters import ZONE_COLORS, ExportWarning, as_scene, lod, output_name, shared_file
 from citygen.geometry.terrain import MIN_THICKNESS, height_at, tile_boxes, tile_grid
 from citygen.io import write_atomic
 from citygen.spec.agents import Person
@@ -169,6 +172,9 @@ MAX_MESH_PARTS = 64
 MAX_ORTHOGRAPHIC = 170.0
 #: Size (px) of the offscreen buffer written into ``<visual><global>``.
 OFFSCREEN = (1280, 960)
+
+#: ``<size memory>``: MiB for contacts and constraints, plus bytes a geom (broadphase).
+ARENA_BASE_MB, ARENA_PER_GEOM = 16, 1024
 
 _AREA_EPS = 1e-6  # m^2: pieces smaller than this are numerical slivers
 _OPTIONS = ("name", "resolution", "apron", "mesh_dir")
@@ -406,7 +412,7 @@ class _Builder:
     scene: Scene
     file: str | None
     base_dir: Path | None
-    resolution: float
+    resolution: float | None
     apron: float
     root: ET.Element = field(init=False)
     asset: ET.Element = field(init=False)
@@ -612,6 +618,48 @@ def _hfield_cells(tile: SlopeTile | RoughTile, s: float, resolution: float) -> i
     return int(min(max(cells, 1), MAX_HFIELD_SIDE - 1))
 
 
+def _geometry_key(tile: SlopeTile | RoughTile) -> tuple:
+    return tuple(sorted(tile.model_dump(exclude={"height", "material", "friction"}).items()))
+
+
+def _hfield_plan(b: _Builder, shaped: list[int]) -> dict[int, int]:
+    """Cells along a side of each slope and rough tile's heightfield (tile index -> cells):
+    by ``resolution``, or when none was given, :data:`DEFAULT_RESOLUTION` coarsened where
+    the scene's heightfields would exceed :data:`~citygen.exporters.lod.BUDGETS` (with one
+    warning); an explicit resolution beyond :data:`MAX_HFIELD_SAMPLES` is an ExportError."""
+    terrain = b.scene.terrain
+    s = terrain.tile_size
+    tiles = {k: terrain.tiles[k] for k in shaped if not isinstance(terrain.tiles[k], StairTile)}
+    res = b.resolution if b.resolution is not None else DEFAULT_RESOLUTION
+    cells = {k: _hfield_cells(t, s, res) for k, t in tiles.items()}
+
+    def samples(plan: dict[int, int]) -> int:
+        unique = {(_geometry_key(tiles[k]), c) for k, c in plan.items()}
+        return sum((c + 1) ** 2 for _, c in unique)
+
+    limit = MAX_HFIELD_SAMPLES if b.resolution is not None else lod.BUDGETS["mjcf"]
+    if samples(cells) <= limit:
+        return cells
+    unique = len({_geometry_key(t) for t in tiles.values()})
+    cap = lod.cells_within(limit, unique, lambda c: (c + 1) ** 2)
+    if b.resolution is not None:
+        raise ExportError(
+            f"mjcf export: the terrain's heightfields need {samples(cells):,} samples at resolution="
+            f"{b.resolution:g} m, more than {MAX_HFIELD_SAMPLES:,}; pass resolution={4 * s / cap:.3g} (m) "
+            "or coarser"
+        )
+    cap = max(cap - cap % 3, 3)  # a multiple of 3: shaped slopes keep their platform's edges
+    plan = {k: min(c, cap) for k, c in cells.items()}
+    error = lod.max_error(b.scene, lambda t: min(_hfield_cells(t, s, res), cap))
+    b.warnings.append(
+        lod.describe(
+            "MJCF", "heightfields", s / cap, error, f"{limit:,} heightfield samples",
+            "resolution= (citygen export --terrain-resolution)",
+        )
+    )  # fmt: skip
+    return plan
+
+
 def _shaped_tiles(b: _Builder, zones: list[Polygon], tree: Any) -> None:
     terrain = b.scene.terrain
     s = terrain.tile_size
@@ -628,6 +676,7 @@ def _shaped_tiles(b: _Builder, zones: list[Polygon], tree: Any) -> None:
     tiles, zis, areas = _zone_areas(squares, zones, tree)
     runs = np.searchsorted(tiles, np.arange(len(shaped) + 1)).tolist()
     zis, areas = zis.tolist(), areas.tolist()
+    plan = _hfield_plan(b, shaped)
     for n, k in enumerate(shaped):
         tile = terrain.tiles[k]
         row, col = divmod(k, terrain.cols)
@@ -646,8 +695,8 @@ def _shaped_tiles(b: _Builder, zones: list[Polygon], tree: Any) -> None:
                     **common,
                 )  # fmt: skip
             continue
-        cells = _hfield_cells(tile, s, b.resolution)
-        key = (tuple(sorted(tile.model_dump(exclude={"height", "material", "friction"}).items())), cells)
+        cells = plan[k]
+        key = (_geometry_key(tile), cells)
         if key not in hfields:
             g = np.linspace(0.0, s, cells + 1)
             rel = tile_grid(tile, s, g, g) - tile.height  # rows along +y
@@ -657,11 +706,6 @@ def _shaped_tiles(b: _Builder, zones: list[Polygon], tree: Any) -> None:
             steps = np.rint((rel - lo) / HFIELD_UNIT).astype(np.int64)
             span = max(int(steps.max()), 1) * HFIELD_UNIT
             b.samples += steps.size
-            if b.samples > MAX_HFIELD_SAMPLES:
-                raise ExportError(
-                    f"mjcf export: the terrain's heightfields need more than {MAX_HFIELD_SAMPLES} samples "
-                    f"at resolution={b.resolution:g} m; pass a coarser resolution"
-                )
             name = f"terrain:{len(hfields)}"
             ET.SubElement(
                 b.asset, "hfield", name=name, nrow=str(cells + 1), ncol=str(cells + 1),
@@ -887,6 +931,7 @@ def _cameras(b: _Builder, visual: ET.Element) -> None:
 def _build(b: _Builder, name: str) -> MJCF:
     b.root = root = ET.Element("mujoco", model=name)
     ET.SubElement(root, "compiler", angle="radian", autolimits="true")
+    size = ET.SubElement(root, "size")
     visual = ET.SubElement(root, "visual")
     ET.SubElement(visual, "global", offwidth=str(OFFSCREEN[0]), offheight=str(OFFSCREEN[1]))
     ET.SubElement(visual, "headlight", ambient="0.3 0.3 0.3", diffuse="0.3 0.3 0.3", specular="0 0 0")
@@ -914,6 +959,7 @@ def _build(b: _Builder, name: str) -> MJCF:
         pos=_v(centre + np.array([0.0, 0.0, span + side])), diffuse="0.45 0.45 0.45", specular="0 0 0",
     )  # fmt: skip
     _cameras(b, visual)
+    size.set("memory", f"{arena_mb(sum(1 for _ in b.world.iter('geom')))}M")
     if b.customs is not None:
         root.append(b.customs)
     # The statistic element belongs before the worldbody for people reading the file.
@@ -928,6 +974,14 @@ def _build(b: _Builder, name: str) -> MJCF:
 # --- public API ----------------------------------------------------------------------
 
 
+def arena_mb(ngeom: int) -> int:
+    """The ``<size memory>`` (MiB) of a model with ``ngeom`` geoms: MuJoCo's broadphase
+    takes about 700 bytes a geom of the arena at every step (measured on a 62,000-geom
+    city), contacts and constraints a few MiB; :data:`ARENA_PER_GEOM` a geom and
+    :data:`ARENA_BASE_MB` leave room for a robot's contacts with heightfields."""
+    return ARENA_BASE_MB + math.ceil(ngeom * ARENA_PER_GEOM / (1 << 20))
+
+
 def _check_options(options: Mapping[str, object]) -> dict[str, Any]:
     unknown = sorted(set(options) - set(_OPTIONS))
     if unknown:
@@ -935,8 +989,11 @@ def _check_options(options: Mapping[str, object]) -> dict[str, Any]:
             f"mjcf export: unknown option {unknown[0]!r}; expected one of {', '.join(_OPTIONS)}"
         )
     out: dict[str, Any] = {}
-    for key, default, low in (("resolution", DEFAULT_RESOLUTION, 0.005), ("apron", DEFAULT_APRON, 0.0)):
+    for key, default, low in (("resolution", None, 0.005), ("apron", DEFAULT_APRON, 0.0)):
         value = options.get(key, default)
+        if value is None and key == "resolution":
+            out[key] = None
+            continue
         if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
             raise ExportError(f"mjcf export: {key}: expected a number of metres, got {value!r}")
         if value < low or (key == "resolution" and value == 0):
@@ -958,10 +1015,11 @@ def to_mjcf(scene: Scene | str | Path, **options: object) -> MJCF:
     """The scene as MJCF text and the mesh files it names, in memory.
 
     Options: ``name`` (the model's name, see :func:`scene_name`), ``resolution``
-    (largest heightfield sample spacing in m, default 0.1), ``apron`` (width in m of the
-    flat ground around the scene, default 20; 0 for none), ``mesh_dir`` (the folder mesh
-    paths are relative to, for a scene given as a model). Anything the format cannot
-    express is reported as an :class:`~citygen.exporters.ExportWarning`.
+    (largest heightfield sample spacing in m; default None: 0.1, or coarser with one
+    warning where the scene's heightfields would exceed ``lod.BUDGETS["mjcf"]`` samples),
+    ``apron`` (width in m of the flat ground around the scene, default 20; 0 for none),
+    ``mesh_dir`` (the folder mesh paths are relative to, for a scene given as a model).
+    Anything the format cannot express is reported as an :class:`~citygen.exporters.ExportWarning`.
     """
     opts = _check_options(options)
     model, base = as_scene(scene)
