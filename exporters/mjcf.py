@@ -645,8 +645,8 @@ def _hfield_plan(b: _Builder, shaped: list[int]) -> dict[int, int]:
     if b.resolution is not None:
         raise ExportError(
             f"mjcf export: the terrain's heightfields need {samples(cells):,} samples at resolution="
-            f"{b.resolution:g} m, more than {MAX_HFIELD_SAMPLES:,}; pass resolution={4 * s / cap:.3g} (m) "
-            "or coarser"
+            f"{b.resolution:g} m, more than {MAX_HFIELD_SAMPLES:,}; pass a coarser resolution, e.g. "
+            f"resolution={4 * s / cap:.3g} (m)"
         )
     cap = max(cap - cap % 3, 3)  # a multiple of 3: shaped slopes keep their platform's edges
     plan = {k: min(c, cap) for k, c in cells.items()}
