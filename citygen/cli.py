@@ -198,10 +198,11 @@ def export(
             typer.echo(f"{event.scene}: {event.kind}: {event.text}", err=True)
             if event.kind == "error":
                 failed.add(event.scene)
-    if failed:
+    if len(failed) > 1 or (failed and len(scenes) > 1):
         typer.echo(
             f"export: {len(failed)} of {len(scenes)} scene(s) failed, in part or whole (see above)", err=True
         )
+    if failed:
         raise typer.Exit(2)
 
 

@@ -515,3 +515,31 @@ def test_a_scene_model_is_named_from_its_meta(tmp_path):
     scene = terrain_scene(placements=[], meta={"split": "urban-nav-2-train", "index": 3})
     paths = quiet_export(scene, tmp_path, resolution=0.2)
     assert paths[0].name == "urban-nav-2-train-00003.npz"
+
+
+def test_a_loc_map_has_the_robot_start_on_free_ground():
+    """Urban-Loc grids have no zones: all their ground is open and walkable, in the map and
+    in the ROS PGM, so a planner sees the robot's start free."""
+    import citygen
+
+    name = sorted(n for n in citygen.splits() if n.startswith("urban-loc-") and n.endswith("-test"))[0]
+    scene = citygen.generate(name, index=0)
+    assert not scene.zones and scene.task is not None
+    m = occ.occupancy(scene, resolution=0.1)
+    assert m.walkable_mask()[m.cell(*scene.task.start.position)]
+    assert m.walkable_mask()[m.labels != occ.OUT_OF_BOUNDS].all()
+    back = occ.load(io.BytesIO(occ.npz_bytes(m)))
+    assert back.walkable_mask()[back.cell(*scene.task.start.position)]
+    pgm = occ.pgm_bytes(m)
+    image = np.frombuffer(pgm[-m.shape[0] * m.shape[1] :], dtype=np.uint8).reshape(m.shape)[::-1]
+    assert image[m.cell(*scene.task.start.position)] == occ.PGM_FREE
+
+
+@pytest.mark.parametrize("seed", REGION_SEEDS)
+def test_every_object_occupies_a_cell_at_a_quarter_metre(seed):
+    """Conservative rasterisation: a post thinner than a cell still marks the cell it stands in."""
+    scene = region(seed)
+    m = occ.occupancy(scene, resolution=0.25)
+    for shape, _ in base_shapes(scene, None):
+        x, y = shape.representative_point().coords[0]
+        assert m.label_at(x, y) in occ.OBSTACLE_CLASSES
