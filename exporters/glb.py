@@ -61,7 +61,7 @@ from citygen.spec.agents import Vehicle
 from citygen.spec.placements import Placement
 from citygen.spec.scene import Scene
 from citygen.spec.task import NavTask, TraverseTask
-from citygen.spec.terrain import RoughTile
+from citygen.spec.terrain import RoughTile, SlopeTile, StairTile
 
 RGBA = tuple[float, float, float, float]
 
@@ -172,11 +172,22 @@ def fit_terrain(
     rough = [x for x in t.tiles if isinstance(x, RoughTile)]
     others = len(t.tiles) - len(rough)
     cells = np.array([rough_cells(x, t.tile_size, res) for x in rough], dtype=np.int64)
-    triangles = _triangles(cells, others)
+    if not auto:
+        if _triangles(cells, others) <= MAX_TERRAIN_TRIANGLES:
+            return res
+        room = MAX_TERRAIN_TRIANGLES - 200 * others
+    else:
+        # What the other tiles cost, closer than the hard limit's 200 each: a flat tile's box,
+        # a stair's boxes, a slope's (pyramid) faces.
+        fixed = sum(12 * (x.step_count + 1) if isinstance(x, StairTile) else 48 if isinstance(x, SlopeTile)
+                    else 12 for x in t.tiles if not isinstance(x, RoughTile))  # fmt: skip
+        triangles = int((2 * cells**2 + 12 * cells).sum()) + fixed
+        if triangles <= lod.BUDGETS[fmt]:
+            return res
+        room = lod.BUDGETS[fmt] - fixed
     limit = lod.BUDGETS[fmt] if auto else MAX_TERRAIN_TRIANGLES
-    if triangles <= limit:
-        return res
-    room = max(limit - 200 * others, 2 * len(rough) * 7)
+    triangles = _triangles(cells, others)
+    room = max(room, 14 * len(rough))
     cap = lod.cells_within(room, len(rough), lambda c: 2 * c * c + 12 * c)
     if not auto:
         raise ExportError(
