@@ -88,7 +88,8 @@ def export_batch(
     occupancy_resolution: float | None = None,
 ) -> Iterator[Event]:
     """Export every scene file to every format into ``out``, yielding what happens as it
-    happens; failures are ``error`` events (``FORMAT: message``), never exceptions."""
+    happens; failures are ``error`` events (``FORMAT: message``), never exceptions. A warning
+    two formats of one scene share (the PNG view compiles the MJCF) is yielded once."""
     out = Path(out)
     used: dict[str, Path] = {}
     for raw in scenes:
@@ -107,9 +108,15 @@ def export_batch(
             )  # fmt: skip
             continue
         used[name] = path
+        said: set[str] = set()  # a warning two formats share (png's view is MJCF's) is said once
         for fmt in formats:
             for module_name in FORMATS[fmt]:
-                yield from _one(path, out, name, fmt, module_name, terrain_resolution, occupancy_resolution)
+                lod = (terrain_resolution, occupancy_resolution)
+                for event in _one(path, out, name, fmt, module_name, *lod):
+                    if event.kind == "warning" and event.text in said:
+                        continue
+                    said.add(event.text)
+                    yield event
 
 
 def _one(
