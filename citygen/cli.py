@@ -16,6 +16,7 @@ import citygen
 from citygen.cli_runner import register as register_runner
 from citygen.cli_train import register as register_train
 from citygen.errors import CitygenError, Problem, SpecError
+from citygen.exporters.batch import FORMATS as EXPORT_FORMATS
 
 app = typer.Typer(
     name="citygen",
@@ -133,19 +134,6 @@ def render(
     typer.echo(f"wrote {path}")
 
 
-#: Export formats and the exporter modules that write them (``png``: the top-down map and,
-#: where OpenGL exists, MuJoCo's perspective view).
-EXPORT_FORMATS = {
-    "mjcf": ("mjcf",),
-    "usd": ("usd",),
-    "urdf": ("urdf",),
-    "occupancy": ("occupancy",),
-    "glb": ("glb",),
-    "html": ("html",),
-    "png": ("picture", "view"),
-}
-
-
 @app.command()
 def export(
     scenes: Annotated[list[Path], typer.Argument(help="Scene files (.json).", show_default=False)],
@@ -156,52 +144,67 @@ def export(
         ),
     ] = "all",
     out: Annotated[Path, typer.Option("--out", "-o", help="Folder to write into.")] = Path("export"),
-    resolution: Annotated[
+    terrain_resolution: Annotated[
         float | None,
         typer.Option(
-            "--resolution", min=0.005, max=10.0, help="Cell size of the occupancy map, m.  [default: 0.05]"
+            "--terrain-resolution",
+            min=0.005,
+            max=10.0,
+            help="Spacing of terrain samples (m): MJCF heightfields, rough tiles' meshes in USD, URDF, "
+            "GLB, HTML.  [default: each format's own, coarsened to fit its limits with a warning]",
         ),
+    ] = None,
+    occupancy_resolution: Annotated[
+        float | None,
+        typer.Option(
+            "--occupancy-resolution",
+            min=0.005,
+            max=10.0,
+            help="Cell size of the occupancy map (m).  [default: 0.05, coarser for a city, with a warning]",
+        ),
+    ] = None,
+    resolution: Annotated[
+        float | None,
+        typer.Option("--resolution", min=0.005, max=10.0, help="The same as --occupancy-resolution."),
     ] = None,
 ) -> None:
     """Compile scenes to the files other simulators load: MJCF, USD, URDF, an occupancy map
     (npz, ROS yaml/pgm, png), GLB, a self-contained HTML viewer, PNG pictures.
 
-    Assets repeated across scenes are written once, content-addressed, under `OUT/assets/`.
-    Whatever a format cannot express is reported on stderr as `FILE: warning: ...`; the
-    perspective PNG is skipped with a message where no OpenGL exists.
+    A generated scene (`<split>/<part>/NNNN.json`) is written as `<split>-NNNN.*`, any other
+    as its file's stem. Assets repeated across scenes are written once, content-addressed,
+    under `OUT/assets/`. Whatever a format cannot express or had to coarsen is reported on
+    stderr as `FILE: warning: ...`. A scene or format that fails is reported as
+    `FILE: error: ...` and the rest are still exported; the exit code is then 2.
     """
-    import importlib
-    import warnings
-
     from citygen.errors import ExportError
-    from citygen.exporters import ExportWarning
+    from citygen.exporters.batch import export_batch
 
     if fmt != "all" and fmt not in EXPORT_FORMATS:
         raise ExportError(f"--format: expected one of {', '.join(EXPORT_FORMATS)} or all, got {fmt!r}")
+    if resolution is not None and occupancy_resolution not in (None, resolution):
+        raise ExportError(
+            f"--resolution: the same as --occupancy-resolution, given both as {resolution:g} and "
+            f"{occupancy_resolution:g}; pass one"
+        )
     chosen = list(EXPORT_FORMATS) if fmt == "all" else [fmt]
-    for scene in scenes:
-        citygen.load_scene(scene)  # a bad file fails here, before anything is written
-    for scene in scenes:
-        for name in chosen:
-            for module_name in EXPORT_FORMATS[name]:
-                module = importlib.import_module(f"citygen.exporters.{module_name}")
-                with warnings.catch_warnings(record=True) as caught:
-                    warnings.simplefilter("always", ExportWarning)
-                    try:
-                        options = (
-                            {"resolution": resolution} if module_name == "occupancy" and resolution else {}
-                        )
-                        written = module.export(scene, out, **options)
-                    except RuntimeError as exc:
-                        if module_name != "view":
-                            raise
-                        typer.echo(f"{scene}: skipped the perspective picture: {exc}", err=True)
-                        written = []
-                for w in caught:
-                    if issubclass(w.category, ExportWarning):
-                        typer.echo(f"{scene}: warning: {w.message}", err=True)
-                for path in written:
-                    typer.echo(f"wrote {path}")
+    failed: set[Path] = set()
+    for event in export_batch(
+        scenes, out, chosen, terrain_resolution=terrain_resolution,
+        occupancy_resolution=occupancy_resolution if occupancy_resolution is not None else resolution,
+    ):  # fmt: skip
+        if event.kind == "wrote":
+            typer.echo(f"wrote {event.text}")
+        else:
+            typer.echo(f"{event.scene}: {event.kind}: {event.text}", err=True)
+            if event.kind == "error":
+                failed.add(event.scene)
+    if len(failed) > 1 or (failed and len(scenes) > 1):
+        typer.echo(
+            f"export: {len(failed)} of {len(scenes)} scene(s) failed, in part or whole (see above)", err=True
+        )
+    if failed:
+        raise typer.Exit(2)
 
 
 def _jobs_option(value: int | None) -> int | None:

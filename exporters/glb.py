@@ -31,7 +31,9 @@ True
 
 from __future__ import annotations
 
+import json
 import math
+import struct
 import warnings
 from collections.abc import Sequence
 from pathlib import Path, PurePosixPath
@@ -46,7 +48,7 @@ from shapely.geometry import Polygon
 
 from citygen.assets import Asset, UnknownAsset, resolve
 from citygen.errors import ExportError
-from citygen.exporters import ZONE_COLORS, ExportWarning, as_scene
+from citygen.exporters import ZONE_COLORS, ExportWarning, as_scene, lod
 from citygen.exporters import output_name as shared_output_name
 from citygen.geometry.terrain import (
     DEFAULT_ROUGH_CELLS,
@@ -59,7 +61,7 @@ from citygen.spec.agents import Vehicle
 from citygen.spec.placements import Placement
 from citygen.spec.scene import Scene
 from citygen.spec.task import NavTask, TraverseTask
-from citygen.spec.terrain import RoughTile
+from citygen.spec.terrain import RoughTile, SlopeTile, StairTile
 
 RGBA = tuple[float, float, float, float]
 
@@ -121,10 +123,14 @@ def check_options(options: dict[str, Any], allowed: Sequence[str], fmt: str) -> 
         )
 
 
-def resolution_option(value: Any, fmt: str) -> float | None:
-    """The ``resolution`` option: None or a positive number of metres."""
-    if value is None:
-        return None
+#: The ``resolution`` that lets an exporter choose (:func:`fit_terrain`).
+AUTO = "auto"
+
+
+def resolution_option(value: Any, fmt: str) -> float | str | None:
+    """The ``resolution`` option: None, :data:`AUTO` or a positive number of metres."""
+    if value is None or value == AUTO:
+        return value
     if (
         isinstance(value, bool)
         or not isinstance(value, int | float)
@@ -146,20 +152,55 @@ def rough_cells(tile: RoughTile, tile_size: float, resolution: float | None) -> 
     return min(math.ceil(tile_size / cell - 1e-9), DEFAULT_ROUGH_CELLS)
 
 
-def check_terrain_size(scene: Scene, resolution: float | None, fmt: str) -> int:
-    """The number of triangles of the terrain's mesh (roughly: rough tiles counted exactly),
-    or an :class:`ExportError` when it exceeds :data:`MAX_TERRAIN_TRIANGLES`."""
+def _triangles(cells: np.ndarray, others: int) -> int:
+    return int((2 * cells**2 + 12 * cells).sum()) + 200 * others
+
+
+def fit_terrain(
+    scene: Scene, resolution: float | str | None, fmt: str, default: float | None
+) -> float | None:
+    """The cell size (m) of rough tiles' meshes a format uses: ``resolution`` when given (an
+    :class:`ExportError` naming a coarser one when the terrain's mesh would exceed
+    :data:`MAX_TERRAIN_TRIANGLES`); for :data:`AUTO`, ``default`` where the mesh fits
+    ``lod.BUDGETS[fmt]`` triangles, else the finest uniform spacing that does, with one
+    :class:`ExportWarning` giving the error against ``height_at``."""
     t = scene.terrain
+    auto = resolution == AUTO
+    res = default if auto else resolution
     if t is None:
-        return 0
-    cells = np.array([rough_cells(x, t.tile_size, resolution) for x in t.tiles if isinstance(x, RoughTile)])
-    triangles = int((2 * cells**2 + 12 * cells).sum()) + 200 * (len(t.tiles) - len(cells))
-    if triangles > MAX_TERRAIN_TRIANGLES:
+        return res
+    rough = [x for x in t.tiles if isinstance(x, RoughTile)]
+    others = len(t.tiles) - len(rough)
+    cells = np.array([rough_cells(x, t.tile_size, res) for x in rough], dtype=np.int64)
+    if not auto:
+        if _triangles(cells, others) <= MAX_TERRAIN_TRIANGLES:
+            return res
+        room = MAX_TERRAIN_TRIANGLES - 200 * others
+    else:
+        # What the other tiles cost, closer than the hard limit's 200 each: a flat tile's box,
+        # a stair's boxes, a slope's (pyramid) faces.
+        fixed = sum(12 * (x.step_count + 1) if isinstance(x, StairTile) else 48 if isinstance(x, SlopeTile)
+                    else 12 for x in t.tiles if not isinstance(x, RoughTile))  # fmt: skip
+        triangles = int((2 * cells**2 + 12 * cells).sum()) + fixed
+        if triangles <= lod.BUDGETS[fmt]:
+            return res
+        room = lod.BUDGETS[fmt] - fixed
+    limit = lod.BUDGETS[fmt] if auto else MAX_TERRAIN_TRIANGLES
+    triangles = _triangles(cells, others)
+    room = max(room, 14 * len(rough))
+    cap = lod.cells_within(room, len(rough), lambda c: 2 * c * c + 12 * c)
+    if not auto:
         raise ExportError(
             f"{fmt} export: the terrain's {len(cells)} rough tiles need about {triangles:,} triangles at "
-            f"resolution={resolution!r}, more than {MAX_TERRAIN_TRIANGLES:,}; pass a coarser resolution (m)"
+            f"resolution={resolution!r}, more than {MAX_TERRAIN_TRIANGLES:,}; pass a coarser resolution, "
+            f"e.g. {t.tile_size / cap:.3g} (m)"
         )
-    return triangles
+    spacing = t.tile_size / cap
+    error = lod.max_error(scene, lambda x: cap if isinstance(x, RoughTile) else None)
+    option = "resolution= (citygen export --terrain-resolution)"
+    message = lod.describe(fmt.upper(), "rough tiles", spacing, error, f"{limit:,} triangles", option)
+    warnings.warn(ExportWarning(message), stacklevel=3)
+    return spacing
 
 
 def scene_dir_of(scene: Scene | str | Path, options: dict[str, Any]) -> tuple[Scene, Path | None]:
@@ -515,26 +556,28 @@ def build(
     scene: Scene | str | Path,
     *,
     scene_dir: str | Path | None = None,
-    resolution: float | None = RESOLUTION,
+    resolution: float | str | None = AUTO,
     y_up: bool = True,
+    fmt: str = "glb",
 ) -> trimesh.Scene:
     """The scene as a :class:`trimesh.Scene` (see the module docstring for its nodes).
 
     ``scene_dir`` is the folder mesh placements are relative to (default: the scene
     file's folder). ``resolution`` (m) is the cell size of rough terrain tiles' meshes
-    (default :data:`RESOLUTION`; None for :func:`~citygen.geometry.terrain.tile_mesh`'s,
+    (default :data:`AUTO`: :data:`RESOLUTION`, coarser where the terrain would exceed
+    ``lod.BUDGETS[fmt]`` triangles; None for :func:`~citygen.geometry.terrain.tile_mesh`'s,
     which resolves every bump). Agents and the task's markers stand on the ground
     (:func:`height_at`).
     """
     model, folder = scene_dir_of(scene, {"scene_dir": scene_dir})
-    resolution = resolution_option(resolution, "glb")
+    resolution = resolution_option(resolution, fmt)
     if not isinstance(y_up, bool):
         raise ExportError(f"glb export: expected true or false for 'y_up', got {y_up!r}")
     g = _Graph(y_up)
     polys = zone_polygons(model)
     tm = None
     if model.terrain is not None:
-        check_terrain_size(model, resolution, "glb")
+        resolution = fit_terrain(model, resolution, fmt, RESOLUTION)
         tm = terrain_mesh(model, resolution=resolution)
         solid = terrain_solid(model, polys, mesh=tm)
         g.add("ground/terrain", "terrain", lambda: solid, np.eye(4))
@@ -700,16 +743,46 @@ def _add_task(g: _Graph, scene: Scene) -> None:
 _OPTIONS = ("name", "scene_dir", "resolution", "y_up")
 
 
+#: glTF ``bufferView.target`` values: vertex attributes and indices.
+ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER = 34962, 34963
+
+
+def with_targets(glb: bytes) -> bytes:
+    """A GLB with ``target`` set on every buffer view its meshes read (``ARRAY_BUFFER`` for
+    vertex attributes, ``ELEMENT_ARRAY_BUFFER`` for indices), which trimesh leaves out and
+    the Khronos validator hints at; the binary chunk is unchanged."""
+    magic, version, _ = struct.unpack_from("<4sII", glb, 0)
+    length, kind = struct.unpack_from("<I4s", glb, 12)
+    if magic != b"glTF" or kind != b"JSON":
+        return glb
+    doc = json.loads(glb[20 : 20 + length])
+    views, accessors = doc.get("bufferViews", []), doc.get("accessors", [])
+    for mesh in doc.get("meshes", []):
+        for prim in mesh.get("primitives", []):
+            uses = [(a, ARRAY_BUFFER) for a in prim.get("attributes", {}).values()]
+            if "indices" in prim:
+                uses.append((prim["indices"], ELEMENT_ARRAY_BUFFER))
+            for accessor, target in uses:
+                view = accessors[accessor].get("bufferView")
+                if view is not None:
+                    views[view]["target"] = target
+    text = json.dumps(doc, separators=(",", ":")).encode("utf-8")
+    text += b" " * (-len(text) % 4)
+    rest = glb[20 + length :]
+    header = struct.pack("<4sII", magic, version, 12 + 8 + len(text) + len(rest))
+    return header + struct.pack("<I4s", len(text), b"JSON") + text + rest
+
+
 def to_bytes(scene: Scene | str | Path, **options: Any) -> bytes:
-    """The GLB file's bytes (options as :func:`build`)."""
-    return build(scene, **options).export(file_type="glb")
+    """The GLB file's bytes (options as :func:`build`), every buffer view's ``target`` set."""
+    return with_targets(build(scene, **options).export(file_type="glb"))
 
 
 def export(scene: Scene | str | Path, out_dir: str | Path, **options: Any) -> list[Path]:
     """Write ``<out_dir>/<name>.glb``; returns ``[that path]``.
 
     Options: ``name`` (default: the scene file's stem, ``<split>-<index>`` or ``scene``),
-    ``scene_dir``, ``resolution`` (m, default :data:`RESOLUTION`) and ``y_up`` (see :func:`build`).
+    ``scene_dir``, ``resolution`` (m, default :data:`AUTO`) and ``y_up`` (see :func:`build`).
     """
     check_options(options, _OPTIONS, "glb")
     name = output_name(scene, options, "glb")

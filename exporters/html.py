@@ -37,8 +37,8 @@ from citygen.errors import ExportError
 from citygen.exporters import ZONE_COLORS
 from citygen.exporters.glb import (
     AGENT_COLORS,
+    AUTO,
     GOAL_COLOR,
-    RESOLUTION,
     START_COLOR,
     build,
     check_options,
@@ -81,11 +81,11 @@ def _mesh_payload(mesh: trimesh.Trimesh) -> dict[str, Any]:
 
 
 def scene_payload(
-    scene: Scene | str | Path, *, scene_dir: str | Path | None = None, resolution: float | None = RESOLUTION
+    scene: Scene | str | Path, *, scene_dir: str | Path | None = None, resolution: float | str | None = AUTO
 ) -> dict[str, Any]:
     """The data the page draws: meshes, instances and legend, as JSON-ready values."""
     model, folder = scene_dir_of(scene, {"scene_dir": scene_dir})
-    graph = build(model, scene_dir=folder, resolution=resolution, y_up=False)
+    graph = build(model, scene_dir=folder, resolution=resolution, y_up=False, fmt="html")
     names = list(graph.geometry)
     instances: dict[str, list] = {name: [] for name in names}
     for node in graph.graph.nodes_geometry:  # insertion order: deterministic
@@ -251,7 +251,7 @@ def to_html(
     scene: Scene | str | Path,
     *,
     scene_dir: str | Path | None = None,
-    resolution: float | None = RESOLUTION,
+    resolution: float | str | None = AUTO,
     title: str | None = None,
     legend: bool = True,
 ) -> str:
@@ -299,7 +299,7 @@ def export(scene: Scene | str | Path, out_dir: str | Path, **options: Any) -> li
 
     Options: ``name`` (default: the scene file's stem, ``<split>-<index>`` or ``scene``),
     ``scene_dir`` (the folder mesh placements are relative to, for a scene model),
-    ``resolution`` (m, default :data:`~citygen.exporters.glb.RESOLUTION`), ``title`` and ``legend`` (see
+    ``resolution`` (m, default :data:`~citygen.exporters.glb.AUTO`), ``title`` and ``legend`` (see
     :func:`to_html`).
     """
     check_options(options, _OPTIONS, "html")

@@ -21,26 +21,29 @@ What the model holds (metres, radians, Z up; ``<compiler angle="radian"/>``):
   own (``friction`` or ``material``),
   else that of the zone covering most of it, else :data:`DEFAULT_FRICTION`; where zones
   of different friction share such a tile an :class:`ExportWarning` says so.
-- **Objects.** One static body per placement (``object/<id>``) whose geoms are the
+- **Objects.** One static body per placement (``object:<id>``) whose geoms are the
   asset's convex parts: MuJoCo boxes, cylinders, capsules and spheres where the part is
   one, convex meshes (``assets/<digest>.stl``, written once per dataset folder)
   otherwise. A placement's mesh file (relative to the scene file) is split into its
   connected parts, each a mesh geom; MuJoCo collides a mesh as its convex hull, so an
   :class:`ExportWarning` names every placement with a non-convex part.
-- **Agents.** One mocap body per agent (``agent/<id>``) at its start, on the ground,
+- **Agents.** One mocap body per agent (``agent:<id>``) at its start, on the ground,
   facing its goal: people are capsules of their radius, :data:`PERSON_HEIGHT` tall;
   vehicles boxes of their length and width, :data:`VEHICLE_HEIGHT` tall. The body's
   origin is the ground point under the agent's centre, so a runner drives it by writing
   ``data.mocap_pos[model.body(name).mocapid]`` = ``(x, y, height_at(x, y))``.
-  Each agent's goal is a site ``agent/<id>/goal`` (group 4, hidden), its preferred speed
-  (m/s) ``<custom><numeric name="agent/<id>/speed">`` and a vehicle's route of block ids
-  ``<custom><text name="agent/<id>/route">``.
-- **Task.** Sites ``task/start`` (its frame turned by the start yaw), ``task/goal`` (a
-  disc of the goal tolerance) and for a traverse ``task/waypoint/<k>``; custom entries
-  ``task/kind``, ``task/robot`` (text), ``task/time_limit`` (s) and for locomotion
-  ``task/command`` (vx, vy in m/s, yaw rate in rad/s).
+  Each agent's goal is a site ``agent:<id>:goal`` (group 4, hidden), its preferred speed
+  (m/s) ``<custom><numeric name="agent:<id>:speed">`` and a vehicle's route of block ids
+  ``<custom><text name="agent:<id>:route">``.
+- **Task.** Sites ``task:start`` (its frame turned by the start yaw), ``task:goal`` (a
+  disc of the goal tolerance) and for a traverse ``task:waypoint:<k>``; custom entries
+  ``task:kind``, ``task:robot`` (text), ``task:time_limit`` (s) and for locomotion
+  ``task:command`` (vx, vy in m/s, yaw rate in rad/s).
 - **Cameras.** ``top`` (orthographic, straight down, covering the scene) and
   ``perspective`` (from the south-west, above, looking at the scene's centre).
+- **Limits.** ``<size memory>`` is sized from the number of geoms (:func:`arena_mb`), so
+  the first step of a city works; heightfields stay within ``lod.BUDGETS["mjcf"]``
+  samples unless a ``resolution`` is given (:mod:`citygen.exporters.lod`).
 
 Contact filtering (MuJoCo collides two geoms when ``contype1 & conaffinity2`` or
 ``contype2 & conaffinity1``): every static geom has ``contype`` :data:`STATIC_BIT` and
@@ -52,13 +55,18 @@ between a robot (priority 0) and the ground uses the ground's friction, not a mi
 Geom groups: 0 ground and terrain, 1 objects, 2 agents (so a ray or a rendering can
 select them: ``mj_ray(..., geomgroup=[1, 0, 0, 0, 0, 0], ...)`` sees only the ground).
 
-Names (the runner may rely on them): every geom is ``<layer>/<class>/<id>/<k>``, split
-on ``/`` (ids never contain one): ``zone/<zone kind>/<zone id>/<k>`` (``zone/none/ground``
-for ground no zone covers, ``zone/none/outside`` for the apron),
-``terrain/<tile kind>/<row>_<col>/<k>``, ``object/<semantic class>/<placement id>/<k>``
-(``object/mesh/...`` for mesh files), ``agent/<agent kind>/<agent id>/0``. Ground and
-terrain geoms use the material ``zone/<kind>`` (or ``ground``) of the ground they
-stand for. Bodies are ``object/<id>`` and ``agent/<id>``.
+Names (the runner may rely on them; they are a public contract, the README's naming table):
+the parts of every name are joined by ``:`` (:data:`SEP`), never ``/``, which dm_control's
+``mjcf`` reserves for the scopes of attached models. Every geom is
+``<layer>:<class>:<id>:<k>`` (an id may itself hold a ``:``; layer, class and k never do):
+``zone:<zone kind>:<zone id>:<k>`` (``zone:none:ground:<k>`` for ground no zone covers,
+``zone:none:outside:<k>`` for the apron), ``terrain:<tile kind>:<row>_<col>:<k>``,
+``object:<semantic class>:<placement id>:<k>`` (``object:mesh:...`` for mesh files),
+``agent:<agent kind>:<agent id>:0``. Ground and terrain geoms use the material
+``zone:<kind>`` (or ``ground``) of the ground they stand for; heightfields are
+``terrain:<n>``. Bodies are ``object:<id>`` and ``agent:<id>``; sites ``agent:<id>:goal``,
+``task:start``, ``task:goal``, ``task:waypoint:<k>``; custom entries ``agent:<id>:speed``,
+``agent:<id>:route``, ``task:kind``, ``task:robot``, ``task:time_limit``, ``task:command``.
 
 The same scene and options give the same XML and asset bytes; numbers are written with
 at most 6 decimals.
@@ -94,7 +102,7 @@ from shapely.geometry import box as rect
 
 from citygen.assets import Box, Capsule, ConvexMesh, Cylinder, UnknownAsset, resolve
 from citygen.errors import DependencyMissing, ExportError, Problem, SpecError
-from citygen.exporters import ZONE_COLORS, ExportWarning, as_scene, output_name, shared_file
+from citygen.exporters import ZONE_COLORS, ExportWarning, as_scene, lod, output_name, shared_file
 from citygen.geometry.terrain import MIN_THICKNESS, height_at, tile_boxes, tile_grid
 from citygen.io import write_atomic
 from citygen.spec.agents import Person
@@ -108,6 +116,12 @@ if TYPE_CHECKING:
 
 #: ``contype`` of every static geom (ground, terrain, objects); their ``conaffinity`` is 0.
 STATIC_BIT = 1
+#: The separator of the parts of every name this exporter gives (``object:bench:bench-1:0``).
+#: Not ``/``: dm_control's ``mjcf`` reserves that for the scopes of attached models.
+SEP = ":"
+#: The first part of every geom name: what the geom stands for.
+LAYERS = ("zone", "terrain", "object", "agent")
+
 #: The bit a robot's geoms should set in ``contype``.
 ROBOT_BIT = 2
 #: ``contype`` of agents' geoms (mocap bodies); their ``conaffinity`` is 0.
@@ -158,6 +172,9 @@ MAX_MESH_PARTS = 64
 MAX_ORTHOGRAPHIC = 170.0
 #: Size (px) of the offscreen buffer written into ``<visual><global>``.
 OFFSCREEN = (1280, 960)
+
+#: ``<size memory>``: MiB for contacts and constraints, plus bytes a geom (broadphase).
+ARENA_BASE_MB, ARENA_PER_GEOM = 16, 1024
 
 _AREA_EPS = 1e-6  # m^2: pieces smaller than this are numerical slivers
 _OPTIONS = ("name", "resolution", "apron", "mesh_dir")
@@ -395,7 +412,7 @@ class _Builder:
     scene: Scene
     file: str | None
     base_dir: Path | None
-    resolution: float
+    resolution: float | None
     apron: float
     root: ET.Element = field(init=False)
     asset: ET.Element = field(init=False)
@@ -518,7 +535,7 @@ def _ground(b: _Builder) -> None:
     def name_of(prefix: str) -> str:
         k = counters.get(prefix, 0)
         counters[prefix] = k + 1
-        return f"{prefix}/{k}"
+        return f"{prefix}:{k}"
 
     for (height, own), squares in areas.items():
         area = shapely.union_all(squares) if len(squares) > 1 else squares[0]
@@ -529,17 +546,17 @@ def _ground(b: _Builder) -> None:
             zone = scene.zones[zi]
             piece = zones[zi].intersection(area)
             covered.append(piece)
-            mat = b.material(f"zone/{zone.kind}", ZONE_RGBA[zone.kind])
+            mat = b.material(f"zone:{zone.kind}", ZONE_RGBA[zone.kind])
             mu = own if own is not None else zone.mu
             for poly in _polygons(piece):
                 for ring in convex_pieces(poly):
-                    _slab(b, b.world, name_of(f"zone/{zone.kind}/{zone.id}"), ring, height, mu, mat)
+                    _slab(b, b.world, name_of(f"zone:{zone.kind}:{zone.id}"), ring, height, mu, mat)
         rest = area.difference(shapely.union_all(covered)) if covered else area
         mat = b.material("ground", _GROUND_RGBA)
         for poly in _polygons(rest):
             for ring in convex_pieces(poly):
                 mu = own if own is not None else DEFAULT_FRICTION
-                _slab(b, b.world, name_of("zone/none/ground"), ring, height, mu, mat)
+                _slab(b, b.world, name_of("zone:none:ground"), ring, height, mu, mat)
     if b.apron > 0:
         m = b.apron
         mat = b.material("outside", _OUTSIDE_RGBA)
@@ -550,7 +567,7 @@ def _ground(b: _Builder) -> None:
             (bx1, by0, bx1 + m, by1),
         ):
             ring = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
-            _slab(b, b.world, name_of("zone/none/outside"), ring, 0.0, DEFAULT_FRICTION, mat)
+            _slab(b, b.world, name_of("zone:none:outside"), ring, 0.0, DEFAULT_FRICTION, mat)
     if terrain is not None:
         _shaped_tiles(b, zones, tree)
 
@@ -581,7 +598,7 @@ def _tile_ground(b: _Builder, k: int, square_area: float, zis: list[int], areas:
     if best is None:
         mat = b.material("ground", _GROUND_RGBA)
     else:
-        mat = b.material(f"zone/{best.kind}", ZONE_RGBA[best.kind])
+        mat = b.material(f"zone:{best.kind}", ZONE_RGBA[best.kind])
     own = _own_friction(tile)
     if own is not None:
         return own, mat, False
@@ -601,6 +618,48 @@ def _hfield_cells(tile: SlopeTile | RoughTile, s: float, resolution: float) -> i
     return int(min(max(cells, 1), MAX_HFIELD_SIDE - 1))
 
 
+def _geometry_key(tile: SlopeTile | RoughTile) -> tuple:
+    return tuple(sorted(tile.model_dump(exclude={"height", "material", "friction"}).items()))
+
+
+def _hfield_plan(b: _Builder, shaped: list[int]) -> dict[int, int]:
+    """Cells along a side of each slope and rough tile's heightfield (tile index -> cells):
+    by ``resolution``, or when none was given, :data:`DEFAULT_RESOLUTION` coarsened where
+    the scene's heightfields would exceed :data:`~citygen.exporters.lod.BUDGETS` (with one
+    warning); an explicit resolution beyond :data:`MAX_HFIELD_SAMPLES` is an ExportError."""
+    terrain = b.scene.terrain
+    s = terrain.tile_size
+    tiles = {k: terrain.tiles[k] for k in shaped if not isinstance(terrain.tiles[k], StairTile)}
+    res = b.resolution if b.resolution is not None else DEFAULT_RESOLUTION
+    cells = {k: _hfield_cells(t, s, res) for k, t in tiles.items()}
+
+    def samples(plan: dict[int, int]) -> int:
+        unique = {(_geometry_key(tiles[k]), c) for k, c in plan.items()}
+        return sum((c + 1) ** 2 for _, c in unique)
+
+    limit = MAX_HFIELD_SAMPLES if b.resolution is not None else lod.BUDGETS["mjcf"]
+    if samples(cells) <= limit:
+        return cells
+    unique = len({_geometry_key(t) for t in tiles.values()})
+    cap = lod.cells_within(limit, unique, lambda c: (c + 1) ** 2)
+    if b.resolution is not None:
+        raise ExportError(
+            f"mjcf export: the terrain's heightfields need {samples(cells):,} samples at resolution="
+            f"{b.resolution:g} m, more than {MAX_HFIELD_SAMPLES:,}; pass a coarser resolution, e.g. "
+            f"resolution={4 * s / cap:.3g} (m)"
+        )
+    cap = max(cap - cap % 3, 3)  # a multiple of 3: shaped slopes keep their platform's edges
+    plan = {k: min(c, cap) for k, c in cells.items()}
+    error = lod.max_error(b.scene, lambda t: min(_hfield_cells(t, s, res), cap))
+    b.warnings.append(
+        lod.describe(
+            "MJCF", "heightfields", s / cap, error, f"{limit:,} heightfield samples",
+            "resolution= (citygen export --terrain-resolution)",
+        )
+    )  # fmt: skip
+    return plan
+
+
 def _shaped_tiles(b: _Builder, zones: list[Polygon], tree: Any) -> None:
     terrain = b.scene.terrain
     s = terrain.tile_size
@@ -617,6 +676,7 @@ def _shaped_tiles(b: _Builder, zones: list[Polygon], tree: Any) -> None:
     tiles, zis, areas = _zone_areas(squares, zones, tree)
     runs = np.searchsorted(tiles, np.arange(len(shaped) + 1)).tolist()
     zis, areas = zis.tolist(), areas.tolist()
+    plan = _hfield_plan(b, shaped)
     for n, k in enumerate(shaped):
         tile = terrain.tiles[k]
         row, col = divmod(k, terrain.cols)
@@ -625,18 +685,18 @@ def _shaped_tiles(b: _Builder, zones: list[Polygon], tree: Any) -> None:
         mu, mat, mix = _tile_ground(b, k, square_areas[n], zis[run], areas[run])
         if mix:
             mixed.append(k)
-        prefix = f"terrain/{tile.kind}/{row}_{col}"
+        prefix = f"terrain:{tile.kind}:{row}_{col}"
         common = {"class": "static", "material": mat, "friction": _friction(mu)}
         if isinstance(tile, StairTile):
             for j, (lo, hi) in enumerate(tile_boxes(tile, s, floor=b.floor)):
                 centre = (lo + hi) / 2 + (x, y, 0.0)
                 ET.SubElement(
-                    b.world, "geom", name=f"{prefix}/{j}", type="box", pos=_v(centre), size=_v((hi - lo) / 2),
+                    b.world, "geom", name=f"{prefix}:{j}", type="box", pos=_v(centre), size=_v((hi - lo) / 2),
                     **common,
                 )  # fmt: skip
             continue
-        cells = _hfield_cells(tile, s, b.resolution)
-        key = (tuple(sorted(tile.model_dump(exclude={"height", "material", "friction"}).items())), cells)
+        cells = plan[k]
+        key = (_geometry_key(tile), cells)
         if key not in hfields:
             g = np.linspace(0.0, s, cells + 1)
             rel = tile_grid(tile, s, g, g) - tile.height  # rows along +y
@@ -646,12 +706,7 @@ def _shaped_tiles(b: _Builder, zones: list[Polygon], tree: Any) -> None:
             steps = np.rint((rel - lo) / HFIELD_UNIT).astype(np.int64)
             span = max(int(steps.max()), 1) * HFIELD_UNIT
             b.samples += steps.size
-            if b.samples > MAX_HFIELD_SAMPLES:
-                raise ExportError(
-                    f"mjcf export: the terrain's heightfields need more than {MAX_HFIELD_SAMPLES} samples "
-                    f"at resolution={b.resolution:g} m; pass a coarser resolution"
-                )
-            name = f"terrain/{len(hfields)}"
+            name = f"terrain:{len(hfields)}"
             ET.SubElement(
                 b.asset, "hfield", name=name, nrow=str(cells + 1), ncol=str(cells + 1),
                 size=_v((s / 2, s / 2, span, HFIELD_BASE)),
@@ -660,7 +715,7 @@ def _shaped_tiles(b: _Builder, zones: list[Polygon], tree: Any) -> None:
             hfields[key] = (name, lo)
         name, lo = hfields[key]
         ET.SubElement(
-            b.world, "geom", name=f"{prefix}/0", type="hfield", hfield=name,
+            b.world, "geom", name=f"{prefix}:0", type="hfield", hfield=name,
             pos=_v((x + s / 2, y + s / 2, tile.height + lo)), **common,
         )  # fmt: skip
     if mixed:
@@ -672,13 +727,13 @@ def _shaped_tiles(b: _Builder, zones: list[Polygon], tree: Any) -> None:
 
 def _look_material(b: _Builder, look: Any) -> str:
     r, g, bl, a = (round(c * 255) for c in look.rgba)
-    return b.material(f"look/{look.name}/{r:02x}{g:02x}{bl:02x}{a:02x}", look.rgba)
+    return b.material(f"look:{look.name}:{r:02x}{g:02x}{bl:02x}{a:02x}", look.rgba)
 
 
 def _objects(b: _Builder) -> None:
     for i, pl in enumerate(b.scene.placements):
         x, y, z = pl.position
-        attrs = {"name": f"object/{pl.id}", "childclass": "object", "pos": _v((x, y, z))}
+        attrs = {"name": f"object:{pl.id}", "childclass": "object", "pos": _v((x, y, z))}
         if pl.yaw:
             attrs["euler"] = _v((0, 0, pl.yaw))
         body = ET.SubElement(b.world, "body", **attrs)
@@ -691,7 +746,7 @@ def _objects(b: _Builder) -> None:
                 where = f"$.placements[{i}].asset"
                 raise SpecError([Problem(where, exc.expected, repr(pl.asset))], file=b.file) from None
             for k, part in enumerate(asset.parts):
-                _part(b, body, f"object/{asset.semantic_class}/{pl.id}/{k}", part, pl.scale)
+                _part(b, body, f"object:{asset.semantic_class}:{pl.id}:{k}", part, pl.scale)
             top = asset.height * pl.scale
         b.top = max(b.top, z + top)
         b.bottom = min(b.bottom, z)
@@ -753,7 +808,7 @@ def _mesh_placement(b: _Builder, i: int, body: ET.Element) -> float:
         name = b.mesh_file(data, pl.scale, inertia="convex")
         mat = b.material("mesh", (0.48, 0.24, 0.62, 1.0))
         ET.SubElement(
-            body, "geom", name=f"object/mesh/{pl.id}/{k}", type="mesh", mesh=name, material=mat,
+            body, "geom", name=f"object:mesh:{pl.id}:{k}", type="mesh", mesh=name, material=mat,
             friction=_friction(DEFAULT_FRICTION),
         )  # fmt: skip
         hull = part.convex_hull
@@ -773,9 +828,9 @@ def _agents(b: _Builder) -> None:
         z = float(height_at(b.scene, x, y))
         yaw = math.atan2(gy - y, gx - x) if (gx, gy) != (x, y) else 0.0
         body = ET.SubElement(
-            b.world, "body", name=f"agent/{a.id}", mocap="true", pos=_v((x, y, z)), euler=_v((0, 0, yaw))
+            b.world, "body", name=f"agent:{a.id}", mocap="true", pos=_v((x, y, z)), euler=_v((0, 0, yaw))
         )
-        attrs = {"name": f"agent/{a.kind}/{a.id}/0", "class": "agent", "rgba": _v(_AGENT_RGBA[a.kind])}
+        attrs = {"name": f"agent:{a.kind}:{a.id}:0", "class": "agent", "rgba": _v(_AGENT_RGBA[a.kind])}
         if isinstance(a, Person):
             height = PERSON_HEIGHT[a.kind]
             half = height / 2 - a.radius
@@ -791,10 +846,10 @@ def _agents(b: _Builder) -> None:
         ET.SubElement(body, "geom", **attrs)
         b.top = max(b.top, z + height)
         gz = float(height_at(b.scene, gx, gy))
-        ET.SubElement(b.world, "site", name=f"agent/{a.id}/goal", pos=_v((gx, gy, gz)), size="0.1", group="4")
-        b.custom("numeric", f"agent/{a.id}/speed", _n(a.speed))
+        ET.SubElement(b.world, "site", name=f"agent:{a.id}:goal", pos=_v((gx, gy, gz)), size="0.1", group="4")
+        b.custom("numeric", f"agent:{a.id}:speed", _n(a.speed))
         if getattr(a, "route", ()):
-            b.custom("text", f"agent/{a.id}/route", " ".join(a.route))
+            b.custom("text", f"agent:{a.id}:route", " ".join(a.route))
 
 
 def _task(b: _Builder) -> None:
@@ -803,21 +858,21 @@ def _task(b: _Builder) -> None:
         return
     (x, y), yaw = task.start.position, task.start.yaw
     z = float(height_at(b.scene, x, y))
-    b.custom("text", "task/kind", task.kind)
-    b.custom("text", "task/robot", task.robot)
-    b.custom("numeric", "task/time_limit", _n(task.time_limit))
+    b.custom("text", "task:kind", task.kind)
+    b.custom("text", "task:robot", task.robot)
+    b.custom("numeric", "task:time_limit", _n(task.time_limit))
     if isinstance(task, LocoTask):
-        b.custom("numeric", "task/command", _v(task.command))
+        b.custom("numeric", "task:command", _v(task.command))
     ET.SubElement(
-        b.world, "site", name="task/start", type="sphere", size="0.15", pos=_v((x, y, z + 0.15)),
+        b.world, "site", name="task:start", type="sphere", size="0.15", pos=_v((x, y, z + 0.15)),
         euler=_v((0, 0, yaw)), rgba=_v(_START_RGBA),
     )  # fmt: skip
     points: list[tuple[str, tuple[float, float], float]] = []
     if isinstance(task, NavTask):
-        points.append(("task/goal", task.goal, task.goal_tolerance))
+        points.append(("task:goal", task.goal, task.goal_tolerance))
     elif isinstance(task, TraverseTask):
-        points += [(f"task/waypoint/{k}", p, task.goal_tolerance) for k, p in enumerate(task.route)]
-        points.append(("task/goal", task.route[-1], task.goal_tolerance))
+        points += [(f"task:waypoint:{k}", p, task.goal_tolerance) for k, p in enumerate(task.route)]
+        points.append(("task:goal", task.route[-1], task.goal_tolerance))
     for name, (px, py), tol in points:
         pz = float(height_at(b.scene, px, py))
         ET.SubElement(
@@ -876,6 +931,7 @@ def _cameras(b: _Builder, visual: ET.Element) -> None:
 def _build(b: _Builder, name: str) -> MJCF:
     b.root = root = ET.Element("mujoco", model=name)
     ET.SubElement(root, "compiler", angle="radian", autolimits="true")
+    size = ET.SubElement(root, "size")
     visual = ET.SubElement(root, "visual")
     ET.SubElement(visual, "global", offwidth=str(OFFSCREEN[0]), offheight=str(OFFSCREEN[1]))
     ET.SubElement(visual, "headlight", ambient="0.3 0.3 0.3", diffuse="0.3 0.3 0.3", specular="0 0 0")
@@ -903,6 +959,7 @@ def _build(b: _Builder, name: str) -> MJCF:
         pos=_v(centre + np.array([0.0, 0.0, span + side])), diffuse="0.45 0.45 0.45", specular="0 0 0",
     )  # fmt: skip
     _cameras(b, visual)
+    size.set("memory", f"{arena_mb(sum(1 for _ in b.world.iter('geom')))}M")
     if b.customs is not None:
         root.append(b.customs)
     # The statistic element belongs before the worldbody for people reading the file.
@@ -917,6 +974,14 @@ def _build(b: _Builder, name: str) -> MJCF:
 # --- public API ----------------------------------------------------------------------
 
 
+def arena_mb(ngeom: int) -> int:
+    """The ``<size memory>`` (MiB) of a model with ``ngeom`` geoms: MuJoCo's broadphase
+    takes about 700 bytes a geom of the arena at every step (measured on a 62,000-geom
+    city), contacts and constraints a few MiB; :data:`ARENA_PER_GEOM` a geom and
+    :data:`ARENA_BASE_MB` leave room for a robot's contacts with heightfields."""
+    return ARENA_BASE_MB + math.ceil(ngeom * ARENA_PER_GEOM / (1 << 20))
+
+
 def _check_options(options: Mapping[str, object]) -> dict[str, Any]:
     unknown = sorted(set(options) - set(_OPTIONS))
     if unknown:
@@ -924,8 +989,11 @@ def _check_options(options: Mapping[str, object]) -> dict[str, Any]:
             f"mjcf export: unknown option {unknown[0]!r}; expected one of {', '.join(_OPTIONS)}"
         )
     out: dict[str, Any] = {}
-    for key, default, low in (("resolution", DEFAULT_RESOLUTION, 0.005), ("apron", DEFAULT_APRON, 0.0)):
+    for key, default, low in (("resolution", None, 0.005), ("apron", DEFAULT_APRON, 0.0)):
         value = options.get(key, default)
+        if value is None and key == "resolution":
+            out[key] = None
+            continue
         if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
             raise ExportError(f"mjcf export: {key}: expected a number of metres, got {value!r}")
         if value < low or (key == "resolution" and value == 0):
@@ -947,10 +1015,11 @@ def to_mjcf(scene: Scene | str | Path, **options: object) -> MJCF:
     """The scene as MJCF text and the mesh files it names, in memory.
 
     Options: ``name`` (the model's name, see :func:`scene_name`), ``resolution``
-    (largest heightfield sample spacing in m, default 0.1), ``apron`` (width in m of the
-    flat ground around the scene, default 20; 0 for none), ``mesh_dir`` (the folder mesh
-    paths are relative to, for a scene given as a model). Anything the format cannot
-    express is reported as an :class:`~citygen.exporters.ExportWarning`.
+    (largest heightfield sample spacing in m; default None: 0.1, or coarser with one
+    warning where the scene's heightfields would exceed ``lod.BUDGETS["mjcf"]`` samples),
+    ``apron`` (width in m of the flat ground around the scene, default 20; 0 for none),
+    ``mesh_dir`` (the folder mesh paths are relative to, for a scene given as a model).
+    Anything the format cannot express is reported as an :class:`~citygen.exporters.ExportWarning`.
     """
     opts = _check_options(options)
     model, base = as_scene(scene)
@@ -1025,6 +1094,9 @@ def geom_labels(model: mujoco.MjModel) -> list[tuple[str, str, str] | None]:
     A runner maps a contact's ``geom1``/``geom2`` to a semantic class with it."""
     out: list[tuple[str, str, str] | None] = []
     for gid in range(model.ngeom):
-        parts = model.geom(gid).name.split("/")
-        out.append((parts[0], parts[1], parts[2]) if len(parts) == 4 else None)
+        parts = model.geom(gid).name.split(SEP, 2)  # layer, class, "<id>:<k>" (an id may hold a ':')
+        if len(parts) == 3 and parts[0] in LAYERS and SEP in parts[2]:
+            out.append((parts[0], parts[1], parts[2].rsplit(SEP, 1)[0]))
+        else:
+            out.append(None)
     return out

@@ -3,8 +3,9 @@
 :func:`occupancy` rasterises a scene on a regular grid of square cells (default
 :data:`DEFAULT_RESOLUTION` = 0.05 m) covering its bounds, from ``bounds.min``; row ``r``
 and column ``c`` is the cell whose centre is ``(x0 + (c + 0.5) * res, y0 + (r + 0.5) * res)``,
-so rows grow with +y. A cell takes a shape's class when its *centre* lies in the shape,
-boundary included (:mod:`citygen.geometry.raster`). Three layers, each ``(rows, cols)``:
+so rows grow with +y. A cell takes a zone's class when its *centre* lies in the zone,
+boundary included (:mod:`citygen.geometry.raster`), and an object's when it overlaps the
+object's base at all. Three layers, each ``(rows, cols)``:
 
 - ``labels`` (uint8): what stands on the cell, an index into :data:`CLASSES`. Precedence,
   highest first: ``out_of_bounds`` (centre outside ``$.bounds``: only in the last row or
@@ -14,7 +15,12 @@ boundary included (:mod:`citygen.geometry.raster`). Three layers, each ``(rows, 
   category, ``obstacle`` for every other object; a mesh file's base is the convex hull of
   its vertices seen from above, as :func:`citygen.validate` measures it), then zones by
   kind (a later zone wins where zones overlap, which a valid scene never has), then
-  ``ground``: ground inside the bounds that no zone covers (non-walkable, as the spec says).
+  ``ground``: ground inside the bounds that no zone covers (non-walkable, as the spec says,
+  except in a scene without any zone, an Urban-Loc grid, where all ground is open and
+  walkable: the npz's ``walkable`` flags say so). Objects are rasterised
+  *conservatively*: every cell their base overlaps at all is theirs
+  (:func:`conservative`), so a thin post or sign always occupies a cell; zones take the
+  cells whose centres they hold.
 - ``terrain`` (uint8): the kind of the terrain tile under the cell centre, an index into
   :data:`TERRAIN_CLASSES` (``flat`` outside the tile grid and without terrain; pyramids and
   pits are ``slope`` or ``stair``). It is a separate layer because a stair on a sidewalk is
@@ -63,7 +69,7 @@ fixed zip timestamps; :func:`numpy.savez` would stamp the current time).
 >>> m.shape, m.classes[m.label_at(5.0, 5.0)], m.terrain_classes[m.terrain[m.cell(3.0, 5.0)]]
 ((40, 40), 'sidewalk', 'stair')
 >>> round(float(m.walkable_mask().mean()), 3)
-0.242
+0.23
 """
 
 from __future__ import annotations
@@ -178,6 +184,9 @@ class OccupancyMap:
     grid: Grid
     classes: tuple[str, ...] = CLASSES
     terrain_classes: tuple[str, ...] = TERRAIN_CLASSES
+    walkable: tuple[bool, ...] = tuple(c in WALKABLE_ZONES for c in CLASSES)
+    """Whether each class is walkable: the walkable zone kinds, and ``ground`` in a scene
+    without zones (an Urban-Loc grid, all open ground)."""
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -208,8 +217,9 @@ class OccupancyMap:
 
     def walkable_mask(self) -> np.ndarray:
         """Cells a pedestrian or micromobility robot may stand on (bool): walkable zone
-        kinds with no object on them. The ROS map's free cells."""
-        return self._in(WALKABLE_ZONES)
+        kinds with no object on them (and open ground in a scene without zones). The ROS
+        map's free cells."""
+        return self._in(frozenset(c for c, ok in zip(self.classes, self.walkable, strict=True) if ok))
 
     def obstacle_mask(self) -> np.ndarray:
         """Cells under an object's base or a building (bool)."""
@@ -253,15 +263,37 @@ def _grid(scene: Scene, resolution: float) -> Grid:
         raise SpecError([Problem("$.bounds", "max greater than min in x and y", found)])
     grid = Grid.covering((x0, y0, x1, y1), resolution)
     if grid.rows * grid.cols > MAX_CELLS:
-        finest = math.ceil(math.sqrt((x1 - x0) * (y1 - y0) / MAX_CELLS) * 100) / 100
-        while (g := Grid.covering((x0, y0, x1, y1), finest)).rows * g.cols > MAX_CELLS:
-            finest = round(finest + 0.01, 2)
+        finest = finest_resolution(scene)
         raise ExportError(
             f"occupancy export: a {x1 - x0:g} m x {y1 - y0:g} m scene at resolution={resolution:g} m needs "
             f"{grid.cols:,} x {grid.rows:,} cells, more than {MAX_CELLS:,}; pass resolution={finest:g} "
             "(m) or coarser"
         )
     return grid
+
+
+def finest_resolution(scene: Scene) -> float:
+    """The finest cell size (m, in whole centimetres) at which the scene's map stays within
+    :data:`MAX_CELLS` cells."""
+    (x0, y0), (x1, y1) = scene.bounds.min, scene.bounds.max
+    finest = math.ceil(math.sqrt((x1 - x0) * (y1 - y0) / MAX_CELLS) * 100) / 100
+    while (g := Grid.covering((x0, y0, x1, y1), finest)).rows * g.cols > MAX_CELLS:
+        finest = round(finest + 0.01, 2)
+    return finest
+
+
+def auto_resolution(scene: Scene) -> tuple[float, str | None]:
+    """:data:`DEFAULT_RESOLUTION`, or where the scene needs more than :data:`MAX_CELLS`
+    cells at it, the finest that fits and a one-line note saying so."""
+    (x0, y0), (x1, y1) = scene.bounds.min, scene.bounds.max
+    g = Grid.covering((x0, y0, x1, y1), DEFAULT_RESOLUTION)
+    if g.rows * g.cols <= MAX_CELLS:
+        return DEFAULT_RESOLUTION, None
+    res = finest_resolution(scene)
+    return res, (
+        f"$.bounds: occupancy cells of {res:g} m, not {DEFAULT_RESOLUTION:g} m, to stay within "
+        f"{MAX_CELLS:,} cells; pass resolution= (citygen export --occupancy-resolution) to choose"
+    )
 
 
 def _bases(scene: Scene, scene_dir: Path | None) -> list[tuple[shapely.Geometry, int]]:
@@ -294,12 +326,28 @@ def _bases(scene: Scene, scene_dir: Path | None) -> list[tuple[shapely.Geometry,
     return out
 
 
+def conservative(shape: shapely.Geometry, resolution: float) -> shapely.Geometry:
+    """The points whose cell (a square of side ``resolution`` centred on them) overlaps
+    ``shape``: its Minkowski sum with that square, a hair smaller so that a cell merely
+    touching the shape's edge is left out. Painting this by cell centres marks every cell
+    the shape overlaps, however thin the shape."""
+    h = resolution / 2 * (1 - 1e-6)
+    rings = [np.asarray(shape.exterior.coords)] + [np.asarray(r.coords) for r in shape.interiors]
+    corners = np.array([[-h, -h], [h, -h], [h, h], [-h, h]])
+    hulls = []
+    for ring in rings:
+        ends = np.stack([ring[:-1], ring[1:]], axis=1)  # (edges, 2, 2)
+        pts = (ends[:, :, None, :] + corners[None, None]).reshape(len(ends), 8, 2)
+        hulls.append(shapely.convex_hull(shapely.multipoints(pts)))
+    return shapely.union_all([shape, *np.concatenate(hulls).tolist()])
+
+
 def _labels(scene: Scene, grid: Grid, bases: list[tuple[shapely.Geometry, int]]) -> np.ndarray:
     labels = np.full(grid.shape, GROUND, dtype=np.uint8)
     for zone, shape in zip(scene.zones, zone_polygons(scene), strict=True):
         paint(grid, labels, shape, ZONE_CLASS[zone.kind])
     for shape, cls in bases:
-        paint(grid, labels, shape, cls)
+        paint(grid, labels, conservative(shape, grid.resolution), cls)
     (x0, y0), (x1, y1) = scene.bounds.min, scene.bounds.max
     xs, ys = grid.xs(), grid.ys()
     labels[:, (xs < x0) | (xs > x1)] = OUT_OF_BOUNDS
@@ -366,7 +414,8 @@ def occupancy(
     model, folder = scene_dir_of(scene, {"scene_dir": scene_dir})
     grid = _grid(model, res)
     labels = _labels(model, grid, _bases(model, folder))
-    return OccupancyMap(labels, _heights(model, grid), _terrain(model, grid), grid)
+    walkable = tuple(c in WALKABLE_ZONES or (c == "ground" and not model.zones) for c in CLASSES)
+    return OccupancyMap(labels, _heights(model, grid), _terrain(model, grid), grid, walkable=walkable)
 
 
 # --- files -----------------------------------------------------------------------------
@@ -384,7 +433,7 @@ def npz_bytes(m: OccupancyMap) -> bytes:
         "resolution": np.array(m.resolution, dtype=np.float64),
         "classes": np.array(m.classes, dtype=np.str_),
         "terrain_classes": np.array(m.terrain_classes, dtype=np.str_),
-        "walkable": np.array([c in WALKABLE_ZONES for c in m.classes], dtype=bool),
+        "walkable": np.array(m.walkable, dtype=bool),
     }
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w", compression=zipfile.ZIP_DEFLATED, compresslevel=6) as zf:
@@ -433,9 +482,12 @@ def load(path: str | Path) -> OccupancyMap:
     terrain_classes = tuple(str(c) for c in data["terrain_classes"].tolist())
     if labels.size and int(labels.max()) >= len(classes):
         raise fail("labels", f"values below {len(classes)} (the classes)", str(int(labels.max())))
+    walkable = tuple(bool(w) for w in data["walkable"].tolist())
+    if len(walkable) != len(classes):
+        raise fail("walkable", f"one flag per class ({len(classes)})", str(len(walkable)))
     grid = Grid(float(origin[0]), float(origin[1]), float(res), labels.shape[0], labels.shape[1])
     return OccupancyMap(
-        labels, heights.astype(np.float32, copy=False), terrain, grid, classes, terrain_classes
+        labels, heights.astype(np.float32, copy=False), terrain, grid, classes, terrain_classes, walkable
     )
 
 
@@ -503,7 +555,7 @@ def _figure(m: OccupancyMap, size_px: int, legend: bool, title: str) -> Figure:
         Patch(
             facecolor=CLASS_COLORS.get(m.classes[i], "#000000"),
             edgecolor="#555555",
-            label=f"{m.classes[i]} (walkable)" if m.classes[i] in WALKABLE_ZONES else m.classes[i],
+            label=f"{m.classes[i]} (walkable)" if m.walkable[i] else m.classes[i],
         )
         for i in present.tolist()
     ]
@@ -569,7 +621,8 @@ def export(scene: Scene | str | Path, out_dir: str | Path, **options: object) ->
     into ``out_dir`` (atomically); returns their paths in that order.
 
     Options: ``name`` (default: the scene file's stem, else ``<split>-<index>``, else
-    ``scene``), ``resolution`` (cell side in m, default 0.05), ``scene_dir`` (the folder mesh
+    ``scene``), ``resolution`` (cell side in m; default 0.05, or the finest that keeps the
+    map within :data:`MAX_CELLS` cells, with a warning), ``scene_dir`` (the folder mesh
     placements are relative to, for a scene given as a model), ``size_px`` (the PNG's
     larger side, default 1600) and ``legend`` (default True). Agents and the task are not
     part of a static map: an :class:`~citygen.exporters.ExportWarning` says so.
@@ -581,7 +634,12 @@ def export(scene: Scene | str | Path, out_dir: str | Path, **options: object) ->
     if not isinstance(legend, bool):
         raise ExportError(f"occupancy export: expected True or False for 'legend', got {legend!r}")
     model, folder = scene_dir_of(scene, dict(options))
-    m = occupancy(model, options.get("resolution", DEFAULT_RESOLUTION), scene_dir=folder)  # type: ignore[arg-type]
+    resolution = options.get("resolution")
+    if resolution is None:
+        resolution, note = auto_resolution(model)
+        if note is not None:
+            warnings.warn(ExportWarning(note), stacklevel=2)
+    m = occupancy(model, resolution, scene_dir=folder)  # type: ignore[arg-type]
     if model.agents:
         warnings.warn(
             ExportWarning(

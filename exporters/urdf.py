@@ -14,9 +14,10 @@ fixed to the root by a joint named ``joint/<link>`` whose origin places it:
   ``z = 0`` as its collision, with the zone's friction.
 - ``ground/plane``: the rest of the scene's bounds outside the grid, a slab like the zones'.
 - ``ground/terrain/<k>``: the terrain's tiles, one link per friction coefficient (a tile's
-  own friction, else its material's, else that of the zone under its centre, else
-  concrete's). Flat tiles (merged into rectangles where neighbours agree) and stair treads
-  are boxes; slope and rough tiles are one triangle mesh flagged ``concave="yes"``, so
+  own friction, else its material's, else the zones' frictions averaged by area, rounded
+  to :data:`FRICTION_STEP`, with one :class:`ExportWarning` saying how far that is from the
+  zones' on how much of the terrain). Flat tiles (merged into rectangles where neighbours
+  agree) and stair treads are boxes; slope and rough tiles are one triangle mesh flagged ``concave="yes"``, so
   PyBullet keeps pits and bumps instead of taking their convex hull.
 
 Friction is PyBullet's ``<contact><lateral_friction>`` extension, which other readers ignore.
@@ -51,16 +52,17 @@ from citygen.assets import Box, Capsule, Cylinder, Part
 from citygen.errors import ExportError
 from citygen.exporters import ExportWarning, shared_file
 from citygen.exporters.glb import (
+    AUTO,
     GROUND_RGBA,
     RGBA,
     TERRAIN_RGBA,
     ZONE_LIFT,
     catalog_asset,
     check_options,
-    check_terrain_size,
     colour_groups,
     drape,
     file_mesh,
+    fit_terrain,
     grid_box,
     output_name,
     polygon_parts,
@@ -280,29 +282,62 @@ def _add_ground(w: _Writer, scene: Scene, polys: list, resolution: float | None,
         _element(link, "collision", _mesh_geometry(filename), concave=True)
 
 
-def tile_friction(scene: Scene, zones: Sequence[shapely.Geometry] | None = None) -> np.ndarray:
+#: Step (m) tile frictions are rounded to, so tiles share links.
+FRICTION_STEP = 0.01
+
+
+def tile_friction(
+    scene: Scene, zones: Sequence[shapely.Geometry] | None = None
+) -> tuple[np.ndarray, str | None]:
     """Each terrain tile's friction coefficient: its own, else its material's, else the
-    zone's under its centre, else concrete's (:data:`~citygen.spec.surfaces.FRICTION`).
+    mean of the zones' frictions over the tile weighted by area (ground no zone covers
+    counts as concrete's, :data:`~citygen.spec.surfaces.FRICTION`), rounded to
+    :data:`FRICTION_STEP`; and a one-line report of how far that is from the ground under
+    the tiles that lie on zones of different friction (None when none does).
     ``zones`` are the zones' shapes if already made (:func:`~citygen.exporters.glb.zone_polygons`)."""
     t = scene.terrain
     if t is None:
-        return np.zeros(0)
+        return np.zeros(0), None
+    s = t.tile_size
     ids = np.arange(t.rows * t.cols)
-    cx = t.origin[0] + (ids % t.cols + 0.5) * t.tile_size
-    cy = t.origin[1] + (ids // t.cols + 0.5) * t.tile_size
-    under = np.full(len(ids), FRICTION["concrete"])
+    x0 = t.origin[0] + (ids % t.cols) * s
+    y0 = t.origin[1] + (ids // t.cols) * s
+    concrete = FRICTION["concrete"]
+    out = np.full(len(ids), concrete)
+    worst, mixed_area, mixed = 0.0, 0.0, 0
     if scene.zones:
         polys = np.asarray(zone_polygons(scene) if zones is None else zones, dtype=object)
-        pi, zi = shapely.STRtree(polys).query(shapely.points(cx, cy), predicate="intersects")
-        first = np.unique(pi, return_index=True)[1]  # the first zone listed, where zones touch
-        under[pi[first]] = [scene.zones[z].mu for z in zi[first]]
-    out = under.copy()
+        squares = shapely.box(x0, y0, x0 + s, y0 + s)
+        ti, zi = shapely.STRtree(polys).query(squares, predicate="intersects")
+        areas = shapely.area(shapely.intersection(polys[zi], squares[ti]))
+        mus = np.array([z.mu for z in scene.zones])[zi]
+        covered = np.bincount(ti, weights=areas, minlength=len(ids))
+        weighted = np.bincount(ti, weights=areas * mus, minlength=len(ids))
+        rest = np.clip(s * s - covered, 0.0, None)
+        out = np.round((weighted + rest * concrete) / (s * s) / FRICTION_STEP) * FRICTION_STEP
+        own = np.array([tile.friction is not None or tile.material is not None for tile in t.tiles])
+        keep = areas > 1e-6 * s * s
+        off = np.abs(mus - out[ti]) * keep * ~own[ti]
+        rest_off = np.abs(concrete - out) * (rest > 1e-6 * s * s) * ~own
+        differs = np.bincount(ti, weights=areas * (off > FRICTION_STEP / 2), minlength=len(ids))
+        differs += rest * (rest_off > FRICTION_STEP / 2)
+        worst = float(max(off.max(initial=0.0), rest_off.max(initial=0.0)))
+        mixed_area = float(differs.sum())
+        mixed = int(np.count_nonzero(differs))
     for k, tile in enumerate(t.tiles):
         if tile.friction is not None:
             out[k] = tile.friction
         elif tile.material is not None:
             out[k] = FRICTION[tile.material]
-    return out
+    report = None
+    if mixed:
+        report = (
+            f"$.terrain: {mixed} tile(s) lie on zones of different friction; each gets the zones' "
+            f"friction averaged by area, up to {worst:.2f} off the zone's on "
+            f"{100 * mixed_area / (len(ids) * s * s):.1f} % of the terrain's area (MJCF keeps flat "
+            "ground's zone friction exactly)"
+        )
+    return out, report
 
 
 def _flat_rectangles(t: Terrain, members: np.ndarray) -> list[tuple[int, int, int, int, float]]:
@@ -337,7 +372,9 @@ def _add_terrain(w: _Writer, scene: Scene, polys: list, resolution: float | None
     if t is None:
         return
     s, (ox, oy) = t.tile_size, t.origin
-    friction = tile_friction(scene, polys)
+    friction, report = tile_friction(scene, polys)
+    if report is not None:
+        warnings.warn(ExportWarning(report), stacklevel=3)
     values = list(dict.fromkeys(friction.tolist()))  # in order of first tile
     terrain_material = w.material("terrain", TERRAIN_RGBA)
     for g, mu in enumerate(values):
@@ -392,7 +429,8 @@ def export(scene: Scene | str | Path, out_dir: str | Path, **options: Any) -> li
     Options: ``name`` (default: the scene file's stem, ``<split>-<index>`` or ``scene``),
     ``scene_dir`` (the folder mesh placements are relative to, for a scene given as a
     model), ``resolution`` (m, cell size of rough tiles' meshes; default
-    :func:`~citygen.geometry.terrain.tile_mesh`'s), ``floor`` (m, bottom of the terrain,
+    :func:`~citygen.geometry.terrain.tile_mesh`'s, uniformly coarser with one warning where
+    the terrain would exceed ``lod.BUDGETS["urdf"]`` triangles), ``floor`` (m, bottom of the terrain,
     default -1), ``zone_thickness`` (m, default 0.1), ``capsules`` (``"mesh"``, the
     default, writes capsules as convex meshes every reader loads; ``"pybullet"`` writes
     PyBullet's ``<capsule>``).
@@ -409,11 +447,11 @@ def export(scene: Scene | str | Path, out_dir: str | Path, **options: Any) -> li
         raise ExportError(
             f"urdf export: expected zone_thickness > 0 and a finite floor (m), got {thickness!r}, {floor!r}"
         )
-    resolution = resolution_option(options.get("resolution"), "urdf")
+    resolution = resolution_option(options.get("resolution", AUTO), "urdf")
+    resolution = fit_terrain(model, AUTO if resolution is None else resolution, "urdf", None)
     out = Path(out_dir)
     w = _Writer(out, name)
     polys = zone_polygons(model)
-    check_terrain_size(model, resolution, "urdf")
     _add_ground(w, model, polys, resolution, thickness)
     _add_terrain(w, model, polys, resolution, floor)
     for i, pl in enumerate(model.placements):

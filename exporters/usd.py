@@ -93,7 +93,7 @@ from shapely.geometry import Polygon
 
 from citygen.assets import Asset, Box, Capsule, ConvexMesh, Cylinder, Look, UnknownAsset, resolve
 from citygen.errors import DependencyMissing, ExportError, Problem, SpecError
-from citygen.exporters import ExportWarning, as_scene, output_name, shared_file
+from citygen.exporters import ExportWarning, as_scene, lod, output_name, shared_file
 from citygen.geometry.terrain import DEFAULT_ROUGH_CELLS, MAX_ROUGH_CELLS, height_at, height_grid, tile_mesh
 from citygen.spec.agents import Person, Vehicle
 from citygen.spec.scene import Scene
@@ -596,6 +596,11 @@ def _triangulate(pieces: Sequence[tuple[float, Any]]) -> tuple[np.ndarray, np.nd
     return np.concatenate(verts), np.concatenate(faces), np.concatenate(face_owner)
 
 
+def _capped(s: float, cap: int):
+    """Cells of a tile's mesh once rough tiles are capped at ``cap`` (None: exact geometry)."""
+    return lambda t: min(_rough_cells([t], s, None)[0], cap) if isinstance(t, RoughTile) else None
+
+
 def _rough_cells(tiles: Sequence[RoughTile], s: float, resolution: float | None) -> list[int]:
     """Cells along each rough tile's side: the sampling :func:`tile_mesh` uses (same rule)."""
     if resolution is not None:
@@ -759,13 +764,11 @@ def _terrain_parts(
     if resolution is None and triangles > DEFAULT_TERRAIN_TRIANGLES:
         cap = max(1, math.isqrt(DEFAULT_TERRAIN_TRIANGLES // (2 * len(rough))))
         cells = {k: min(c, cap) for k, c in cells.items()}
+        error = lod.max_error(scene, _capped(s, cap))
+        budget = f"{DEFAULT_TERRAIN_TRIANGLES:,} triangles"
+        option = "terrain_resolution= (citygen export --terrain-resolution)"
         warnings.warn(
-            ExportWarning(
-                f"$.terrain: {len(rough)} rough tiles sampled with at most {cap} x {cap} cells "
-                f"({s / cap:g} m apart) to keep the terrain under {DEFAULT_TERRAIN_TRIANGLES} triangles; "
-                "pass terrain_resolution (m) to choose"
-            ),
-            stacklevel=4,
+            ExportWarning(lod.describe("USD", "rough tiles", s / cap, error, budget, option)), stacklevel=4
         )
     elif triangles > MAX_TERRAIN_TRIANGLES:
         raise ExportError(

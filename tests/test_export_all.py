@@ -169,3 +169,77 @@ def test_sample_covers_every_kind_of_split() -> None:
     assert kinds >= {"nav-clear", "nav-static", "nav-dynamic", "loco-flat", "loco-slope", "loco-stair",
                      "loco-rough", "traverse"}  # fmt: skip
     assert len(sample()) == 60
+
+
+def test_parts_of_a_split_never_overwrite_each_other_and_a_bad_scene_stops_nothing(tmp_path: Path) -> None:
+    """train/0000.json and test/0000.json become urban-nav-2-train-0000 and -test-0000; a
+    broken scene between them is one error line, exit 2, and every other scene is written."""
+    splits = citygen.splits()
+    scenes = []
+    for part in ("train", "test"):
+        split = f"urban-nav-2-{part}"
+        path = tmp_path / "in" / "urban-nav-2" / part / "0000.json"
+        save_scene(generate(splits[split].config, scene_seed(2025, split, 0), split=split, index=0), path)
+        scenes.append(path)
+    bad = tmp_path / "in" / "bad.json"
+    bad.write_text('{"format": "citygen.scene/1"}')
+    out = tmp_path / "out"
+    proc = subprocess.run(
+        [sys.executable, "-m", "citygen", "export", str(scenes[0]), str(bad), str(scenes[1]),
+         "--format", "occupancy", "--out", str(out), "--resolution", "0.25"],
+        capture_output=True, text=True,
+    )  # fmt: skip
+    assert proc.returncode == 2, proc.stderr
+    assert "Traceback" not in proc.stderr
+    errors = [line for line in proc.stderr.splitlines() if ": error: " in line]
+    assert len(errors) == 1 and errors[0].startswith(f"{bad}: error: ")
+    assert proc.stderr.strip().splitlines()[-1].startswith("export: 1 of 3 scene(s) failed")
+    for part in ("train", "test"):
+        grid = np.load(out / f"urban-nav-2-{part}-0000.npz", allow_pickle=False)
+        assert float(grid["resolution"]) == 0.25  # --resolution still sets the occupancy cell size
+
+
+def test_a_scene_twice_in_one_batch_is_refused_not_written_over(tmp_path: Path) -> None:
+    scene = ROOT / "examples" / "nav_static_10m.json"
+    copy = tmp_path / "nav_static_10m.json"
+    copy.write_bytes(scene.read_bytes())
+    proc = subprocess.run(
+        [sys.executable, "-m", "citygen", "export", str(scene), str(copy), "--format", "mjcf", "--out",
+         str(tmp_path / "o")],
+        capture_output=True, text=True,
+    )  # fmt: skip
+    assert proc.returncode == 2
+    assert f"{copy}: error: its files would be named 'nav_static_10m', as those of {scene}" in proc.stderr
+    assert (tmp_path / "o" / "nav_static_10m.xml").is_file()
+
+
+def test_conflicting_occupancy_resolutions_are_one_line(tmp_path: Path) -> None:
+    scene = ROOT / "examples" / "nav_static_10m.json"
+    proc = subprocess.run(
+        [sys.executable, "-m", "citygen", "export", str(scene), "--resolution", "0.1",
+         "--occupancy-resolution", "0.2", "--out", str(tmp_path / "o")],
+        capture_output=True, text=True,
+    )  # fmt: skip
+    assert proc.returncode == 2
+    assert proc.stderr.strip().splitlines() == [
+        "--resolution: the same as --occupancy-resolution, given both as 0.1 and 0.2; pass one"
+    ]
+    assert not (tmp_path / "o").exists()
+
+
+def test_terrain_resolution_reaches_the_mesh_formats(tmp_path: Path) -> None:
+    """--terrain-resolution sets the spacing of MJCF heightfields and of GLB rough-tile meshes."""
+    scene = tmp_path / "rough.json"
+    save_scene(citygen.generate("urban-loc-4-test", index=0), scene)  # 256 rough tiles
+    sizes: dict[float, list[int]] = {1.0: [], 0.25: []}
+    for res in sizes:
+        for fmt, suffix in (("mjcf", ".xml"), ("glb", ".glb")):
+            out = tmp_path / str(res)
+            proc = subprocess.run(
+                [sys.executable, "-m", "citygen", "export", str(scene), "--format", fmt,
+                 "--terrain-resolution", str(res), "--out", str(out)],
+                capture_output=True, text=True,
+            )  # fmt: skip
+            assert proc.returncode == 0, proc.stderr
+            sizes[res].append((out / f"rough{suffix}").stat().st_size)
+    assert all(fine > 4 * coarse for fine, coarse in zip(sizes[0.25], sizes[1.0], strict=True)), sizes

@@ -286,7 +286,7 @@ def test_objects_stand_where_the_spec_puts_them():
         asset = resolve(pl.asset)
         geoms = [g for g, x in enumerate(lab) if x and x[0] == "object" and x[2] == pl.id]
         assert len(geoms) == len(asset.parts)
-        assert model.body(f"object/{pl.id}").id == model.geom_bodyid[geoms[0]]
+        assert model.body(f"object:{pl.id}").id == model.geom_bodyid[geoms[0]]
         for g, part in zip(geoms, asset.parts, strict=True):
             assert lab[g][1] == asset.semantic_class
             kinds.add(type(part).__name__)
@@ -319,12 +319,12 @@ def test_agents_are_mocap_bodies_of_their_size_that_touch_only_robots():
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     for a in scene.agents:
-        body = model.body(f"agent/{a.id}")
+        body = model.body(f"agent:{a.id}")
         assert body.mocapid[0] >= 0
         np.testing.assert_allclose(data.mocap_pos[body.mocapid[0]], [*a.start, 0.0], atol=1e-9)
-        np.testing.assert_allclose(data.site(f"agent/{a.id}/goal").xpos, [*a.goal, 0.0])
-        assert model.numeric(f"agent/{a.id}/speed").data[0] == pytest.approx(a.speed)
-        g = model.geom(f"agent/{a.kind}/{a.id}/0")
+        np.testing.assert_allclose(data.site(f"agent:{a.id}:goal").xpos, [*a.goal, 0.0])
+        assert model.numeric(f"agent:{a.id}:speed").data[0] == pytest.approx(a.speed)
+        g = model.geom(f"agent:{a.kind}:{a.id}:0")
         assert (g.contype[0], g.conaffinity[0]) == (mjcf.AGENT_BIT, 0)
         if a.kind == "vehicle":
             np.testing.assert_allclose(g.size, [a.length / 2, a.width / 2, mjcf.VEHICLE_HEIGHT / 2])
@@ -336,7 +336,7 @@ def test_agents_are_mocap_bodies_of_their_size_that_touch_only_robots():
                 g.size[1] if g.type[0] == 3 else 0
             ) == pytest.approx(0)
     # Moving an agent into an object makes no contact; a robot-like box there does.
-    car = model.body("agent/car").mocapid[0]
+    car = model.body("agent:car").mocapid[0]
     data.mocap_pos[car] = [4.0, 5.0, 0.0]
     mujoco.mj_forward(model, data)
     lab = labels(model)
@@ -356,14 +356,14 @@ def test_task_sites_and_cameras():
     model = mjcf.build(scene)
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
-    start = data.site("task/start")
+    start = data.site("task:start")
     np.testing.assert_allclose(start.xpos[:2], [1, 1])
     np.testing.assert_allclose(start.xmat.reshape(3, 3)[:2, 0], [math.cos(0.5), math.sin(0.5)], atol=1e-6)
-    np.testing.assert_allclose(data.site("task/goal").xpos[:2], [19, 18])
-    np.testing.assert_allclose(data.site("task/waypoint/0").xpos[:2], [5, 18])
-    assert model.site("task/goal").size[0] == pytest.approx(0.8)
-    assert text(model, "task/kind") == "traverse" and text(model, "task/robot") == "wheeled"
-    assert model.numeric("task/time_limit").data[0] == 60
+    np.testing.assert_allclose(data.site("task:goal").xpos[:2], [19, 18])
+    np.testing.assert_allclose(data.site("task:waypoint:0").xpos[:2], [5, 18])
+    assert model.site("task:goal").size[0] == pytest.approx(0.8)
+    assert text(model, "task:kind") == "traverse" and text(model, "task:robot") == "wheeled"
+    assert model.numeric("task:time_limit").data[0] == 60
     top = model.camera("top")
     assert model.cam_projection[top.id] == mujoco.mjtProjection.mjPROJ_ORTHOGRAPHIC and top.fovy[0] >= 20
     np.testing.assert_allclose(data.cam("top").xpos[:2], [10, 10])
@@ -409,14 +409,14 @@ def test_mesh_placements_are_meshes_and_concave_ones_warn(tmp_path):
     model = mujoco.MjModel.from_xml_path(str(files[0]))
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
-    kiosk = [model.geom(f"object/mesh/kiosk/{k}").id for k in (0, 1)]
+    kiosk = [model.geom(f"object:mesh:kiosk:{k}").id for k in (0, 1)]
     centres = sorted(tuple(np.round(data.geom_xpos[g], 3)) for g in kiosk)
     assert centres == [(3.0, 3.0, 0.5), (3.0, 5.0, 1.0)]  # the yaw turned +x into +y
-    ring = world_vertices(model, data, model.geom("object/mesh/ring/0").id)
+    ring = world_vertices(model, data, model.geom("object:mesh:ring:0").id)
     np.testing.assert_allclose(ring.max(axis=0), [9, 9, 2], atol=1e-3)
     with pytest.raises(ExportError, match="mesh_dir"):
         mjcf.to_xml(scene)
-    assert "object/mesh/ring/0" in mjcf.to_xml(scene, mesh_dir=tmp_path)
+    assert "object:mesh:ring:0" in mjcf.to_xml(scene, mesh_dir=tmp_path)
     bad = scene.model_copy(
         update={"placements": (scene.placements[0].model_copy(update={"asset": "meshes/none.obj"}),)}
     )
@@ -435,11 +435,11 @@ def test_examples_export_and_load_from_path(path, tmp_path):
     model = mujoco.MjModel.from_xml_path(str(files[0]))
     scene = Scene.model_validate_json(path.read_text())
     bodies = {model.body(b).name for b in range(model.nbody)}
-    assert {f"object/{p.id}" for p in scene.placements} | {f"agent/{a.id}" for a in scene.agents} <= bodies
+    assert {f"object:{p.id}" for p in scene.placements} | {f"agent:{a.id}" for a in scene.agents} <= bodies
     assert model.nmocap == len(scene.agents)
     for a in scene.agents:
         if a.kind == "vehicle" and a.route:
-            assert text(model, f"agent/{a.id}/route") == " ".join(a.route)
+            assert text(model, f"agent:{a.id}:route") == " ".join(a.route)
 
 
 def test_same_scene_same_bytes_in_another_process(tmp_path):

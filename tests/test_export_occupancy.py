@@ -88,16 +88,26 @@ def base_shapes(scene: Scene, folder: Path | None) -> list[tuple[shapely.Geometr
     return out
 
 
-def expected_labels(scene: Scene, x: np.ndarray, y: np.ndarray, folder: Path | None = None) -> np.ndarray:
-    """The class (by name, from :data:`CLASSES`) of points ``x, y`` by point-in-polygon tests."""
+def expected_labels(
+    scene: Scene, x: np.ndarray, y: np.ndarray, resolution: float, folder: Path | None = None
+) -> np.ndarray:
+    """The class (by name, from :data:`CLASSES`) of the cells centred on ``x, y``: zones by
+    point-in-polygon tests of the centres, objects by intersecting their base with each
+    cell's square (any overlap marks the cell)."""
     ids = {name: i for i, name in enumerate(occ.CLASSES)}
     out = np.full(x.shape, ids["ground"], dtype=np.uint8)
-    shapes = [(Polygon(z.polygon, z.holes), z.kind) for z in scene.zones]
-    for shape, cls in [*shapes, *base_shapes(scene, folder)]:
+    h = resolution / 2 * (1 - 1e-6)
+    for shape, cls in [(Polygon(z.polygon, z.holes), z.kind) for z in scene.zones]:
         x0, y0, x1, y1 = shape.bounds
         near = (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
         hit = np.zeros(x.shape, dtype=bool)
         hit[near] = shapely.contains_xy(shape, x[near], y[near])
+        out[hit] = ids[cls]
+    for shape, cls in base_shapes(scene, folder):
+        x0, y0, x1, y1 = shape.bounds
+        near = (x >= x0 - h) & (x <= x1 + h) & (y >= y0 - h) & (y <= y1 + h)
+        hit = np.zeros(x.shape, dtype=bool)
+        hit[near] = shapely.intersects(shape, shapely.box(x[near] - h, y[near] - h, x[near] + h, y[near] + h))
         out[hit] = ids[cls]
     (bx0, by0), (bx1, by1) = scene.bounds.min, scene.bounds.max
     out[(x < bx0) | (x > bx1) | (y < by0) | (y > by1)] = ids["out_of_bounds"]
@@ -144,7 +154,7 @@ def test_examples_agree_with_point_in_polygon(path):
     assert m.shape == (round(scene.bounds.size[1] / 0.05), round(scene.bounds.size[0] / 0.05))
     assert m.origin == tuple(scene.bounds.min) and m.resolution == 0.05
     x, y = centres(m)
-    assert_agrees(m.labels, expected_labels(scene, x, y, path.parent))
+    assert_agrees(m.labels, expected_labels(scene, x, y, m.resolution, path.parent))
 
 
 @pytest.mark.parametrize("seed", REGION_SEEDS)
@@ -153,7 +163,7 @@ def test_generated_regions_agree_with_point_in_polygon(seed):
     assert scene.placements and scene.terrain is not None
     m = occ.occupancy(scene)
     x, y = centres(m)
-    assert_agrees(m.labels, expected_labels(scene, x, y))
+    assert_agrees(m.labels, expected_labels(scene, x, y, m.resolution))
     assert (m.labels == occ.OBSTACLE).any()
 
 
@@ -161,7 +171,7 @@ def test_every_tile_kind_and_a_mesh_file_agree_with_point_in_polygon(kiosk_stree
     scene = load_scene(kiosk_street)
     m = occ.occupancy(kiosk_street, resolution=0.05)
     x, y = centres(m)
-    expected = expected_labels(scene, x, y, kiosk_street.parent)
+    expected = expected_labels(scene, x, y, m.resolution, kiosk_street.parent)
     assert_agrees(m.labels, expected)
     # The L-shaped kiosk (a mesh file) is an obstacle where its hull is, the corner no
     # zone covers is ground.
@@ -177,7 +187,7 @@ def test_a_street_with_buildings_agrees_on_sampled_cells(street_scene):
     cols = rng.integers(0, m.shape[1], 40_000)
     x = m.origin[0] + (cols + 0.5) * m.resolution
     y = m.origin[1] + (rows + 0.5) * m.resolution
-    assert_agrees(m.labels[rows, cols], expected_labels(street_scene, x, y))
+    assert_agrees(m.labels[rows, cols], expected_labels(street_scene, x, y, m.resolution))
     # Building massing stands in building lots; its base is labelled building, not obstacle.
     massing = [p for p in street_scene.placements if p.asset.startswith("building/")]
     assert massing
@@ -505,3 +515,31 @@ def test_a_scene_model_is_named_from_its_meta(tmp_path):
     scene = terrain_scene(placements=[], meta={"split": "urban-nav-2-train", "index": 3})
     paths = quiet_export(scene, tmp_path, resolution=0.2)
     assert paths[0].name == "urban-nav-2-train-00003.npz"
+
+
+def test_a_loc_map_has_the_robot_start_on_free_ground():
+    """Urban-Loc grids have no zones: all their ground is open and walkable, in the map and
+    in the ROS PGM, so a planner sees the robot's start free."""
+    import citygen
+
+    name = sorted(n for n in citygen.splits() if n.startswith("urban-loc-") and n.endswith("-test"))[0]
+    scene = citygen.generate(name, index=0)
+    assert not scene.zones and scene.task is not None
+    m = occ.occupancy(scene, resolution=0.1)
+    assert m.walkable_mask()[m.cell(*scene.task.start.position)]
+    assert m.walkable_mask()[m.labels != occ.OUT_OF_BOUNDS].all()
+    back = occ.load(io.BytesIO(occ.npz_bytes(m)))
+    assert back.walkable_mask()[back.cell(*scene.task.start.position)]
+    pgm = occ.pgm_bytes(m)
+    image = np.frombuffer(pgm[-m.shape[0] * m.shape[1] :], dtype=np.uint8).reshape(m.shape)[::-1]
+    assert image[m.cell(*scene.task.start.position)] == occ.PGM_FREE
+
+
+@pytest.mark.parametrize("seed", REGION_SEEDS)
+def test_every_object_occupies_a_cell_at_a_quarter_metre(seed):
+    """Conservative rasterisation: a post thinner than a cell still marks the cell it stands in."""
+    scene = region(seed)
+    m = occ.occupancy(scene, resolution=0.25)
+    for shape, _ in base_shapes(scene, None):
+        x, y = shape.representative_point().coords[0]
+        assert m.label_at(x, y) in occ.OBSTACLE_CLASSES

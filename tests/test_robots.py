@@ -102,7 +102,7 @@ def test_sizes_and_masses_are_the_documented_ones(name):
 def test_quadruped_is_go2_like_with_12_actuated_hinges():
     robot = load_robot("quadruped")
     model, _, handle = on_flat(robot)
-    trunk = model.geom("robot/trunk")
+    trunk = model.geom("robot:trunk")
     assert 2 * trunk.size == pytest.approx((0.38, 0.093, 0.114), abs=0.01)
     hinges = [j for j in handle.joint_ids if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE]
     actuated = {int(model.actuator_trnid[a, 0]) for a in range(model.nu)}
@@ -131,7 +131,7 @@ def test_leg_inverse_kinematics_matches_mujoco(name):
         q = handle.default[3 * i : 3 * i + 3] + rng.uniform(-0.3, 0.3, 3)
         data.qpos[handle.leg_qadr[3 * i : 3 * i + 3]] = q
         mujoco.mj_kinematics(model, data)
-        calf = model.body(f"robot/{leg.name}_calf").id
+        calf = model.body(f"robot:{leg.name}_calf").id
         foot = data.xpos[calf] + data.xmat[calf].reshape(3, 3) @ (0.0, 0.0, -leg.calf)
         hip = data.xpos[handle.base_id] + (leg.hip_x, leg.hip_y, 0.0)
         assert foot - hip == pytest.approx(leg.fk(q), abs=1e-9)

@@ -204,7 +204,7 @@ def prepare(scene: Scene, robot: Any) -> Prepared:
     # Unnamed static geoms of the scene (none today) and the apron count as ground.
     agents = {}
     for a in scene.agents:
-        body = model.body(f"agent/{a.id}")
+        body = model.body(f"agent:{a.id}")
         agents[a.id] = int(model.body_mocapid[body.id])
     return Prepared(
         scene=scene,

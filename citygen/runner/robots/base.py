@@ -19,7 +19,7 @@ TIMESTEP = 0.002
 #: MuJoCo's soft contacts otherwise let planted feet creep (0.3 m/s in a trot at 1).
 IMPRATIO = 100.0
 #: Prefix of every name of the robot inside a composed model.
-PREFIX = "robot/"
+PREFIX = "robot:"
 #: Height (m) above the stand height at which the ideal-locomotion servo carries the base.
 HOVER_CLEARANCE = 0.01
 _GRAVITY = 9.81

@@ -18,7 +18,7 @@ def flat_ground(size: float = 40.0, friction: float = 0.75) -> MJCF:
     the scene exporter's contact bits and the given sliding friction (concrete's by default)."""
     xml = (
         '<mujoco model="flat">\n  <compiler angle="radian" autolimits="true"/>\n  <worldbody>\n'
-        f'    <geom name="zone/none/ground/0" type="box" size="{_v(size / 2, size / 2, 0.5)}" pos="0 0 -0.5" '
+        f'    <geom name="zone:none:ground:0" type="box" size="{_v(size / 2, size / 2, 0.5)}" pos="0 0 -0.5" '
         f'contype="1" conaffinity="0" priority="1" friction="{_v(friction, 0.005, 0.0001)}" '
         'rgba="0.8 0.8 0.78 1"/>\n'
         '    <light name="sun" directional="true" dir="0.3 0.4 -1" pos="0 0 10"/>\n'
