@@ -83,10 +83,14 @@ LIVE_SCENES = 8
 RENDERERS = 8
 #: Contact force (N) on a non-foot part that counts as a fall in locomotion.
 FALL_FORCE = 1.0
-#: Locomotion: a seed turns the scene's command ``(vx, vy, wz)`` to a direction uniform in
-#: this range (rad, about the robot's heading), keeping its speed and yaw rate: the paper's
-#: X-displacement is "in the velocity direction under fixed magnitude and random orientation".
-COMMAND_TURN = (-math.pi, math.pi)
+#: Locomotion: a seed turns the scene's command ``(vx, vy, wz)`` (in the robot's frame) to a
+#: direction uniform in this range (rad, about the robot's heading), keeping its speed and yaw
+#: rate. The paper's X-displacement is "in the velocity direction under fixed magnitude and
+#: random orientation": the orientation drawn is the robot's heading in the world (any angle),
+#: while the command stays ahead of it, the direction the scripted trot and biped walk can
+#: follow (both tip over within seconds once the command has a sideways part). Widen it for a
+#: learned omnidirectional policy.
+COMMAND_TURN = (0.0, 0.0)
 #: Locomotion: the start is up to this far (m, each axis) from its region's centre.
 START_JITTER = 0.25
 #: Spawning: clearance (m) between the ground and a robot part that would have touched it.
