@@ -42,11 +42,11 @@ class Mobility:
 #: wheelchair. A new embodiment is one entry here (and its model in the runner).
 ROBOTS: Mapping[str, Mobility] = MappingProxyType(
     {
-        "wheeled": Mobility(radius=0.35, max_step=0.05, max_slope=0.4, stairs=False),
+        "wheeled": Mobility(radius=0.35, max_step=0.05, max_slope=0.25, stairs=False),
         "quadruped": Mobility(radius=0.4, max_step=0.18, max_slope=0.6, stairs=True),
         "wheeled_legged": Mobility(radius=0.5, max_step=0.08, max_slope=0.5, stairs=True),
         "humanoid": Mobility(radius=0.3, max_step=0.2, max_slope=0.4, stairs=True),
-        "wheelchair": Mobility(radius=0.45, max_step=0.05, max_slope=0.4, stairs=False),
+        "wheelchair": Mobility(radius=0.45, max_step=0.05, max_slope=0.2, stairs=False),
     }
 )
 
