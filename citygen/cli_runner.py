@@ -58,7 +58,8 @@ def bench(
             "-p",
             help="random, planner (navigation, traverse), stand, trot (legged locomotion), human, ai, "
             "shared-cautious, shared-efficient (traverse); ppo (the shipped learned baseline) or a model "
-            "file of `citygen train` (.npz, .zip).  [default: planner; trot for locomotion; ai for the traverse]",
+            "file of `citygen train` (.npz, .zip).  "
+            "[default: planner; trot for locomotion; ai for the traverse]",
         ),
     ] = None,
     episodes: Annotated[

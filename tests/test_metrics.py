@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
+import numpy as np
 import pytest
 
 from citygen.runner.metrics import (
@@ -212,3 +214,86 @@ def test_bad_episodes_are_clear_errors():
         tra.record_step((0.0, 0.0), torques=[1.0, 2.0], joint_velocities=[1.0], body_speed=0.0)
     with pytest.raises(ValueError, match="mass"):
         TraverseEpisode(start_xy=(0.0, 0.0), dt=0.1, mass=-1.0)
+
+
+# --- SPL's shortest path on a hand-made map ---------------------------------------------------
+
+RES = 0.05
+
+
+def _wall_map():
+    """10 m x 10 m at 5 cm, a wall from x = 0 to 7 m between y = 4.9 and 5.1 m (on cell
+    edges), the goal region a 0.5 m disc around (1, 8): the way from (1, 2) goes round the
+    wall's free end, so the exact Euclidean geodesic is start -> (7, 4.9) -> (7, 5.1) -> the
+    disc."""
+    from citygen.geometry.raster import Grid
+
+    grid = Grid(0.0, 0.0, RES, 200, 200)
+    free = np.ones(grid.shape, dtype=bool)
+    free[98:102, :140] = False
+    return grid, free
+
+
+def _polyline(points, step=RES):
+    """Points every ``step`` metres along straight legs through ``points`` (first excluded)."""
+    out = []
+    for a, b in itertools.pairwise(points):
+        n = max(1, math.ceil(math.dist(a, b) / step))
+        out += [(a[0] + (b[0] - a[0]) * k / n, a[1] + (b[1] - a[1]) * k / n) for k in range(1, n + 1)]
+    return out
+
+
+def test_spl_shortest_path_is_the_any_angle_geodesic_to_the_goal_region():
+    from citygen.runner.planning import DistanceField, region_distance
+
+    grid, free = _wall_map()
+    goal, tol = (1.0, 8.0), 0.5
+    start = grid.centre(grid.cell(1.0, 2.0))
+    a, b = (7.0, 4.9), (7.0, 5.1)
+    exact = math.dist(start, a) + 0.2 + math.dist(b, goal) - tol
+    field = region_distance(free, grid, goal, tol)
+    assert field[grid.cell(*goal)] == 0.0 and math.isinf(field[99, 10])  # inside the wall
+    assert field[grid.cell(*start)] == pytest.approx(exact, rel=0.01)  # fast marching: a little over
+    best = DistanceField.build(free, grid, goal, tolerance=tol).route(*start)
+    assert best == pytest.approx(exact, abs=RES / 4)
+    # The 8-connected grid path to the goal's centre, the old L*_best: much longer.
+    assert DistanceField.build(free, grid, goal, connectivity=8).at(*start) > exact + tol + 0.3
+
+    # An agent driving the geodesic (into the disc, where success fires) scores SPL ~1 ...
+    f = 1 - tol / math.dist(b, goal)
+    entry = (b[0] + (goal[0] - b[0]) * f, b[1] + (goal[1] - b[1]) * f)
+    ep = NavEpisode(start_xy=start, best_length=best)
+    for xy in _polyline([start, a, b, entry]):
+        ep.record_step(xy, walkable=True, collision=False)
+    ep.finish(success=True, distance_left=0.0)
+    assert nav_metrics(ep)["spl"] == pytest.approx(1.0, abs=0.01)
+    # ... and a detour along the map's edge less, by the ratio of the lengths.
+    detour = NavEpisode(start_xy=start, best_length=best)
+    legs = [start, (9.5, 2.0), (9.5, 8.0), (goal[0] + tol, goal[1])]
+    for xy in _polyline(legs):
+        detour.record_step(xy, walkable=True, collision=False)
+    detour.finish(success=True, distance_left=0.0)
+    driven = sum(math.dist(p, q) for p, q in itertools.pairwise(legs))
+    assert nav_metrics(detour)["spl"] == pytest.approx(best / driven, rel=1e-6)
+    assert nav_metrics(detour)["spl"] < 0.8
+
+
+def test_spl_geodesic_around_an_l_shaped_corridor():
+    """An L-shaped corridor 1 m wide: the geodesic hugs the inner corner (2, 2)."""
+    from citygen.geometry.raster import Grid
+    from citygen.runner.planning import DistanceField
+
+    grid = Grid(0.0, 0.0, RES, 100, 100)  # 5 m x 5 m
+    free = np.zeros(grid.shape, dtype=bool)
+    free[20:40, :] = True  # y in [1, 2]: the horizontal arm
+    free[:, 20:40] = True  # x in [1, 2]: the vertical arm
+    free[20:40, :20] = False  # the arms meet at x, y in [1, 2]: an L
+    free[:20, 20:40] = False
+    start = grid.centre(grid.cell(4.5, 1.5))
+    goal, tol = (1.5, 4.5), 0.3
+    corner = (2.0, 2.0)
+    exact = math.dist(start, corner) + math.dist(corner, goal) - tol
+    field = DistanceField.build(free, grid, goal, tolerance=tol)
+    assert field.route(*start) == pytest.approx(exact, abs=RES / 4)
+    assert field.at(*start) == pytest.approx(exact, rel=0.01)
+    assert math.isinf(field.distance[grid.cell(4.5, 4.5)])  # not free

@@ -212,7 +212,8 @@ def test_drive_tracks_at_the_environments_drive_rate(name):
     """The environments call a wheel drive once per DRIVE_DT and hold its targets between."""
     model, data, handle = on_flat(name)
     k = handle.drive_substeps
-    assert k * model.opt.timestep == pytest.approx(robots.DRIVE_DT) and k >= 1  # 1 at 10 ms physics steps (a user's robot)
+    # 1 at 10 ms physics steps (a user's robot)
+    assert k * model.opt.timestep == pytest.approx(robots.DRIVE_DT) and k >= 1
     for v, w in ((1.0, 0.0), (0.0, 1.0)):
         if handle.robot.nav_mode == "ackermann" and v == 0.0:
             v = 1.5  # no turning on the spot: an arc of 1.5 m radius

@@ -39,6 +39,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+from shapely.geometry import LineString, Point
 from shapely.geometry.base import BaseGeometry
 
 from citygen._version import __version__
@@ -49,13 +50,21 @@ from citygen.generate.city import plan_city
 from citygen.generate.city_ground import plan_city_ground
 from citygen.generate.ground import ground_margin, plan_ground, plan_region
 from citygen.generate.placement import place_objects
-from citygen.generate.space import walkable_ground, zone_polygon
+from citygen.generate.space import (
+    connects,
+    free_space,
+    grid_path,
+    passable_ground,
+    pieces,
+    walkable_ground,
+    zone_polygon,
+)
 from citygen.generate.task import LEG, Endpoints, choose_endpoints, make_task, robot_clearance, street_route
 from citygen.generate.terrain import build_terrain
 from citygen.seeding import child, stage_rng
 from citygen.spec.config import GeneratorConfig, TaskConfig, TrackConfig
 from citygen.spec.scene import SCENE_FORMAT, Bounds, Meta, Scene
-from citygen.spec.task import LocoTask, NavTask, Task, TraverseTask
+from citygen.spec.task import ROBOTS, LocoTask, NavTask, Task, TraverseTask
 from citygen.spec.terrain import Terrain
 from citygen.spec.zones import Zone
 
@@ -175,6 +184,12 @@ def _finish(scene: Scene, config: GeneratorConfig, seed: int, *, keep: int) -> S
         terrain = build_terrain(
             bounds, zones, config.terrain, stage_rng(seed, "terrain"), seed=seed, flat_at=pins
         )
+        if track is None and ends is not None and ends.needs_path:
+            terrain = keep_crossable(bounds, zones, terrain, walkable, ends, config, seed, pins)
+    # The ground the task's robot can cross: walkable zones less the tiles it cannot cross.
+    passable = walkable
+    if ends is not None and ends.needs_path:
+        passable = passable_ground(walkable, terrain, ROBOTS[config.task.robot])
     if keep >= 2:
         placements = scene.placements
     elif track is not None:
@@ -189,7 +204,7 @@ def _finish(scene: Scene, config: GeneratorConfig, seed: int, *, keep: int) -> S
             level=_level(config.placement.density_levels, k),
             ends=ends,
             seed=seed,
-            walkable=walkable,
+            walkable=passable,
         )
     if keep >= 3:
         agents = scene.agents
@@ -213,6 +228,45 @@ def _finish(scene: Scene, config: GeneratorConfig, seed: int, *, keep: int) -> S
     task = _task(config.task, ends, terrain, seed, kept_task)
     return scene.model_copy(
         update={"terrain": terrain, "placements": placements, "agents": agents, "task": task}
+    )
+
+
+def keep_crossable(
+    bounds: Bounds,
+    zones: Sequence[Zone],
+    terrain: Terrain | None,
+    walkable: BaseGeometry,
+    ends: Endpoints,
+    config: GeneratorConfig,
+    seed: int,
+    pins: Sequence[tuple[float, float]],
+) -> Terrain | None:
+    """The terrain, or when it cuts the task's start from its goal for the task's robot
+    (a flight of stairs across the scene for wheels, a slope steeper than it climbs, rough
+    ground too bumpy), the terrain made again with a corridor of ground that robot crosses
+    along a shortest walkable path between them (:func:`build_terrain`'s ``corridor``): the
+    rest of the terrain keeps its stairs, slopes and rough tiles. The same seed gives the
+    same corridor and terrain."""
+    mobility = ROBOTS[config.task.robot]
+    passable = passable_ground(walkable, terrain, mobility)
+    if terrain is None or connects(passable, ends.radius, ends.start, ends.goal):
+        return terrain
+    piece = next(
+        (p for p in pieces(free_space(walkable, (), ends.radius)) if p.covers(Point(ends.start))), None
+    )
+    path = grid_path(piece, ends.start, ends.goal) if piece is not None else None
+    if path is None:  # not connected on walkable ground either: placement reports it
+        return terrain
+    corridor = LineString(path).buffer(ends.radius, quad_segs=4)
+    return build_terrain(
+        bounds,
+        zones,
+        config.terrain,
+        stage_rng(seed, "terrain"),
+        seed=seed,
+        flat_at=pins,
+        corridor=corridor,
+        mobility=mobility,
     )
 
 

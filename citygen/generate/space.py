@@ -20,7 +20,10 @@ from shapely.geometry import LineString, Point, Polygon
 from shapely.geometry.base import BaseGeometry
 
 from citygen.geometry import raster
+from citygen.geometry.traversable import blocked_ground
 from citygen.spec.surfaces import WALKABLE_ZONES
+from citygen.spec.task import Mobility
+from citygen.spec.terrain import Terrain
 from citygen.spec.zones import Zone
 
 GRID = 1e-3
@@ -196,3 +199,21 @@ def grid_path(
     if cells is None:
         return None
     return straighten([start, *(grid.centre(c) for c in cells), goal], piece)
+
+
+def passable_ground(ground: BaseGeometry, terrain: Terrain | None, mobility: Mobility) -> BaseGeometry:
+    """``ground`` less the terrain tiles a robot of ``mobility`` cannot cross
+    (:func:`citygen.geometry.traversable.blocked_ground`)."""
+    blocked = blocked_ground(terrain, mobility)
+    if blocked.is_empty:
+        return ground
+    return shapely.difference(ground, blocked, grid_size=GRID)
+
+
+def connects(ground: BaseGeometry, radius: float, a: tuple[float, float], b: tuple[float, float]) -> bool:
+    """Whether a disc of ``radius`` (m) can move on ``ground`` from ``a`` to ``b``: both in
+    one connected piece of the ground shrunk by the radius."""
+    for piece in pieces(free_space(ground, (), radius)):
+        if piece.covers(Point(a)):
+            return bool(piece.covers(Point(b)))
+    return False

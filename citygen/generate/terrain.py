@@ -68,6 +68,7 @@ from typing import Literal
 import numpy as np
 import shapely
 from shapely.geometry import Polygon
+from shapely.geometry.base import BaseGeometry
 
 from citygen.errors import GenerationError
 from citygen.generate.wfc import Prototype, Tileset, solve
@@ -76,6 +77,7 @@ from citygen.spec import limits
 from citygen.spec.base import quantize
 from citygen.spec.config import TerrainConfig, TerrainMix
 from citygen.spec.scene import Bounds
+from citygen.spec.task import Mobility
 from citygen.spec.terrain import FlatTile, RoughTile, SlopeTile, StairTile, Terrain, edge_profile
 from citygen.spec.zones import Zone
 
@@ -318,6 +320,27 @@ def _zone_cover(grid: Grid, zones: Sequence[Zone]) -> tuple[np.ndarray, np.ndarr
     return hard.reshape(rows, cols), main.reshape(rows, cols)
 
 
+def _cells_in(grid: Grid, area: BaseGeometry) -> list[tuple[int, int]]:
+    """Cells of every tile ``area`` (m) reaches into."""
+    s, (ox, oy) = grid.tile_size, grid.origin
+    r, c = np.divmod(np.arange(grid.rows * grid.cols), grid.cols)
+    boxes = shapely.box(ox + c * s, oy + r * s, ox + (c + 1) * s, oy + (r + 1) * s)
+    hit = shapely.intersects(boxes, area) & ~shapely.touches(boxes, area)
+    return [(int(a), int(b)) for a, b in zip(r[hit], c[hit], strict=True)]
+
+
+def _crossable(tts: TerrainTileset, boundaries: Sequence[Boundary], mobility: Mobility) -> np.ndarray:
+    """bool per variant: flat ground, and the slopes and stairs a robot of ``mobility`` climbs."""
+    ok = tts.kind == _CODE["flat"]
+    for b, boundary in enumerate(boundaries):
+        at = tts.level == b
+        if boundary.angle is not None and boundary.angle <= mobility.max_slope:
+            ok |= at & (tts.kind == _CODE["slope"])
+        if boundary.steps is not None and mobility.stairs and boundary.steps[1] <= mobility.max_step:
+            ok |= at & (tts.kind == _CODE["stair"])
+    return ok
+
+
 def _flat_cells(grid: Grid, points: Sequence[tuple[float, float]]) -> list[tuple[int, int]]:
     """Cells of every tile within :data:`FLAT_RADIUS` of one of ``points`` (m)."""
     out = []
@@ -347,10 +370,18 @@ def build_terrain(
     *,
     seed: int = 0,
     flat_at: Sequence[tuple[float, float]] = (),
+    corridor: BaseGeometry | None = None,
+    mobility: Mobility | None = None,
 ) -> Terrain:
     """The scene's terrain grid over ``bounds``: WFC tiles on walkable ground and vegetation,
     flat street-level tiles on hard zones, flat tiles around ``flat_at`` (m); or, when
     ``cfg.layout == "curriculum"``, the difficulty grid of :func:`build_curriculum`.
+
+    ``corridor`` (an area, m) with ``mobility``: every tile it reaches is one that robot
+    crosses (flat, or a slope or stair it climbs; not rough, whose bumps are drawn after
+    WFC), so a path inside the corridor stays crossable (the pipeline asks for one when
+    the task's start and goal would otherwise be cut apart, see
+    :func:`citygen.generate.pipeline.keep_crossable`).
 
     ``rng`` is the terrain stage's generator; ``seed`` only labels errors. Raises
     :class:`~citygen.errors.GenerationError` when WFC cannot tile the grid (naming the cell)
@@ -409,6 +440,10 @@ def build_terrain(
     domains[hard] = flat0
     for r, c in _flat_cells(grid, flat_at):
         domains[r, c] &= flat
+    if corridor is not None and mobility is not None:
+        crossable = _crossable(tts, boundaries, mobility)
+        for r, c in _cells_in(grid, corridor):
+            domains[r, c] &= crossable
     level0 = np.array([sk == (0, 0) for sk in (v[1] for v in ts.sockets)])
     if grid.short_x:
         domains[:, -1] &= level0

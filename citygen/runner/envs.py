@@ -508,7 +508,7 @@ class NavEnv(_CitygenEnv):
         return obs, self._info(distance=self._distance())
 
     def _new_record(self):
-        best = self.prepared.geodesic(self._start, self.goal)
+        best = self.prepared.geodesic(self._start, self.goal, self.tolerance)
         if not math.isfinite(best) or best <= 0:  # no walkable route: the straight line
             best = max(math.dist(self._start, self.goal), 1e-6)
         return M.NavEpisode(start_xy=self._start, best_length=best)
@@ -625,7 +625,7 @@ class NavEnv(_CitygenEnv):
         obs = self._observation()
         info = self._info(distance=d, walkable=walkable, collision=collision, success=success, lost=lost)
         if terminated or truncated:
-            left = 0.0 if success else self.prepared.geodesic((x, y), self.goal)
+            left = 0.0 if success else self.prepared.geodesic((x, y), self.goal, self.tolerance)
             self.recorder.finish(success=success, distance_left=left if math.isfinite(left) else d)
             info["metrics"] = M.nav_metrics(self.recorder)
             info["is_success"] = success

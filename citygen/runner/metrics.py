@@ -96,10 +96,13 @@ def _require_steps(ep: object, steps: int, kind: str) -> None:
 class NavEpisode:
     """One navigation episode (NavClear, NavStatic, NavDynamic), filled step by step.
 
-    ``best_length`` is ``L*_best``, the length (m) of the shortest walkable path from the
-    start to the goal, and ``route_length`` is ``L_route`` (m, default ``best_length``); the
-    runner takes both from :class:`citygen.runner.planning.DistanceField` (the geodesic
-    distance over the occupancy grid inflated by the robot's radius).
+    ``best_length`` is ``L*_best``, the length (m) of the shortest path the robot can take
+    from the start to the goal *region* (the disc of the task's goal tolerance, where success
+    fires), and ``route_length`` is ``L_route`` (m, default ``best_length``); the runner takes
+    both from :meth:`citygen.runner.planning.DistanceField.route`: the any-angle geodesic
+    (fast marching, pulled taut round obstacle corners) over the ground the robot can cross
+    (the occupancy map inflated by its radius, less edges higher than it steps and tiles it
+    cannot climb). ``distance_left`` is measured the same way.
     """
 
     start_xy: tuple[float, float]
@@ -113,7 +116,7 @@ class NavEpisode:
     """Whether the robot touched an object or agent at each step."""
     success: bool = False
     distance_left: float = math.nan
-    """Geodesic distance (m) from the final position to the goal."""
+    """Geodesic distance (m) from the final position to the goal region."""
     finished: bool = False
 
     def __post_init__(self) -> None:

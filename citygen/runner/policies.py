@@ -77,7 +77,8 @@ class PlannerPolicy:
         robot = env.robot
         self.planner = Planner(
             env.prepared.occupancy, robot.radius, free=env.prepared.free, lookahead=LOOKAHEAD,
-            max_speed=robot.max_speed / self.caution, max_yaw_rate=robot.max_yaw_rate, horizon=1.5 * self.caution,
+            max_speed=robot.max_speed / self.caution, max_yaw_rate=robot.max_yaw_rate,
+            horizon=1.5 * self.caution,
         )  # fmt: skip
         self._goal = None
 

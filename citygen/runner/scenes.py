@@ -11,8 +11,10 @@ compiles each scene once (asynchronous scene sampling).
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import hashlib
+import math
 import warnings
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -24,6 +26,8 @@ import numpy as np
 from citygen.errors import Problem, SpecError
 from citygen.io import dumps, load_scene
 from citygen.spec import Scene
+from citygen.spec.task import ROBOTS, Mobility
+from citygen.spec.terrain import Terrain
 
 #: Occupancy-map cell side (m) for walkability, the planner and the route metrics.
 MAP_RESOLUTION = 0.05
@@ -120,17 +124,24 @@ class Prepared:
     """agent id -> mocap id."""
     _fields: dict = field(default_factory=dict)
 
-    def geodesic(self, xy: tuple[float, float] | np.ndarray, goal: tuple[float, float]) -> float:
-        """Walkable-route distance (m) from ``xy`` to ``goal`` over :attr:`free` (a point in the
+    def geodesic(
+        self, xy: tuple[float, float] | np.ndarray, goal: tuple[float, float], tolerance: float | None = None
+    ) -> float:
+        """Walkable-route distance (m) from ``xy`` over :attr:`free`: with ``tolerance`` (m),
+        the any-angle shortest path to the goal *region* (the disc of that radius around
+        ``goal``, where a navigation task counts the goal reached), as SPL's ``L*_best``
+        wants it; without, the 16-connected grid distance to ``goal`` itself. A point in the
         inflated band takes its nearest reachable cell's distance plus the step to it; inf
-        when the goal is unreachable). Fields are cached per goal."""
+        when the goal is unreachable. Fields are cached per goal and tolerance."""
         from citygen.runner.planning import DistanceField
 
-        key = (round(float(goal[0]), 4), round(float(goal[1]), 4))
+        key = (round(float(goal[0]), 4), round(float(goal[1]), 4), tolerance)
         field_ = self._fields.get(key)
         if field_ is None:
-            field_ = self._fields[key] = DistanceField.build(self.free, self.occupancy.grid, goal)
-        return field_.at(float(xy[0]), float(xy[1]))
+            field_ = self._fields[key] = DistanceField.build(
+                self.free, self.occupancy.grid, goal, tolerance=tolerance
+            )
+        return field_.route(float(xy[0]), float(xy[1]))
 
 
 def step_edges(heights: np.ndarray, max_step: float) -> np.ndarray:
@@ -146,12 +157,27 @@ def step_edges(heights: np.ndarray, max_step: float) -> np.ndarray:
     return out
 
 
-def free_cells(occ: Any, robot: Any) -> np.ndarray:
+def mobility_of(robot: Any) -> Mobility:
+    """What ground ``robot`` crosses: a built-in embodiment's :data:`~citygen.spec.task.ROBOTS`
+    entry (with the robot's own radius and highest step); a user's robot climbs whatever its
+    ``max_step`` allows (stairs and slopes limited only by the edges they make)."""
+    base = ROBOTS.get(robot.name)
+    if base is None:
+        return Mobility(radius=robot.radius, max_step=robot.max_step, max_slope=math.pi / 2, stairs=True)
+    return dataclasses.replace(base, radius=robot.radius, max_step=robot.max_step)
+
+
+def free_cells(occ: Any, robot: Any, terrain: Terrain | None = None) -> np.ndarray:
     """Where the robot's centre may be: walkable ground at least its radius from anything
-    else and from every edge higher than its :attr:`~citygen.runner.robots.Robot.max_step`."""
+    else, from every edge higher than its :attr:`~citygen.runner.robots.Robot.max_step` and
+    from the tiles of ``terrain`` it cannot cross (stairs for wheels, slopes steeper than it
+    climbs, rough ground too bumpy: :func:`citygen.geometry.traversable.tile_crossable`)."""
     from citygen.geometry.raster import erode
+    from citygen.geometry.traversable import blocked_cells
 
     ok = occ.walkable_mask() & ~step_edges(occ.heights, robot.max_step)
+    if terrain is not None:
+        ok &= ~blocked_cells(terrain, mobility_of(robot), occ.grid.xs(), occ.grid.ys())
     return erode(ok, robot.radius / occ.resolution)
 
 
@@ -211,7 +237,7 @@ def prepare(scene: Scene, robot: Any) -> Prepared:
         robot=robot,
         model=model,
         occupancy=occ,
-        free=free_cells(occ, robot),
+        free=free_cells(occ, robot, scene.terrain),
         walkable=occ.walkable_mask(),
         obstacle_geoms=obstacle,
         ground_geoms=ground,

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Annotated, Literal
 
@@ -11,23 +13,49 @@ from citygen.spec import limits
 from citygen.spec.base import SpecModel, Vec2, Vec3, bounded_float
 from citygen.spec.blocks import Pose2
 
-Robot = Literal["wheeled", "quadruped", "wheeled_legged", "humanoid", "wheelchair", "scooter"]
-"""The embodiments of the runner: a wheeled delivery robot, a Go2-like quadruped, a
-B2-W-like wheeled-legged robot, a G1-like humanoid, an electric wheelchair, a mobility scooter."""
+STEP_RUN = 0.05
+"""Run (m) over which a rise of the ground counts as one step (the runner's map cell)."""
 
-#: Radius (m) of the disc each embodiment occupies on the ground: what the task stage
-#: keeps clear at the start and goal and along a walkable path between them, and what
-#: the runner's planner inflates the occupancy map by.
-ROBOT_RADIUS = MappingProxyType(
+
+@dataclass(frozen=True)
+class Mobility:
+    """What ground an embodiment can cross: the capabilities the task stage keeps a scene's
+    start and goal connected by, and the runner's planner and metrics plan with
+    (:func:`citygen.geometry.traversable.tile_crossable` says which terrain tiles they allow)."""
+
+    radius: float
+    """Radius (m) of the disc the robot occupies on the ground: what the task stage keeps clear
+    at the start and goal and along a path between them, and what the planner inflates the
+    occupancy map by."""
+    max_step: float
+    """Highest edge (m) the robot drives or walks over: a stair riser, a curb, a bump of rough
+    ground (a rise over :data:`STEP_RUN`); the runner keeps its centre a radius away from higher
+    edges."""
+    max_slope: float
+    """Steepest slope (rad) the robot climbs and descends."""
+    stairs: bool
+    """Whether it climbs stairs (those whose risers are at most :attr:`max_step`); wheels do not."""
+
+
+#: The embodiments of the runner and what ground each crosses: a wheeled delivery robot, a
+#: Go2-like quadruped, a B2-W-like wheeled-legged robot, a G1-like humanoid, an electric
+#: wheelchair, a mobility scooter. A new embodiment is one entry here (and its model in the runner).
+ROBOTS: Mapping[str, Mobility] = MappingProxyType(
     {
-        "wheeled": 0.35,
-        "quadruped": 0.4,
-        "wheeled_legged": 0.5,
-        "humanoid": 0.3,
-        "wheelchair": 0.45,
-        "scooter": 0.55,
+        "wheeled": Mobility(radius=0.35, max_step=0.05, max_slope=0.25, stairs=False),
+        "quadruped": Mobility(radius=0.4, max_step=0.18, max_slope=0.6, stairs=True),
+        "wheeled_legged": Mobility(radius=0.5, max_step=0.08, max_slope=0.5, stairs=True),
+        "humanoid": Mobility(radius=0.3, max_step=0.2, max_slope=0.4, stairs=True),
+        "wheelchair": Mobility(radius=0.45, max_step=0.05, max_slope=0.2, stairs=False),
+        "scooter": Mobility(radius=0.55, max_step=0.05, max_slope=0.2, stairs=False),
     }
 )
+
+Robot = Literal[tuple(ROBOTS)]  # type: ignore[valid-type]
+"""The name of an embodiment: a key of :data:`ROBOTS`."""
+
+#: Radius (m) of each embodiment (:attr:`Mobility.radius`).
+ROBOT_RADIUS: Mapping[str, float] = MappingProxyType({name: m.radius for name, m in ROBOTS.items()})
 
 
 class _Task(SpecModel):

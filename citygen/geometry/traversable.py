@@ -1,0 +1,102 @@
+"""Which terrain tiles an embodiment can cross (:class:`~citygen.spec.task.Mobility`).
+
+One rule for the generator, which keeps a task's start and goal connected over the ground
+its robot can cross, and for the runner, whose planner and shortest-path metric move over
+the same ground:
+
+- flat ground: always;
+- a slope: up to the robot's ``max_slope``;
+- a stair: when the robot climbs stairs and the risers are at most its ``max_step``;
+- rough ground: when no two points :data:`~citygen.spec.task.STEP_RUN` apart along x or y
+  differ by more than its ``max_step`` (sampled four times finer than that run, with a
+  10 % allowance for the peaks between samples).
+
+>>> from citygen.spec.task import ROBOTS
+>>> from citygen.spec.terrain import StairTile
+>>> stair = StairTile(kind="stair", step_height=0.15, step_count=3)
+>>> tile_crossable(stair, 2.5, ROBOTS["wheeled"]), tile_crossable(stair, 2.5, ROBOTS["quadruped"])
+(False, True)
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+import shapely
+from shapely.geometry.base import BaseGeometry
+
+from citygen.geometry.terrain import tile_grid
+from citygen.spec.task import STEP_RUN, Mobility
+from citygen.spec.terrain import RoughTile, SlopeTile, StairTile, Terrain
+
+#: Samples per :data:`STEP_RUN` when a rough tile's steps are measured.
+_SAMPLES = 4
+#: Allowance for the peaks of rough ground between samples.
+_ALLOWANCE = 1.1
+
+
+@lru_cache(maxsize=4096)
+def rough_step(tile: RoughTile, tile_size: float) -> float:
+    """The largest rise (m) between two points of a rough tile :data:`STEP_RUN` apart along x
+    or y (sampled every ``STEP_RUN / 4``)."""
+    g = np.linspace(0.0, tile_size, int(np.ceil(tile_size / STEP_RUN * _SAMPLES)) + 1)
+    z = tile_grid(tile, tile_size, g, g)
+    lag = _SAMPLES
+    return float(max(np.abs(z[lag:] - z[:-lag]).max(), np.abs(z[:, lag:] - z[:, :-lag]).max()))
+
+
+def tile_crossable(tile: object, tile_size: float, mobility: Mobility) -> bool:
+    """Whether a robot of ``mobility`` can cross ``tile`` (see the module docstring)."""
+    if isinstance(tile, SlopeTile):
+        return tile.angle <= mobility.max_slope
+    if isinstance(tile, StairTile):
+        return mobility.stairs and tile.step_height <= mobility.max_step
+    if isinstance(tile, RoughTile):
+        return rough_step(tile, float(tile_size)) * _ALLOWANCE <= mobility.max_step
+    return True
+
+
+def blocked_tiles(terrain: Terrain | None, mobility: Mobility) -> np.ndarray:
+    """bool ``(rows, cols)``: the tiles of ``terrain`` the robot cannot cross (row 0 at the
+    grid's minimum y); ``(0, 0)`` without terrain."""
+    if terrain is None:
+        return np.zeros((0, 0), dtype=bool)
+    memo: dict[int, bool] = {}
+    out = np.zeros(terrain.rows * terrain.cols, dtype=bool)
+    for i, tile in enumerate(terrain.tiles):
+        ok = memo.get(id(tile))
+        if ok is None:
+            ok = memo[id(tile)] = tile_crossable(tile, terrain.tile_size, mobility)
+        out[i] = not ok
+    return out.reshape(terrain.rows, terrain.cols)
+
+
+def blocked_ground(terrain: Terrain | None, mobility: Mobility) -> BaseGeometry:
+    """The union of the squares of the tiles the robot cannot cross (empty when none)."""
+    blocked = blocked_tiles(terrain, mobility)
+    if not blocked.any():
+        return shapely.Polygon()
+    r, c = np.nonzero(blocked)
+    s, (ox, oy) = terrain.tile_size, terrain.origin
+    boxes = shapely.box(ox + c * s, oy + r * s, ox + (c + 1) * s, oy + (r + 1) * s)
+    return shapely.union_all(boxes)
+
+
+def blocked_cells(terrain: Terrain | None, mobility: Mobility, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """bool ``(len(ys), len(xs))``: whether each point of the grid ``xs`` (columns) by ``ys``
+    (rows), in metres, lies on a tile the robot cannot cross (False off the tile grid)."""
+    out = np.zeros((len(ys), len(xs)), dtype=bool)
+    blocked = blocked_tiles(terrain, mobility)
+    if not blocked.any():
+        return out
+    s, (ox, oy) = terrain.tile_size, terrain.origin
+    c = np.floor((np.asarray(xs) - ox) / s).astype(np.int64)
+    r = np.floor((np.asarray(ys) - oy) / s).astype(np.int64)
+    cin = (c >= 0) & (c < terrain.cols)
+    rin = (r >= 0) & (r < terrain.rows)
+    inside = rin[:, None] & cin[None, :]
+    rr = np.broadcast_to(np.clip(r, 0, terrain.rows - 1)[:, None], out.shape)
+    cc = np.broadcast_to(np.clip(c, 0, terrain.cols - 1)[None, :], out.shape)
+    out[inside] = blocked[rr[inside], cc[inside]]
+    return out
