@@ -14,7 +14,7 @@ import pytest
 from citygen.runner import gaits_biped
 from citygen.runner.bench import make_env, run_episode
 from citygen.runner.policies import make_policy
-from citygen.runner.robots import BUILTIN, RobotHandle, compose, flat_ground, load_robot
+from citygen.runner.robots import BUILTIN, PREFIX, RobotHandle, compose, flat_ground, load_robot
 from citygen.spec.task import Robot
 
 
@@ -37,11 +37,11 @@ def test_humanoid_is_g1_like_with_21_position_servo_joints_and_box_feet():
     for side in ("left", "right"):
         for joint in ("hip_pitch", "hip_roll", "hip_yaw", "knee", "ankle_pitch", "ankle_roll"):
             assert f"{side}_{joint}" in robot.leg_joints
-        foot = model.geom(f"robot/{side}_foot")
+        foot = model.geom(f"{PREFIX}{side}_foot")
         assert foot.type == mujoco.mjtGeom.mjGEOM_BOX and 0.18 < 2 * foot.size[0] < 0.26
-    knee = model.actuator("robot/left_knee")
+    knee = model.actuator(f"{PREFIX}left_knee")
     assert knee.forcerange[1] == pytest.approx(139.0)  # G1's knee torque
-    assert model.jnt_range[model.joint("robot/left_ankle_roll").id] == pytest.approx((-0.26, 0.26))
+    assert model.jnt_range[model.joint(f"{PREFIX}left_ankle_roll").id] == pytest.approx((-0.26, 0.26))
     top = max(data.geom_xpos[g][2] + model.geom_rbound[g] for g in handle.geom_ids)
     assert 1.25 < top < 1.4 and 0.6 < robot.stand_height < 0.75
     assert robot.nav_mode == "base" and robot.radius == 0.3 and len(robot.legs) == 2
@@ -56,10 +56,10 @@ def test_biped_leg_ik_matches_mujoco_with_the_foot_flat():
             q = gaits_biped.leg_ik(target, leg.thigh, leg.calf)
             data.qpos[handle.leg_qadr[6 * i : 6 * i + 6]] = q
             mujoco.mj_kinematics(model, data)
-            ankle = model.body(f"robot/{side}_ankle").id
+            ankle = model.body(f"{PREFIX}{side}_ankle").id
             hip = data.xpos[handle.base_id] + (leg.hip_x, leg.hip_y, 0.0)
             assert data.xpos[ankle] - hip == pytest.approx(target, abs=1e-9)
-            foot = model.body(f"robot/{side}_foot").id
+            foot = model.body(f"{PREFIX}{side}_foot").id
             assert data.xmat[foot] == pytest.approx(np.eye(3).ravel(), abs=1e-9)  # sole parallel
 
 
@@ -85,7 +85,7 @@ def test_scooter_steers_ackermann_and_turns_by_k_turns():
     model, data, handle = on_flat("scooter")
     robot = handle.robot
     assert robot.nav_mode == "ackermann" and robot.max_speed == pytest.approx(15 / 3.6)
-    left, right = (model.actuator(f"robot/{n}").id for n in robot.steer_actuators)
+    left, right = (model.actuator(f"{PREFIX}{n}").id for n in robot.steer_actuators)
     for _ in range(int(3.0 / model.opt.timestep)):
         handle.drive(data, 1.5, 0.8)
         mujoco.mj_step(model, data)
