@@ -58,6 +58,7 @@ VECTORS = {
     "citygen 2 workers": ("citygen", {}),
     "gymnasium async 2 workers": ("gymnasium", {}),
     "citygen 2 workers, quadruped": ("citygen", {"robot": "quadruped"}),
+    "citygen 2 workers, humanoid": ("citygen", {"robot": "humanoid"}),
     "citygen 2 workers, depth 64x64": ("citygen", {"depth": True, "image_size": 64}),
     "citygen 2 workers, cold": ("citygen", {"scene_pool": None}),
 }
@@ -348,6 +349,7 @@ def main(argv: list[str] | None = None) -> int:
     one = state["with_resets_per_s"]  # like the vector environments: resets included
     v2, gym2 = vec["citygen 2 workers"], vec["gymnasium async 2 workers"]
     quad2, depth2 = vec["citygen 2 workers, quadruped"], vec["citygen 2 workers, depth 64x64"]
+    human2 = vec["citygen 2 workers, humanoid"]
     cold2 = vec["citygen 2 workers, cold"]
     over_mj = 1.0 / state["mj_cpu_share"]
     depth = obs["+ depth 64x64"]
@@ -368,6 +370,7 @@ def main(argv: list[str] | None = None) -> int:
             f"gymnasium AsyncVectorEnv: {gym2:.1f} ({v2 / gym2:.2f}x); one env: {v2 / one:.2f}x",
         ),
         ("  quadruped", quad2, "steps/s", f"wheeled: {quad2 / v2:.2f}x"),
+        ("  humanoid", human2, "steps/s", f"wheeled: {human2 / v2:.2f}x"),
         ("  depth 64x64", depth2, "steps/s", f"state only: {depth2 / v2:.2f}x"),
         ("  cold: whole split", cold2, "steps/s", "most resets compile a new scene"),
         (
@@ -408,6 +411,7 @@ def main(argv: list[str] | None = None) -> int:
         "navstatic_2proc_speedup": round(v2 / one, 3),
         "navstatic_2proc_cold_steps_per_s": round(cold2, 1),
         "quadruped_2proc_steps_per_s": round(quad2, 1),
+        "humanoid_2proc_steps_per_s": round(human2, 1),
         "depth64_2proc_steps_per_s": round(depth2, 1),
         "reset_cached_ms": round(resets["reset_cached_ms"], 2),
         "first_visit_ms": round(resets["first_visit_ms"], 1),
