@@ -181,17 +181,25 @@ class _Pieces:
         return self.polygons[k], self.samplers[k]
 
 
+def _start(spaces: _Pieces, rng, r, taken):
+    """One draw of a start: ``(piece, sampler, point)``, the point None when the piece does
+    not cover it or it comes within ``r`` + a taken disc's radius + :data:`GAP` of one."""
+    # A point is in a piece where the piece covers it: for a point, ``intersects_xy``.
+    piece, sampler = spaces[spaces.choice.draw(rng)]
+    start = sampler.point(rng)
+    if not shapely.intersects_xy(piece, *start):
+        return piece, sampler, None
+    if any(math.dist(start, (x, y)) < r + q + GAP for x, y, q in taken):
+        return piece, sampler, None
+    return piece, sampler, start
+
+
 def _trip(spaces: _Pieces, rng, trip, r, taken):
     """A start clear of every disc in ``taken`` and a goal in the same piece, as far as
     ``trip`` when the piece allows, else the farthest of a few draws."""
-    # A point is in a piece where the piece covers it: for a point, ``intersects_xy``.
     for _ in range(64):
-        k = spaces.choice.draw(rng)
-        piece, sampler = spaces[k]
-        start = sampler.point(rng)
-        if not shapely.intersects_xy(piece, *start):
-            continue
-        if any(math.dist(start, (x, y)) < r + q + GAP for x, y, q in taken):
+        piece, sampler, start = _start(spaces, rng, r, taken)
+        if start is None:
             continue
         best = None
         for _ in range(16):
@@ -235,12 +243,8 @@ def _line_trip(spaces: _Pieces, rng, trip, r, taken):
     longest of some draws of heading and distance (up to ``trip``) whose line the piece
     covers, at least :data:`SHORTEST` metres."""
     for _ in range(64):
-        k = spaces.choice.draw(rng)
-        piece, sampler = spaces[k]
-        start = sampler.point(rng)
-        if not shapely.intersects_xy(piece, *start):
-            continue
-        if any(math.dist(start, (x, y)) < r + q + GAP for x, y, q in taken):
+        piece, _, start = _start(spaces, rng, r, taken)
+        if start is None:
             continue
         headings = rng.uniform(-math.pi, math.pi, 48)
         reach = trip * rng.uniform(0.3, 1.0, 48)

@@ -39,6 +39,7 @@ from citygen.generate.ground import (
     _snap,
     _zones,
     street_bands,
+    street_layers,
 )
 from citygen.seeding import uniform
 from citygen.spec.config import CityConfig, GroundConfig
@@ -80,19 +81,11 @@ def plan_city_ground(
 
     pieces: list[Piece] = []
     for (j, i), parts in sorted(clipped.items()):
-        walk, road, curb_band, island, furnish, clear, front, yard_band = parts
+        *street_parts, yard_band = parts
         lot = box(xs[i], ys[j], xs[i + 1], ys[j + 1])
         cell = plan.cell((xs[i] + xs[i + 1]) / 2, (ys[j] + ys[j + 1]) / 2)
         district, courtyard = plan.districts[cell], plan.courtyards[cell]
-        layers: list[Layer] = [
-            ("crosswalk", None, walk),
-            ("roadway", None, road),
-            ("curb", None, curb_band),
-            ("vegetation", None, island),
-            ("sidewalk", "furnishing", furnish),
-            ("sidewalk", "clear", clear),
-            ("sidewalk", "frontage", front),
-        ]
+        layers = street_layers(street_parts)
         if district == "residential":
             layers.append(("vegetation", None, yard_band))
         r = np.random.default_rng([lot_seed, j, i])

@@ -255,6 +255,24 @@ def street_bands(blocks: Sequence, cfg: GroundConfig, rng: np.random.Generator):
     return crosswalks, roads, curbs, islands, sidewalks
 
 
+#: The zone kind and strip of each street band :func:`street_bands` gives, in its order.
+STREET_LAYERS = (
+    ("crosswalk", None),
+    ("roadway", None),
+    ("curb", None),
+    ("vegetation", None),
+    ("sidewalk", "furnishing"),
+    ("sidewalk", "clear"),
+    ("sidewalk", "frontage"),
+)
+
+
+def street_layers(parts: Sequence) -> list[Layer]:
+    """A lot's street bands (crosswalks, roadway, curbs, islands and the sidewalk's three
+    strips, clipped to the lot, in :func:`street_bands`' order) as layers for :func:`_arrange`."""
+    return [(kind, strip, geom) for (kind, strip), geom in zip(STREET_LAYERS, parts, strict=True)]
+
+
 def plan_ground(
     bounds: Bounds, blocks: Sequence, cfg: GroundConfig, rng: np.random.Generator, *, seed: int | None = None
 ) -> tuple[Zone, ...]:
@@ -280,17 +298,9 @@ def plan_ground(
 
     pieces: list[tuple[str, str | None, Polygon]] = []
     for (j, i), parts in sorted(clipped.items()):
-        walk, road, curb_band, island, furnish, clear, front, near_band = parts
+        *street_parts, near_band = parts
         lot = box(xs[i], ys[j], xs[i + 1], ys[j + 1])
-        layers: list[Layer] = [
-            ("crosswalk", None, walk),
-            ("roadway", None, road),
-            ("curb", None, curb_band),
-            ("vegetation", None, island),
-            ("sidewalk", "furnishing", furnish),
-            ("sidewalk", "clear", clear),
-            ("sidewalk", "frontage", front),
-        ]
+        layers = street_layers(street_parts)
         r = np.random.default_rng([lot_seed, j, i])
         if near_band is not None:
             layers.append(("plaza" if r.random() < cfg.plaza_probability else "vegetation", None, near_band))
