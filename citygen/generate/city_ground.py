@@ -31,7 +31,6 @@ from shapely.geometry import Polygon, box
 from citygen.generate.city import CityPlan
 from citygen.generate.ground import (
     QUAD_SEGS,
-    Layer,
     Piece,
     _arrange,
     _bisect,
