@@ -121,28 +121,10 @@ def progress_bar(episodes: int, enabled: bool, horizon: int | None = None):
     if not enabled:
         yield lambda done, total, row=None: None
         return
-    from rich.console import Console
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        Progress,
-        TextColumn,
-        TimeElapsedColumn,
-        TimeRemainingColumn,
-    )
+    from citygen.generate.dataset import rich_bar
 
-    columns = (
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TextColumn("{task.fields[steps]} steps"),
-        TextColumn("success {task.fields[success]}"),
-        TimeElapsedColumn(),
-        TextColumn("ETA"),
-        TimeRemainingColumn(),
-    )
     unit = "steps" if horizon else "episodes"
-    with Progress(*columns, console=Console(stderr=True), transient=False) as bar:
+    with rich_bar("{task.fields[steps]} steps", "success {task.fields[success]}") as bar:
         job = bar.add_task(unit, total=horizon or episodes, steps=0, success="-")
         tally = {"steps": 0, "success": 0.0, "ended": 0}
 

@@ -33,20 +33,12 @@ checkpoint_every = 100
 """
 
 
+#: ``citygen train`` on NavClear with 2 sub-environments in this process.
+TRAIN = [sys.executable, "-m", "citygen", "train", "--task", "nav-clear", "--envs", "2", "--processes", "0"]
+
+
 def _train(*args, timeout: float = 300):
-    cmd = [
-        sys.executable,
-        "-m",
-        "citygen",
-        "train",
-        "--task",
-        "nav-clear",
-        "--envs",
-        "2",
-        "--processes",
-        "0",
-        *map(str, args),
-    ]
+    cmd = [*TRAIN, *map(str, args)]
     return subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=timeout)
 
 
@@ -58,16 +50,7 @@ def run(tmp_path_factory):
     config.write_text(TINY)
     out = folder / "run"
     cmd = [
-        sys.executable,
-        "-m",
-        "citygen",
-        "train",
-        "--task",
-        "nav-clear",
-        "--envs",
-        "2",
-        "--processes",
-        "0",
+        *TRAIN,
         "--steps",
         "100000",
         "--config",

@@ -356,12 +356,10 @@ def _run_on_ray(ray, todo, out: Path, on_progress) -> list[Written]:
     return done
 
 
-@contextmanager
-def progress_bar(total: int, label: str, enabled: bool = True) -> Iterator[Callable[[int], None]]:
-    """A rich progress bar (scenes done, scenes/s, ETA) on stderr; yields ``advance(n)``."""
-    if not enabled:
-        yield lambda n: None
-        return
+def rich_bar(*fields: str):
+    """A rich ``Progress`` on stderr: description, bar, done/total, the text ``fields`` (rich
+    column templates such as ``"{task.fields[rate]} scenes/s"``), elapsed time and ETA; the
+    frame of every citygen progress bar."""
     from rich.console import Console
     from rich.progress import (
         BarColumn,
@@ -376,12 +374,21 @@ def progress_bar(total: int, label: str, enabled: bool = True) -> Iterator[Calla
         TextColumn("{task.description}"),
         BarColumn(),
         MofNCompleteColumn(),
-        TextColumn("{task.fields[rate]} scenes/s"),
+        *(TextColumn(f) for f in fields),
         TimeElapsedColumn(),
         TextColumn("ETA"),
         TimeRemainingColumn(),
     )
-    with Progress(*columns, console=Console(stderr=True), transient=False) as bar:
+    return Progress(*columns, console=Console(stderr=True), transient=False)
+
+
+@contextmanager
+def progress_bar(total: int, label: str, enabled: bool = True) -> Iterator[Callable[[int], None]]:
+    """A rich progress bar (scenes done, scenes/s, ETA) on stderr; yields ``advance(n)``."""
+    if not enabled:
+        yield lambda n: None
+        return
+    with rich_bar("{task.fields[rate]} scenes/s") as bar:
         task = bar.add_task(label, total=total, rate="-")
 
         def advance(n: int) -> None:
