@@ -258,3 +258,39 @@ def test_more_scenes_than_the_split_lists_continue_its_seed_derivation():
     assert source.size == 300
     assert source.scene(280).meta.index == 280
     assert source.scene(280).model_dump() != source.scene(280 - 256).model_dump()
+
+
+def test_progress_shaping_pays_for_geodesic_progress_and_only_in_training():
+    """The training wrapper adds ``scale`` per metre gained along the walkable geodesic:
+    driving at the goal earns more than the environment's own reward, backing away less,
+    and the environment's reward itself (what bench reports) is unchanged."""
+    from citygen.runner.bench import make_env
+    from citygen.runner.learn.config import TrainConfig
+    from citygen.runner.learn.shaping import ProgressReward
+
+    assert TrainConfig().progress > 0
+
+    def drive(env, toward: bool) -> tuple[float, float]:
+        obs, _ = env.reset(seed=3, options={"index": 0})
+        u = env.unwrapped
+        start = u.prepared.field(u._goal(), u.tolerance).at(*u.handle.pose(u.data)[:2])
+        total = 0.0
+        for _ in range(30):
+            g = obs["goal"]
+            heading = float(np.arctan2(g[1], g[0]))
+            turn = np.clip(heading if toward else heading - np.pi * np.sign(heading), -1, 1)
+            obs, r, term, trunc, _ = env.step(np.array([0.8 if abs(turn) < 0.5 else 0.0, turn]))
+            total += r
+            if term or trunc:
+                break
+        end = u.prepared.field(u._goal(), u.tolerance).at(*u.handle.pose(u.data)[:2])
+        return total, start - end
+
+    plain = make_env("nav-clear", split="urban-nav-1-train", robot="wheeled")
+    shaped = ProgressReward(make_env("nav-clear", split="urban-nav-1-train", robot="wheeled"), 2.0)
+    for toward in (True, False):
+        base, gained = drive(plain, toward)
+        total, gained2 = drive(shaped, toward)
+        assert gained == pytest.approx(gained2, abs=1e-6)  # same episode, same physics
+        assert (gained > 0.5) == toward and (gained < -0.5) == (not toward)
+        assert total - base == pytest.approx(2.0 * gained, rel=1e-6, abs=1e-6)

@@ -128,6 +128,19 @@ class Prepared:
     _fields: dict = field(default_factory=dict)
     _routes: dict = field(default_factory=dict)
 
+    def field(self, goal: tuple[float, float], tolerance: float | None = None):
+        """The :class:`~citygen.runner.planning.DistanceField` to ``goal`` (its region of
+        radius ``tolerance`` m when given) over :attr:`free`, built once per goal."""
+        from citygen.runner.planning import DistanceField
+
+        key = (round(float(goal[0]), 4), round(float(goal[1]), 4), tolerance)
+        field_ = self._fields.get(key)
+        if field_ is None:
+            field_ = self._fields[key] = DistanceField.build(
+                self.free, self.occupancy.grid, goal, tolerance=tolerance
+            )
+        return field_
+
     def geodesic(
         self, xy: tuple[float, float] | np.ndarray, goal: tuple[float, float], tolerance: float | None = None
     ) -> float:
@@ -137,14 +150,8 @@ class Prepared:
         wants it; without, the 16-connected grid distance to ``goal`` itself. A point in the
         inflated band takes its nearest reachable cell's distance plus the step to it; inf
         when the goal is unreachable. Fields are cached per goal and tolerance."""
-        from citygen.runner.planning import DistanceField
-
         key = (round(float(goal[0]), 4), round(float(goal[1]), 4), tolerance)
-        field_ = self._fields.get(key)
-        if field_ is None:
-            field_ = self._fields[key] = DistanceField.build(
-                self.free, self.occupancy.grid, goal, tolerance=tolerance
-            )
+        field_ = self.field(goal, tolerance)
         # A route is a pure function of its field and point: an episode's start is asked for at
         # every reset of the scene (SPL's shortest path, ~40 ms of line-of-sight tests), so keep it.
         where = (key, round(float(xy[0]), 4), round(float(xy[1]), 4))

@@ -80,6 +80,16 @@ class TrainConfig(BaseModel):
         (128, 128), description="Hidden layer widths (actor and critic)."
     )
     activation: Literal["tanh", "relu", "elu"] = "tanh"
+    keys: tuple[str, ...] | None = Field(
+        None,
+        description="Observation keys the policy sees; default goal, velocity, height_map and "
+        "local_map for navigation, the paper's proprioception and height map for locomotion.",
+    )
+    progress: Annotated[float, Field(ge=0)] = Field(
+        1.0,
+        description="Training-only shaping: reward per metre of progress along the walkable geodesic "
+        "to the goal (0: the paper's navigation reward alone; see citygen.runner.learn.shaping).",
+    )
     normalize: bool = Field(True, description="Running mean/std of observations (exported) and rewards.")
     # CPU and bookkeeping
     torch_threads: Annotated[int, Field(ge=0, le=256)] = Field(
@@ -98,6 +108,8 @@ class TrainConfig(BaseModel):
 
     @property
     def obs_keys(self) -> tuple[str, ...]:
+        if self.keys:
+            return tuple(self.keys)
         return LOCO_KEYS if self.task.startswith("loco") else NAV_KEYS
 
     @property

@@ -62,8 +62,9 @@ class SceneSchedule(gymnasium.Wrapper):
 
 
 def _sub_env(
-    task: str, split: str, robot: str, scenes: int | None, sampling: str, seed: int, rank: int, period: int
-) -> gymnasium.Env:
+    task: str, split: str, robot: str, scenes: int | None, sampling: str, seed: int, rank: int, period: int,
+    progress: float = 0.0,
+) -> gymnasium.Env:  # fmt: skip
     import multiprocessing
     import signal
 
@@ -74,6 +75,10 @@ def _sub_env(
         # and closes the workers), not a traceback in every worker.
         signal.signal(signal.SIGINT, signal.SIG_IGN)
     env = make_env(task, split=split, robot=robot)
+    if progress and task.startswith("nav"):
+        from citygen.runner.learn.shaping import ProgressReward
+
+        env = ProgressReward(env, progress)
     return SceneSchedule(env, scenes=scenes, sampling=sampling, seed=seed, rank=rank, period=period)
 
 
@@ -187,6 +192,7 @@ def make_training_env(cfg: TrainConfig) -> Sb3VecEnv:
             cfg.seed,
             rank,
             cfg.n_steps,
+            cfg.progress,
         )
         for rank in range(cfg.envs)
     ]
