@@ -89,3 +89,24 @@ def test_traverse_metrics_time_is_the_runs_duration():
     ep.finish()
     assert traverse_metrics(ep)["time"] == pytest.approx(0.7)
     assert np.isfinite(traverse_metrics(ep)["speed"])
+
+
+def test_the_ai_sub_goal_runs_ahead_along_the_route():
+    from citygen.runner.policies import carrot
+
+    route = [(0.0, 0.0), (10.0, 0.0), (10.0, 10.0)]
+    assert np.allclose(carrot(route, 1, (2.0, 0.5), 6.0), (8.0, 0.0))  # on the first leg
+    assert np.allclose(carrot(route, 1, (8.0, -0.3), 6.0), (10.0, 4.0))  # round the corner
+    assert np.allclose(carrot(route, 2, (10.0, 8.0), 6.0), (10.0, 10.0))  # the route's end
+    assert np.allclose(carrot(route, 0, (-3.0, 0.0), 6.0), (6.0, 0.0))  # before the start
+
+
+def test_the_ai_drives_the_robots_shipped_learned_navigator_else_the_planner(monkeypatch, tmp_path):
+    from citygen.runner import policies
+    from citygen.runner.learn import policy as learned
+
+    assert isinstance(policies.traverse_ai("no-such-robot"), policies.PlannerPolicy)
+    some = next(iter(learned.shipped().values()))
+    monkeypatch.setattr(learned, "shipped", lambda: {("nav-static", "quadruped"): some})
+    ai = policies.traverse_ai("quadruped")
+    assert isinstance(ai, policies.LearnedNavigator) and ai.path == str(some)

@@ -151,6 +151,74 @@ class ScriptedOracle:
         return self._policy.act(obs)
 
 
+#: Metres ahead along the route of the sub-goal a learned navigator steers to (its training
+#: goals lie 5-9 m away; the traverse's waypoints up to 23 m apart).
+CARROT = 6.0
+#: The shipped learned baselines a traverse's AI drives with, in order of preference.
+AI_TASKS = ("nav-dynamic", "nav-static")
+
+
+def carrot(
+    route: list[tuple[float, float]], waypoint: int, xy: tuple[float, float], ahead: float
+) -> np.ndarray:
+    """The point ``ahead`` m along ``route`` past the robot's projection on the leg that
+    ends at ``route[waypoint]`` (the route's end when it runs out)."""
+    pts = np.asarray(route, dtype=np.float64)
+    a = pts[max(waypoint - 1, 0)]
+    b = pts[waypoint]
+    leg = b - a
+    n = float(leg @ leg)
+    t = 0.0 if n == 0 else float(np.clip((np.asarray(xy) - a) @ leg / n, 0.0, 1.0))
+    here, left, k = a + t * leg, ahead, waypoint
+    while k < len(pts):
+        step = float(np.hypot(*(pts[k] - here)))
+        if step >= left:
+            return here + (pts[k] - here) * (left / step)
+        left -= step
+        here = pts[k]
+        k += 1
+    return pts[-1].copy()
+
+
+class LearnedNavigator:
+    """The paper's AI mode: "a general navigation model to make waypoint following". The
+    learned PPO baseline shipped for the robot (:data:`AI_TASKS`), steering to a sub-goal
+    :data:`CARROT` m ahead along the route as it was trained to reach goals a few metres
+    away; it sees what it was trained on (goal, velocity, height and local maps), nothing
+    privileged."""
+
+    def __init__(self, path: str):
+        from citygen.runner.learn.policy import load_policy
+
+        self.path = path
+        self.policy = load_policy(path)
+        self.env = None
+
+    def reset(self, env: Any) -> None:
+        self.env = env
+
+    def act(self, obs: Any) -> np.ndarray:
+        env = self.env
+        x, y, _, yaw = env.handle.pose(env.data)
+        gx, gy = carrot(env.route, env.waypoint, (x, y), CARROT)
+        c, s = math.cos(yaw), math.sin(yaw)
+        dx, dy = gx - x, gy - y
+        obs = {**obs, "goal": np.array([c * dx + s * dy, -s * dx + c * dy], dtype=np.float32)}
+        return self.policy.act(obs)
+
+
+def traverse_ai(robot: str) -> Policy:
+    """The AI of a traverse for ``robot``: :class:`LearnedNavigator` on its shipped learned
+    baseline when one ships, else the privileged planner (:class:`PlannerPolicy`)."""
+    from citygen.runner.learn.policy import shipped
+
+    found = shipped()
+    for task in AI_TASKS:
+        if (task, robot) in found:
+            return LearnedNavigator(str(found[(task, robot)]))
+    return PlannerPolicy()
+
+
 def risk(env: Any) -> float:
     """Risk of the stretch ahead, in [0, 1]: agents within :data:`RISK_RADIUS` m (vehicles
     count double), uneven terrain under the next metres and non-walkable ground there."""
@@ -178,11 +246,13 @@ class ControlMode:
         self.threshold = threshold
         self.driver = driver or ScriptedOracle()
         self.interval = interval
-        self.ai = PlannerPolicy()
+        self.ai: Policy | None = None
         self.env = None
 
     def reset(self, env: Any) -> None:
         self.env = env
+        if self.ai is None or getattr(self, "_robot", None) != env.robot.name:
+            self.ai, self._robot = traverse_ai(env.robot.name), env.robot.name
         self.ai.reset(env)
         self.driver.reset(env)
         self._last = None

@@ -91,6 +91,12 @@ class TrainConfig(BaseModel):
         "to the goal (0: the paper's navigation reward alone; see citygen.runner.learn.shaping).",
     )
     normalize: bool = Field(True, description="Running mean/std of observations (exported) and rewards.")
+    norm_epsilon: Annotated[float, Field(gt=0)] = Field(
+        1e-2,
+        description="Added to the running variance before dividing: a floor under the scale of "
+        "near-constant inputs (a height map on flat ground varies by millimetres; SB3's 1e-8 "
+        "would blow its jitter up to the clip).",
+    )
     # CPU and bookkeeping
     torch_threads: Annotated[int, Field(ge=0, le=256)] = Field(
         1, description="PyTorch threads (0: PyTorch's default); the sub-environments use the other cores."

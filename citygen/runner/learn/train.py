@@ -283,7 +283,13 @@ def train(
         model = PPO.load(ckpt[1], env=venv, device="cpu")
         print(f"resuming from {ckpt[1]} ({ckpt[0]:,} steps)", flush=True)
     else:
-        venv = VecNormalize(inner, norm_obs=cfg.normalize, norm_reward=cfg.normalize, gamma=cfg.gamma)
+        venv = VecNormalize(
+            inner,
+            norm_obs=cfg.normalize,
+            norm_reward=cfg.normalize,
+            gamma=cfg.gamma,
+            epsilon=cfg.norm_epsilon,
+        )
         activation = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU, "elu": torch.nn.ELU}[cfg.activation]
         model = PPO(
             "MultiInputPolicy",
