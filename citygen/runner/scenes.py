@@ -106,6 +106,7 @@ def _digest(scene: Scene) -> str:
 #: Routes :meth:`Prepared.geodesic` remembers per scene (start points asked at every reset).
 ROUTE_MEMO = 256
 
+
 @dataclass(eq=False)
 class Prepared:
     """A scene ready to run: its model with the robot attached and the maps the task uses."""
