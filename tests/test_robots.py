@@ -358,3 +358,44 @@ def test_unknown_robot_is_a_clear_error_naming_the_builtin_ones():
     with pytest.raises(CitygenError, match="unknown robot 'rover'") as err:
         load_robot("rover")
     assert all(name in str(err.value) for name in BUILTIN)
+
+
+def test_scene_rays_pass_through_the_robot_and_renderings_show_it():
+    """The composed robot's geoms sit in their own group: the servo's ground probe (a ray of
+    the scene's groups) under a foot finds the ground, not the leg above it, and a rendering
+    with the environments' option shows the robot that the default option hides."""
+    from citygen.runner.robots.handle import ROBOT_GROUP, render_option
+
+    model, data, handle = on_flat("quadruped")
+    assert set(model.geom_group[handle.geom_ids]) == {ROBOT_GROUP}
+    foot = data.geom_xpos[handle.foot_geom_ids[0]]
+    top = float(data.xpos[handle.base_id][2])
+    assert handle._ground_at(data, float(foot[0]), float(foot[1]), top) == pytest.approx(0.0, abs=1e-9)
+    with mujoco.Renderer(model, 64, 64) as renderer:
+        cam = mujoco.MjvCamera()
+        cam.lookat[:], cam.distance, cam.elevation = (0.0, 0.0, 0.3), 1.5, -20.0
+        renderer.update_scene(data, camera=cam, scene_option=render_option())
+        shown = renderer.render().copy()
+        renderer.update_scene(data, camera=cam)
+        hidden = renderer.render().copy()
+    assert np.abs(shown.astype(int) - hidden.astype(int)).sum() > 0
+
+
+@pytest.mark.parametrize("name", ["wheeled", "quadruped", "scooter"])
+def test_control_step_equals_drive_before_each_period(name):
+    """``control`` (the environments' one call per control step) moves the robot exactly as
+    calling ``drive`` before every ``drive_substeps`` physics steps does."""
+    model, data, handle = on_flat(name)
+    other, other_handle = mujoco.MjData(model), RobotHandle(model, handle.robot)
+    other_handle.reset(other, (0.0, 0.0, 0.0, 0.0))
+    k, h, n = handle.drive_substeps, model.opt.timestep, 21
+    for v, w in [(0.8, 0.3), (1.0, -1.0), (1.5, 0.0)]:
+        handle.control(data, v, w, n)
+        done = 0
+        while done < n:
+            m = min(k, n - done)
+            other_handle.drive(other, v, w, m * h)
+            mujoco.mj_step(model, other, nstep=m)
+            done += m
+    assert np.array_equal(data.qpos, other.qpos) and np.array_equal(data.qvel, other.qvel)
+    assert math.hypot(*data.qpos[handle.qadr : handle.qadr + 2]) > 0.002  # it moved

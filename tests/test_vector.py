@@ -107,3 +107,42 @@ def test_depth_images_from_workers_match_one_process_and_survive_scene_swaps():
     np.testing.assert_array_equal(obs["depth"][0], first)
     np.testing.assert_array_equal(obs["depth"][1], first)
     venv.close()
+
+
+@pytest.mark.slow
+def test_same_step_autoreset_matches_gymnasiums():
+    """``autoreset_mode=SAME_STEP`` (what SB3 needs): worker processes give Gymnasium's own
+    ``SyncVectorEnv`` batches, the new episode's first observation on the step that ended
+    the last one and that episode's last observation and info under ``final_obs`` and
+    ``final_info``."""
+    import functools
+
+    from gymnasium.vector import SyncVectorEnv
+
+    from citygen.runner.bench import make_env
+    from citygen.runner.vector import VectorEnv
+
+    fns = [functools.partial(make_env, "nav-static", split=SPLIT, max_steps=3) for _ in range(2)]
+    ours = VectorEnv(fns, autoreset_mode=AutoresetMode.SAME_STEP)
+    theirs = SyncVectorEnv(fns, autoreset_mode=AutoresetMode.SAME_STEP)
+    assert ours.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP
+    o1, _ = ours.reset(seed=4)
+    o2, _ = theirs.reset(seed=4)
+    ended = 0
+    for a in _actions(2, 8):
+        (o1, r1, t1, u1, i1), (o2, r2, t2, u2, i2) = ours.step(a), theirs.step(a)
+        for key in o2:
+            np.testing.assert_array_equal(o1[key], o2[key])
+        np.testing.assert_array_equal(r1, r2)
+        np.testing.assert_array_equal(t1 | u1, t2 | u2)
+        for i in np.flatnonzero(t2 | u2):
+            ended += 1
+            assert i1["_final_obs"][i] and not i1["_final_obs"][~(t1 | u1)].any()
+            for key in o2:
+                np.testing.assert_array_equal(i1["final_obs"][i][key], i2["final_obs"][i][key])
+            assert i1["_final_info"][i] and i1["final_info"]["_metrics"][i]
+            m1, m2 = i1["final_info"]["metrics"], i2["final_info"]["metrics"]
+            assert m1.keys() == m2.keys() and all(m1[k][i] == m2[k][i] for k in m2)
+    assert ended >= 4
+    ours.close()
+    theirs.close()

@@ -138,6 +138,18 @@ def _renderer(model: Any, width: int, height: int) -> Any:
     return hit[1]
 
 
+_RENDER_OPTION: list[Any] = []
+
+
+def _render_option() -> Any:
+    """The scene option of every rendering: the scene's geom groups and the robot's."""
+    if not _RENDER_OPTION:
+        from citygen.runner.robots.handle import render_option
+
+        _RENDER_OPTION.append(render_option())
+    return _RENDER_OPTION[0]
+
+
 class _Around(NamedTuple):
     """The terrain around the last pose asked for: ground height (m) under ``(x, y)`` and
     the height map's grid of ground heights (m, flat)."""
@@ -358,7 +370,7 @@ class _CitygenEnv(gymnasium.Env):
         if self.use_depth or self.use_rgb:
             renderer = self._get_renderer(self.image_size, self.image_size)
             cam = self._eye_camera(pose)
-            renderer.update_scene(self.data, camera=cam)  # one scene for both images
+            renderer.update_scene(self.data, camera=cam, scene_option=_render_option())  # both images
             if self.use_rgb:
                 renderer.disable_depth_rendering()
                 out["rgb"] = renderer.render()
@@ -413,7 +425,7 @@ class _CitygenEnv(gymnasium.Env):
         renderer = self._get_renderer(
             min(640, self.model.vis.global_.offwidth), min(480, self.model.vis.global_.offheight)
         )
-        renderer.update_scene(self.data, camera=self._chase_camera())
+        renderer.update_scene(self.data, camera=self._chase_camera(), scene_option=_render_option())
         return renderer.render().copy()
 
     def _chase_camera(self):
@@ -580,7 +592,7 @@ class NavEnv(_CitygenEnv):
                     radii.append(self.crowd.radius)
                 self.traffic.step(np.concatenate(obstacles), np.concatenate(radii))
             self._write_agents()
-        self._physics(lambda dt: self.handle.drive(self.data, v, w, dt))
+        self.handle.control(self.data, v, w, self._substeps)
         self.steps += 1
         return self._after_step()
 

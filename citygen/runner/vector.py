@@ -13,9 +13,14 @@ episode (it holds the task's metrics) and on resets, unless ``step_infos=True``.
 ``processes=False`` the sub-environments step one after another in this process, behind the
 same interface.
 
-Autoreset is Gymnasium's *next step* mode (``metadata["autoreset_mode"]``): the step after a
-sub-environment's episode ended resets it (reward 0, not done) and returns its first
-observation, so the last observation of an episode is the one returned with its end.
+Autoreset is Gymnasium's *next step* mode by default (``metadata["autoreset_mode"]``): the
+step after a sub-environment's episode ended resets it (reward 0, not done) and returns its
+first observation, so the last observation of an episode is the one returned with its end.
+``autoreset_mode=AutoresetMode.SAME_STEP`` (what Stable-Baselines3 expects) resets it within
+the step that ended the episode: that step returns the new episode's first observation,
+the episode's reward and done flags, and the last observation and info under
+``info["final_obs"]`` and ``info["final_info"]`` (batched as Gymnasium's ``SyncVectorEnv``
+does), pickled by the worker on that step only.
 """
 
 from __future__ import annotations
@@ -34,14 +39,18 @@ from gymnasium.vector.utils import batch_space, create_shared_memory, read_from_
 
 _STEP, _RESET, _CALL, _CLOSE = b"s", b"r", b"c", b"q"
 _OK, _ERROR = b"o", b"e"
+#: Key of a same-step autoreset's ``(last observation, last info)`` in a slot's info.
+_FINAL = "\0final"
 
 
 class _Slot:
     """One sub-environment and its rows of the shared buffers: the code that steps it is the
     same in a worker process and in this one."""
 
-    def __init__(self, env: gymnasium.Env, index: int, buffers: dict[str, Any], step_infos: bool):
-        self.env, self.i, self.step_infos = env, index, step_infos
+    def __init__(
+        self, env: gymnasium.Env, index: int, buffers: dict[str, Any], step_infos: bool, same_step: bool
+    ):
+        self.env, self.i, self.step_infos, self.same_step = env, index, step_infos, same_step
         self.obs = buffers["obs"]
         self.actions, self.rewards = buffers["actions"], buffers["rewards"]
         self.terminated, self.truncated = buffers["terminated"], buffers["truncated"]
@@ -69,10 +78,16 @@ class _Slot:
             info = self.reset(None, None)
             return info if self.step_infos else None
         obs, reward, term, trunc, info = self.env.step(self.actions[self.i])
+        done = bool(term or trunc)
+        if done and self.same_step:
+            first = self.reset(None, None)
+            self.rewards[self.i] = reward
+            self.terminated[self.i], self.truncated[self.i] = term, trunc
+            return {**first, _FINAL: (obs, info)}
         self._write(obs)
         self.rewards[self.i] = reward
         self.terminated[self.i], self.truncated[self.i] = term, trunc
-        self.needs_reset = bool(term or trunc)
+        self.needs_reset = done
         return info if (self.needs_reset or self.step_infos) else None
 
 
@@ -109,13 +124,13 @@ def _views(raw: dict[str, Any], obs_space, act_space, n: int) -> dict[str, Any]:
     }
 
 
-def _worker(make: bytes, index: int, raw, spaces, n: int, step_infos: bool, conn):
+def _worker(make: bytes, index: int, raw, spaces, n: int, step_infos: bool, same_step: bool, conn):
     """A worker process's loop: one sub-environment (``make``: its function, cloudpickled),
     commands from ``conn``."""
     env = None
     try:
         env = pickle.loads(make)()
-        slot = _Slot(env, index, _views(raw, *spaces, n), step_infos)
+        slot = _Slot(env, index, _views(raw, *spaces, n), step_infos, same_step)
         conn.send_bytes(_OK)
         while True:
             msg = conn.recv_bytes()
@@ -152,7 +167,8 @@ class VectorEnv(gymnasium.vector.VectorEnv):
     docstring). ``processes``: one worker process per sub-environment (``context``: the
     multiprocessing start method, default ``"forkserver"``: a worker starts from a fresh
     interpreter, so its scene cache starts empty); ``copy``: return copies of the
-    observation buffers (False: views that the next step overwrites)."""
+    observation buffers (False: views that the next step overwrites); ``autoreset_mode``:
+    Gymnasium's ``NEXT_STEP`` (default) or ``SAME_STEP`` (see the module docstring)."""
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP}
 
@@ -164,14 +180,20 @@ class VectorEnv(gymnasium.vector.VectorEnv):
         context: str | None = None,
         copy: bool = True,
         step_infos: bool = False,
+        autoreset_mode: AutoresetMode = AutoresetMode.NEXT_STEP,
     ):
         if not env_fns:
             raise ValueError("VectorEnv: expected at least one environment function, got none")
+        if autoreset_mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
+            raise ValueError(
+                f"VectorEnv: autoreset_mode: expected NEXT_STEP or SAME_STEP, got {autoreset_mode}"
+            )
+        same = autoreset_mode == AutoresetMode.SAME_STEP
         n = self.num_envs = len(env_fns)
         first = env_fns[0]()
         self.single_observation_space = first.observation_space
         self.single_action_space = first.action_space
-        self.metadata = {**first.metadata, "autoreset_mode": AutoresetMode.NEXT_STEP}
+        self.metadata = {**first.metadata, "autoreset_mode": autoreset_mode}
         self.render_mode = first.render_mode
         self.observation_space = batch_space(self.single_observation_space, n)
         self.action_space = batch_space(self.single_action_space, n)
@@ -181,8 +203,8 @@ class VectorEnv(gymnasium.vector.VectorEnv):
         self._procs: list[Any] = []
         if not processes:
             self._bufs = _buffers(*spaces, n, None)
-            self._slots = [_Slot(first, 0, self._bufs, step_infos)]
-            self._slots += [_Slot(fn(), i, self._bufs, step_infos) for i, fn in enumerate(env_fns[1:], 1)]
+            envs = [first] + [fn() for fn in env_fns[1:]]
+            self._slots = [_Slot(e, i, self._bufs, step_infos, same) for i, e in enumerate(envs)]
             return
         first.close()
         self._slots = []
@@ -194,7 +216,7 @@ class VectorEnv(gymnasium.vector.VectorEnv):
         self._bufs = _views(raw, *spaces, n)
         for i, fn in enumerate(env_fns):
             parent, child = ctx.Pipe()
-            args = (cloudpickle.dumps(fn), i, raw, spaces, n, step_infos, child)
+            args = (cloudpickle.dumps(fn), i, raw, spaces, n, step_infos, same, child)
             proc = ctx.Process(target=_worker, args=args, daemon=True, name=f"citygen-vector-{i}")
             proc.start()
             child.close()
@@ -234,8 +256,13 @@ class VectorEnv(gymnasium.vector.VectorEnv):
     def _infos(self, infos: list[dict | None]) -> dict[str, Any]:
         out: dict[str, Any] = {}
         for i, info in enumerate(infos):
-            if info:
-                out = self._add_info(out, info, i)
+            if not info:
+                continue
+            if _FINAL in info:  # as Gymnasium's own same-step vector envs batch them
+                info = dict(info)
+                final_obs, final_info = info.pop(_FINAL)
+                out = self._add_info(out, {"final_obs": final_obs, "final_info": final_info}, i)
+            out = self._add_info(out, info, i)
         return out
 
     # --- the Gymnasium interface ---------------------------------------------------------
@@ -284,6 +311,21 @@ class VectorEnv(gymnasium.vector.VectorEnv):
 
     def get_attr(self, name: str) -> tuple[Any, ...]:
         return self.call(name)
+
+    def set_attr(self, name: str, values: Any) -> None:
+        """Set ``name`` on every sub-environment: to ``values[i]`` for a list or tuple of one
+        value each, else to ``values``."""
+        if not isinstance(values, list | tuple):
+            values = [values] * self.num_envs
+        if len(values) != self.num_envs:
+            raise ValueError(f"set_attr: expected {self.num_envs} values, got {len(values)}")
+        if self._slots:
+            for s, v in zip(self._slots, values, strict=True):
+                setattr(s.env, name, v)
+            return
+        for conn, v in zip(self._conns, values, strict=True):
+            conn.send_bytes(_CALL + pickle.dumps(("__setattr__", (name, v), {})))
+        self._collect()
 
     def close_extras(self, **kwargs: Any) -> None:
         for s in self._slots:

@@ -71,7 +71,7 @@ def _sub_env(
     from citygen.runner.bench import make_env
 
     if multiprocessing.parent_process() is not None:
-        # A worker of AsyncVectorEnv: Ctrl-C is the trainer's to handle (it saves a checkpoint
+        # A worker of the vector env: Ctrl-C is the trainer's to handle (it saves a checkpoint
         # and closes the workers), not a traceback in every worker.
         signal.signal(signal.SIGINT, signal.SIG_IGN)
     env = make_env(task, split=split, robot=robot)
@@ -179,7 +179,9 @@ def make_training_env(cfg: TrainConfig) -> Sb3VecEnv:
     """The SB3 vector environment of a training run: ``cfg.envs`` sub-environments of
     ``cfg.task`` on ``cfg.train_split``, one process each or all in this one
     (:attr:`TrainConfig.processes`)."""
-    from gymnasium.vector import AsyncVectorEnv, AutoresetMode, SyncVectorEnv
+    from gymnasium.vector import AutoresetMode
+
+    from citygen.runner.vector import VectorEnv
 
     fns = [
         functools.partial(
@@ -197,8 +199,6 @@ def make_training_env(cfg: TrainConfig) -> Sb3VecEnv:
         for rank in range(cfg.envs)
     ]
     processes = cfg.processes if cfg.processes is not None else int((os.cpu_count() or 1) > 1)
-    if processes and cfg.envs > 1:
-        venv = AsyncVectorEnv(fns, shared_memory=False, autoreset_mode=AutoresetMode.SAME_STEP)
-    else:
-        venv = SyncVectorEnv(fns, autoreset_mode=AutoresetMode.SAME_STEP)
+    # citygen's vector env: observations through shared memory, nothing pickled per step.
+    venv = VectorEnv(fns, processes=bool(processes and cfg.envs > 1), autoreset_mode=AutoresetMode.SAME_STEP)
     return Sb3VecEnv(venv, cfg.obs_keys, seed=cfg.seed)

@@ -50,7 +50,11 @@ integrator.
 run a wheel drive at :data:`DRIVE_DT` (100 Hz, every :attr:`RobotHandle.drive_substeps`
 physics steps, its outputs held in between, as a real wheel controller does) and the
 ideal-locomotion servo at every physics step; called with no ``dt`` it assumes one call
-per physics step. :meth:`RobotHandle.joint_action` only writes
+per physics step. :meth:`RobotHandle.control` runs a whole control step (the drive and
+MuJoCo's steps) in one call, as the environments do. A composed robot's geoms are in geom
+group :data:`~citygen.runner.robots.handle.ROBOT_GROUP` (the scene's are 0-2), so the
+servo's ground rays ignore the robot in one ``mj_ray`` each; renderings turn that group on.
+:meth:`RobotHandle.joint_action` only writes
 position targets and may run at the control rate (50 Hz = every 10 steps is the usual
 choice).
 

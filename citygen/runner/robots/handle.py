@@ -47,6 +47,9 @@ def compose(scene_mjcf: MJCF, robot: Robot, pose: tuple[float, float, float, flo
     for geom in child.geoms:
         if geom.contype or geom.conaffinity:
             geom.contype, geom.conaffinity = ROBOT_BIT, ROBOT_CONAFFINITY
+        # The robot's own geom groups (ROBOT_GROUP, its hidden ones ROBOT_HIDDEN_GROUP): a
+        # ray of the scene's groups (SCENE_GROUPS) passes through the robot in one C call.
+        geom.group = ROBOT_GROUP if geom.group < ROBOT_GROUP else ROBOT_HIDDEN_GROUP
     for spec in (scene, child):  # equal options, so attaching has nothing to reconcile
         spec.option.timestep = robot.timestep
         spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
@@ -64,6 +67,22 @@ def compose(scene_mjcf: MJCF, robot: Robot, pose: tuple[float, float, float, flo
         raise ExportError(
             f"compose: MuJoCo rejected the scene with the {robot.name!r} robot: {exc}"
         ) from None
+
+
+#: Geom group of a composed robot's geoms (the scene's are 0 ground, 1 objects, 2 agents) and
+#: of those its own file hid (groups 3-5 there); renderings of the environments show
+#: :data:`ROBOT_GROUP` (:func:`render_option`).
+ROBOT_GROUP, ROBOT_HIDDEN_GROUP = 3, 5
+#: ``mj_ray``'s geom group filter of the scene alone: ground, objects and agents.
+SCENE_GROUPS = np.array([1, 1, 1, 0, 0, 0], dtype=np.uint8)
+
+
+def render_option() -> Any:
+    """A ``mujoco.MjvOption`` that shows the scene's groups and the robot's (:data:`ROBOT_GROUP`)."""
+    mujoco = import_mujoco()
+    opt = mujoco.MjvOption()
+    opt.geomgroup[ROBOT_GROUP] = 1
+    return opt
 
 
 # --- driving a robot in a compiled model ------------------------------------------------------
@@ -160,7 +179,7 @@ class RobotHandle:
         self._timestep = float(model.opt.timestep)
         self._left_ids = [int(a) for a in self.left]
         self._right_ids = [int(a) for a in self.right]
-        self._body_masses = model.body_mass[self.body_ids].copy()
+        self._mass_list = model.body_mass[self.body_ids].tolist()
         self._half_inertia = float(model.body_inertia[self.body_ids].sum() / 2)
         self._ray_point = np.zeros(3)
         self._ray_down = np.array([0.0, 0.0, -1.0])
@@ -225,35 +244,121 @@ class RobotHandle:
         outputs hold until the next call. The environments call it every :data:`DRIVE_DT`."""
         r = self.robot
         dt = self._timestep if dt is None else float(dt)
+        if r.nav_mode == "base":
+            self._servo(data, v, w, 1, dt, step=False)
+            return
+        self._wheels(data, v, w, (1,), dt, step=False)
+
+    def control(self, data: Any, v: float, w: float, nstep: int) -> None:
+        """One control step of ``nstep`` physics steps holding the command ``(v, w)``: the
+        same as calling :meth:`drive` (its ``dt`` the time until the next call) before every
+        :attr:`drive_substeps` of them, in one Python call whose loop reads MuJoCo's arrays
+        through views bound once (the environments' hot loop)."""
+        if self.robot.nav_mode == "base":
+            self._servo(data, v, w, nstep, self._timestep)
+            return
+        k = self.drive_substeps
+        self._wheels(data, v, w, (k,) * (nstep // k) + ((nstep % k,) if nstep % k else ()), self._timestep)
+
+    def _wheels(
+        self, data: Any, v: float, w: float, periods: tuple[int, ...], h: float, step: bool = True
+    ) -> None:
+        """The wheel drive for feedback periods of ``periods[i] * h`` s each, MuJoCo stepping
+        each period's physics steps (of ``h`` s) in one call if ``step``: the reference
+        approaches the command at the acceleration limits, a PI correction of the measured
+        forward speed and yaw rate sets the wheel speeds (and Ackermann angles)."""
+        r, mj, model = self.robot, self._mj, self.model
+        v = _clamp(float(v), r.max_speed)
+        w = _clamp(float(w), r.max_yaw_rate)
+        ctrl = data.ctrl
+        if self.leg_act.size:
+            ctrl[self.leg_act] = self.default
+        rv, rw = self._ref
+        iv, iw = self._integral
+        b, qa, da = self.base_id, self.qadr, self.dadr
+        qpos, qvel, xmat = data.qpos, data.qvel, data.xmat[b]
+        radius, kturn = r.wheel_radius, r.nav_mode == "ackermann"
+        for m in periods:
+            dt = m * h
+            # the reference approaches the command at the robot's acceleration limits
+            rv += _clamp(v - rv, dt * r.max_accel)
+            rw += _clamp(w - rw, dt * r.max_yaw_accel)
+            drive_v = self._kturn(rv, rw, dt) if kturn else rv
+            qw, qx, qy, qz = qpos[qa + 3 : qa + 7].tolist()
+            lx, ly, _, ax, ay, az = qvel[da : da + 6].tolist()
+            _, _, _, _, _, _, r6, r7, r8 = xmat.tolist()  # the free joint's spin is local
+            yaw = math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
+            ev = drive_v - (math.cos(yaw) * lx + math.sin(yaw) * ly)
+            ew = rw - (r6 * ax + r7 * ay + r8 * az)
+            iv, iw = _clamp(iv + ev * dt, 1.0), _clamp(iw + ew * dt, 1.0)
+            vc = drive_v + _WHEEL_P * ev + _WHEEL_I * iv
+            wc = rw + _WHEEL_P * ew + _WHEEL_I * iw
+            half = wc * r.track_width / 2
+            if self._steer_ids:
+                self._steer(ctrl, vc, wc)
+            for a in self._left_ids:
+                ctrl[a] = (vc - half) / radius
+            for a in self._right_ids:
+                ctrl[a] = (vc + half) / radius
+            if step:
+                mj.mj_step(model, data, nstep=m)
+        self._ref, self._integral = (rv, rw), (iv, iw)
+
+    def _servo(self, data: Any, v: float, w: float, nstep: int, h: float, step: bool = True) -> None:
+        """Ideal locomotion for ``nstep`` periods of ``h`` s (a physics step each if
+        ``step``): base forces and torques (``data.xfrc_applied``) that carry the weight at
+        the hover height, keep the trunk level and track the ramped ``(v, w)``. The hover
+        height stands on the highest of the ground under the base (every period: it must
+        follow edges and objects as the base passes over them) and the ground under and
+        beyond the feet (:meth:`_footprint_probe`, so that they clear a stair riser, a crest
+        or a slope); the probe and the composite inertia are recomputed every
+        :data:`DRIVE_DT`. Arithmetic on plain floats, MuJoCo's arrays read through views
+        bound once: it runs at every physics step."""
+        r, mj, model = self.robot, self._mj, self.model
         v = _clamp(float(v), r.max_speed)
         w = _clamp(float(w), r.max_yaw_rate)
         if self.leg_act.size:
             data.ctrl[self.leg_act] = self.default
-        # the reference approaches the command at the robot's acceleration limits
+        av, aw = h * r.max_accel, h * r.max_yaw_accel
         rv, rw = self._ref
-        rv += _clamp(v - rv, dt * r.max_accel)
-        rw += _clamp(w - rw, dt * r.max_yaw_accel)
+        b, qa, da = self.base_id, self.qadr, self.dadr
+        qpos, qvel, xfrc = data.qpos, data.qvel, data.xfrc_applied
+        xmat, base_pos = data.xmat[b], data.xpos[b]
+        ray, down, gid, mj_step = mj.mj_ray, self._ray_down, self._ray_geom, mj.mj_step
+        m, stand = self.mass, r.stand_height
+        fv = m * _SERVO_V
+        for _ in range(nstep):
+            rv += _clamp(v - rv, av)
+            rw += _clamp(w - rw, aw)
+            self._servo_age += h
+            if self._servo_age >= DRIVE_DT - 1e-9:
+                self._servo_age = 0.0
+                self._servo_inertia = self._inertia(data)
+                self._footprint_ground = self._footprint_probe(data)
+            inertia = self._servo_inertia
+            dist = ray(model, data, base_pos, down, SCENE_GROUPS, 1, -1, gid)
+            if dist >= 0:
+                self._ground = float(base_pos[2]) - dist
+            below = self._ground if self._ground is not None else 0.0
+            fg = self._footprint_ground
+            target = (below if below >= fg else fg) + stand + HOVER_CLEARANCE
+            r0, r1, r2, r3, r4, r5, r6, r7, r8 = xmat.tolist()
+            z, qw, qx, qy, qz = qpos[qa + 2 : qa + 7].tolist()
+            lx, ly, lz, ax, ay, az = qvel[da : da + 6].tolist()
+            yaw = math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
+            c, s = math.cos(yaw), math.sin(yaw)
+            # tilt = (base z axis) x (world z); the free joint's angular velocity is local
+            xfrc[b] = (
+                fv * (rv * c - lx),
+                fv * (rv * s - ly),
+                m * (_GRAVITY + _SERVO_KP * (target - z) - _SERVO_KD * lz),
+                inertia * (_SERVO_KP * r5 - _SERVO_KD * (r0 * ax + r1 * ay + r2 * az)),
+                inertia * (_SERVO_KP * -r2 - _SERVO_KD * (r3 * ax + r4 * ay + r5 * az)),
+                inertia * _SERVO_W * (rw - (r6 * ax + r7 * ay + r8 * az)),
+            )
+            if step:
+                mj_step(model, data)
         self._ref = (rv, rw)
-        if r.nav_mode == "base":
-            self._servo(data, rv, rw, dt)
-            return
-        if r.nav_mode == "ackermann":
-            rv = self._kturn(rv, rw, dt)
-        vx, _, _, wz = self._velocity(data)
-        ev, ew = rv - vx, rw - wz
-        iv, iw = self._integral
-        iv, iw = _clamp(iv + ev * dt, 1.0), _clamp(iw + ew * dt, 1.0)
-        self._integral = (iv, iw)
-        vc = rv + _WHEEL_P * ev + _WHEEL_I * iv
-        wc = rw + _WHEEL_P * ew + _WHEEL_I * iw
-        half = wc * r.track_width / 2
-        ctrl = data.ctrl
-        if self._steer_ids:
-            self._steer(ctrl, vc, wc)
-        for a in self._left_ids:
-            ctrl[a] = (vc - half) / r.wheel_radius
-        for a in self._right_ids:
-            ctrl[a] = (vc + half) / r.wheel_radius
 
     def _kturn(self, v: float, w: float, dt: float) -> float:
         """Ackermann steering cannot turn on the spot: a yaw rate ``w`` (rad/s) asked at a
@@ -283,18 +388,13 @@ class RobotHandle:
         ctrl[self._steer_ids[1]] = _clamp(right, r.max_steer)
 
     def _ground_below(self, data: Any) -> float:
-        """Height (m) of the first non-robot surface under the base origin."""
-        point, gid = self._ray_point, self._ray_geom
+        """Height (m) of the first non-robot surface under the base origin (the last one
+        found if there is none)."""
+        point = self._ray_point
         point[:] = data.xpos[self.base_id]
-        for _ in range(8):
-            dist = self._mj.mj_ray(self.model, data, point, self._ray_down, None, 1, self.base_id, gid)
-            if dist < 0:
-                break
-            point[2] -= dist
-            if not self._is_robot_geom[gid[0]]:
-                self._ground = float(point[2])
-                break
-            point[2] -= 1e-4
+        dist = self._mj.mj_ray(self.model, data, point, self._ray_down, SCENE_GROUPS, 1, -1, self._ray_geom)
+        if dist >= 0:
+            self._ground = float(point[2]) - dist
         return self._ground if self._ground is not None else 0.0
 
     def _footprint_probe(self, data: Any) -> float:
@@ -303,71 +403,33 @@ class RobotHandle:
         without feet."""
         if self.foot_geom_ids.size == 0:
             return -math.inf
-        base = data.xpos[self.base_id]
+        bx, by, top = data.xpos[self.base_id].tolist()
         qw, qx, qy, qz = data.qpos[self.qadr + 3 : self.qadr + 7].tolist()
         yaw = math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
         c, s = math.cos(yaw), math.sin(yaw)
-        feet = data.geom_xpos[self.foot_geom_ids]
-        along = (feet[:, 0] - base[0]) * c + (feet[:, 1] - base[1]) * s
-        ahead = np.where(along >= 0, SERVO_LOOKAHEAD, -SERVO_LOOKAHEAD)
-        xs = np.concatenate([feet[:, 0], feet[:, 0] + ahead * c]).tolist()
-        ys = np.concatenate([feet[:, 1], feet[:, 1] + ahead * s]).tolist()
-        top = float(base[2])
-        return max(self._ground_at(data, x, y, top) for x, y in zip(xs, ys, strict=True))
+        feet = data.geom_xpos[self.foot_geom_ids].tolist()
+        best = -math.inf
+        for fx, fy, _ in feet:  # under the feet
+            best = max(best, self._ground_at(data, fx, fy, top))
+        for fx, fy, _ in feet:  # ahead of the front feet, behind the rear ones
+            ahead = SERVO_LOOKAHEAD if (fx - bx) * c + (fy - by) * s >= 0 else -SERVO_LOOKAHEAD
+            best = max(best, self._ground_at(data, fx + ahead * c, fy + ahead * s, top))
+        return best
+
+    def _inertia(self, data: Any) -> float:
+        """Composite inertia (kg m^2) of the robot about its centre of mass, horizontal axes."""
+        cx, cy, _ = data.subtree_com[self.base_id].tolist()
+        total = 0.0
+        for mass, (x, y, _) in zip(self._mass_list, data.xipos[self.body_ids].tolist(), strict=True):
+            total += mass * ((x - cx) ** 2 + (y - cy) ** 2)
+        return total + self._half_inertia
 
     def _ground_at(self, data: Any, x: float, y: float, top: float) -> float:
         """Height (m) of the first non-robot surface below ``(x, y, top)``; -inf if none."""
-        point, gid = self._ray_point, self._ray_geom
+        point = self._ray_point
         point[:] = (x, y, top)
-        for _ in range(8):
-            dist = self._mj.mj_ray(self.model, data, point, self._ray_down, None, 1, self.base_id, gid)
-            if dist < 0:
-                return -math.inf
-            point[2] -= dist
-            if not self._is_robot_geom[gid[0]]:
-                return float(point[2])
-            point[2] -= 1e-4
-        return -math.inf
-
-    def _servo(self, data: Any, v: float, w: float, dt: float) -> None:
-        """Ideal locomotion: base forces and torques (``data.xfrc_applied``) that carry the
-        weight at the hover height, keep the trunk level and track ``(v, w)``; ``dt`` (s):
-        the time since the last call. The hover height stands on the highest of the ground
-        under the base (every call: it must follow edges and objects as the base passes over
-        them) and the ground under and beyond the feet (:meth:`_footprint_probe`, so that
-        they clear a stair riser, a crest or a slope); the probe and the composite inertia
-        are recomputed every :data:`DRIVE_DT`."""
-        b = self.base_id
-        self._servo_age += dt
-        if self._servo_age >= DRIVE_DT - 1e-9:
-            self._servo_age = 0.0
-            # composite inertia about the subtree's centre of mass (kg m^2), horizontal axes
-            d = data.xipos[self.body_ids] - data.subtree_com[b]
-            inertia = float(self._body_masses @ (d[:, 0] ** 2 + d[:, 1] ** 2)) + self._half_inertia
-            self._servo_inertia = inertia
-            self._footprint_ground = self._footprint_probe(data)
-        inertia = self._servo_inertia
-        ground = max(self._ground_below(data), self._footprint_ground)
-        target = ground + self.robot.stand_height + HOVER_CLEARANCE
-        r = data.xmat[b].tolist()  # row-major 3x3 rotation of the base
-        z, qw, qx, qy, qz = data.qpos[self.qadr + 2 : self.qadr + 7].tolist()
-        lx, ly, lz, ax, ay, az = data.qvel[self.dadr : self.dadr + 6].tolist()
-        yaw = math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
-        c, s = math.cos(yaw), math.sin(yaw)
-        # world angular velocity (the free joint's is in the base frame)
-        wx = r[0] * ax + r[1] * ay + r[2] * az
-        wy = r[3] * ax + r[4] * ay + r[5] * az
-        wz = r[6] * ax + r[7] * ay + r[8] * az
-        m = self.mass
-        # tilt = (base z axis) x (world z): the base's z axis is the rotation's third column
-        data.xfrc_applied[b] = (
-            m * _SERVO_V * (v * c - lx),
-            m * _SERVO_V * (v * s - ly),
-            m * (_GRAVITY + _SERVO_KP * (target - z) - _SERVO_KD * lz),
-            inertia * (_SERVO_KP * r[5] - _SERVO_KD * wx),
-            inertia * (_SERVO_KP * -r[2] - _SERVO_KD * wy),
-            inertia * _SERVO_W * (w - wz),
-        )
+        dist = self._mj.mj_ray(self.model, data, point, self._ray_down, SCENE_GROUPS, 1, -1, self._ray_geom)
+        return top - dist if dist >= 0 else -math.inf
 
     def joint_action(self, data: Any, action: np.ndarray) -> None:
         """Locomotion: leg joint targets ``default_pose + action_scale * clip(action, -1, 1)``
