@@ -14,12 +14,21 @@
    the generator, to usdc: the stress case. Rough tiles are sampled every 0.625 m (4 cells
    a tile; the exporter refuses the default, 1/8 of the wavelength, at city scale).
 
-Run: ``python benchmarks/bench_export.py``. Last line: JSON figures.
+4. ``citygen export`` of urban-tra-city scene 0 ``--format all``, as a user runs it (one
+   process; generation not timed): wall and CPU time of the whole run (target, issue 18:
+   <= 5 minutes), and per format the wall time between its first and last line of output
+   and the bytes it wrote (the URDF: its tiles, index and meshes), with the largest error
+   of each format's sampled ground against ``height_at`` as its warning line gives it.
+   Baseline: the same export's MJCF alone (the whole run over it).
+
+Run: ``python benchmarks/bench_export.py`` (``--all-formats``: part 4 only). Last line: JSON
+figures.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import resource
 import statistics
 import subprocess
@@ -234,7 +243,123 @@ def city_figures(prefix: str, r: dict) -> dict:
     return out
 
 
+# --- 4. urban-tra-city, every format ------------------------------------------------------
+
+#: The first file each format writes (what starts its lines in ``citygen export``'s output).
+FIRST_FILE = {
+    "mjcf": ".xml", "usd": ".usda", "urdf": "-urdf-tiles.json", "occupancy": ".npz",
+    "glb": ".glb", "html": ".html", "png": ".png",
+}  # fmt: skip
+
+
+def _children_cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def _export_lines(args: list[str]) -> tuple[list[tuple[float, str, str]], int, float, float]:
+    """Run ``citygen export ARGS``: its lines as ``(seconds since start, stream, text)``, the
+    exit code, the wall time and the CPU time (s)."""
+    import os
+    import threading
+
+    env = {**os.environ, "PYTHONUNBUFFERED": "1", "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    cpu, start = _children_cpu(), time.perf_counter()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "citygen", "export", *args],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+    )  # fmt: skip
+    lines: list[tuple[float, str, str]] = []
+
+    def read(stream, name: str) -> None:
+        for line in stream:
+            lines.append((time.perf_counter() - start, name, line.rstrip("\n")))
+
+    readers = [threading.Thread(target=read, args=(proc.stderr, "err"))]
+    readers[0].start()
+    read(proc.stdout, "out")
+    readers[0].join()
+    code = proc.wait()
+    return sorted(lines), code, time.perf_counter() - start, _children_cpu() - cpu
+
+
+def time_all_formats() -> dict:
+    """Part 4: the city's ``--format all`` export, per format (see the module docstring)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        gen = subprocess.run(
+            [sys.executable, "-m", "citygen", "generate", "--split", "urban-tra-city", "--out", tmp],
+            capture_output=True, text=True, check=True,
+        )  # fmt: skip
+        del gen
+        scene = Path(tmp) / "urban-tra-city" / "0000.json"
+        out = Path(tmp) / "export"
+        lines, code, wall, cpu = _export_lines([str(scene), "--format", "all", "--out", str(out)])
+        name = "urban-tra-city-0000"
+        per: dict[str, dict] = {}
+        current, last_end, seen, error_cm = None, 0.0, set(), {}
+        for t, stream, text in lines:
+            if stream == "out" and text.startswith("wrote "):
+                path = Path(text.removeprefix("wrote "))
+                starts = [f for f, suffix in FIRST_FILE.items() if path.name == name + suffix]
+                if starts and starts[0] not in per:
+                    current = starts[0]
+                    per[current] = {"bytes": 0, "files": 0, "start": last_end}
+                if current is not None and path not in seen:
+                    seen.add(path)
+                    per[current]["bytes"] += path.stat().st_size
+                    per[current]["files"] += 1
+                if current is not None:
+                    per[current]["end"] = t
+                    last_end = t
+            elif stream == "err" and "$.terrain: " in text and " samples " in text:
+                fmt = text.split("$.terrain: ")[1].split(" ")[0].lower()
+                error_cm.setdefault(fmt, float(text.split("(up to ")[1].split(" cm")[0]))
+        errors = [text for _, stream, text in lines if stream == "err" and ": error: " in text]
+    for fmt, f in per.items():
+        f["wall_s"] = f["end"] - f["start"]
+        if fmt in error_cm:
+            f["error_cm"] = error_cm[fmt]
+    return {"code": code, "wall_s": wall, "cpu_s": cpu, "formats": per, "errors": errors}
+
+
+def print_all_formats(r: dict) -> None:
+    print(f"  {'format':10}{'wall s':>9}{'MB':>10}{'files':>7}{'error cm':>10}")
+    for fmt in FIRST_FILE:
+        f = r["formats"].get(fmt, {})
+        error = f"{f['error_cm']:.1f}" if "error_cm" in f else "-"
+        size, files = f.get("bytes", 0) / 1e6, f.get("files", 0)
+        print(f"  {fmt:10}{f.get('wall_s', math.nan):>9.1f}{size:>10.1f}{files:>7}{error:>10}")
+    print(
+        f"  whole run: exit {r['code']}, {r['wall_s']:.1f} s wall, {r['cpu_s']:.1f} s CPU (target <= 300 s); "
+        f"{len(r['errors'])} error line(s)"
+    )
+    for line in r["errors"][:5]:
+        print(f"    {line}")
+
+
+def all_formats_figures(r: dict) -> dict:
+    out: dict[str, float | int | None] = {
+        "tra_city_all_exit": r["code"],
+        "tra_city_all_wall_s": round(r["wall_s"], 1),
+        "tra_city_all_cpu_s": round(r["cpu_s"], 1),
+    }
+    mjcf_s = r["formats"].get("mjcf", {}).get("wall_s")
+    out["tra_city_all_over_mjcf"] = round(r["wall_s"] / mjcf_s, 2) if mjcf_s else None
+    for fmt, f in r["formats"].items():
+        out[f"tra_city_{fmt}_wall_s"] = round(f["wall_s"], 1) if "wall_s" in f else None
+        out[f"tra_city_{fmt}_mb"] = round(f.get("bytes", 0) / 1e6, 1)
+        if "error_cm" in f:
+            out[f"tra_city_{fmt}_error_cm"] = f["error_cm"]
+    return out
+
+
 def main() -> None:
+    if sys.argv[1:2] == ["--all-formats"]:
+        print("4. urban-tra-city scene 0: citygen export --format all (one process)")
+        r = time_all_formats()
+        print_all_formats(r)
+        print(json.dumps(all_formats_figures(r)))
+        return
     figures: dict[str, float | int | None] = {}
     print(f"1. 15 m x 15 m scene with terrain and 8 objects (medians over {len(SMALL_SEEDS)} seeds)")
     small = time_small()
@@ -270,6 +395,11 @@ def main() -> None:
     r = time_city("stress")
     print_city(r)
     figures.update(city_figures("city1200", r))
+
+    print("\n4. urban-tra-city scene 0: citygen export --format all (one process)")
+    r = time_all_formats()
+    print_all_formats(r)
+    figures.update(all_formats_figures(r))
     print(json.dumps(figures))
 
 

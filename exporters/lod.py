@@ -40,6 +40,16 @@ BUDGETS = MappingProxyType(
         "html": 2_000_000,  # triangles, inlined as base64 into one page
     }
 )
+#: Terrain triangles a format cut into tiles (:mod:`citygen.exporters.tiles`) holds in all its
+#: files together, each file staying within :data:`BUDGETS`: about 400 MB of URDF meshes.
+TILED_BUDGETS = MappingProxyType({"urdf": 8_000_000})
+#: The error model :func:`allocate` uses: a rough tile of amplitude ``A`` whose noise lattice
+#: (spacing ``scale / 2``) is sampled every ``h`` metres is off by about
+#: ``A * min(SATURATION, CURVATURE * (2 h / scale) ** 2)`` (fitted, slightly above, to
+#: :func:`max_error` on urban-tra-city's rough tiles).
+CURVATURE, SATURATION = 2.6, 1.85
+#: Fewest cells along a rough tile's side :func:`allocate` gives.
+MIN_CELLS = 4
 #: Most terrain tiles :func:`max_error` samples to measure the error (evenly spread), and
 #: points along a cell's side it measures at.
 ERROR_TILES, ERROR_POINTS = 200, 4
@@ -58,6 +68,39 @@ def cells_within(budget: int, tiles: int, cost: Callable[[int], int]) -> int:
         mid = (lo + hi) // 2
         lo, hi = (mid, hi) if tiles * cost(mid) <= budget else (lo, mid)
     return lo
+
+
+def allocate(
+    amplitude: np.ndarray, scale: np.ndarray, tile_size: float, budget: int, most: np.ndarray
+) -> np.ndarray:
+    """Cells along each rough tile's side (``amplitude``, ``scale``: per tile, m), at most
+    ``most`` each and :data:`MIN_CELLS` at least, such that their meshes hold at most
+    ``budget`` triangles (``2 c**2 + 12 c`` a tile) and the largest expected error (the
+    model of :data:`CURVATURE`) is as small as that allows: rougher tiles get finer cells.
+
+    >>> allocate(np.array([0.1, 0.01]), np.array([0.5, 0.5]), 10.0, 20_000, np.array([256, 256])).tolist()
+    [96, 4]
+    """
+    a, scale, most = np.asarray(amplitude, float), np.asarray(scale, float), np.asarray(most, np.int64)
+    if not a.size:
+        return np.zeros(0, dtype=np.int64)
+
+    def cells(error: float) -> np.ndarray:
+        ratio = error / np.maximum(a, 1e-12)
+        h = np.sqrt(np.clip(ratio, 1e-12, None) / CURVATURE) * scale / 2.0
+        c = np.where(ratio >= SATURATION, MIN_CELLS, np.ceil(tile_size / h - 1e-9).clip(max=1 << 20))
+        return np.minimum(np.maximum(c, MIN_CELLS), most).astype(np.int64)
+
+    def triangles(c: np.ndarray) -> int:
+        return int((2 * c**2 + 12 * c).sum())
+
+    lo, hi = 0.0, float(SATURATION * a.max()) + 1e-9
+    if triangles(cells(lo)) <= budget:
+        return cells(lo)
+    for _ in range(60):  # hi always fits (or is the coarsest there is)
+        mid = (lo + hi) / 2
+        lo, hi = (lo, mid) if triangles(cells(mid)) <= budget else (mid, hi)
+    return cells(hi)
 
 
 def max_error(scene: Scene, cells: Callable[[object], int | None]) -> float:

@@ -50,7 +50,7 @@ import trimesh
 
 from citygen.assets import Box, Capsule, Cylinder, Part
 from citygen.errors import ExportError
-from citygen.exporters import ExportWarning, shared_file
+from citygen.exporters import ExportWarning, lod, shared_file, tiles
 from citygen.exporters.glb import (
     AUTO,
     GROUND_RGBA,
@@ -67,6 +67,7 @@ from citygen.exporters.glb import (
     output_name,
     polygon_parts,
     resolution_option,
+    rough_cells,
     scene_dir_of,
     submesh,
     triangulate,
@@ -78,7 +79,7 @@ from citygen.io import write_atomic
 from citygen.spec.placements import Placement
 from citygen.spec.scene import Scene
 from citygen.spec.surfaces import FRICTION
-from citygen.spec.terrain import FlatTile, StairTile, Terrain
+from citygen.spec.terrain import FlatTile, RoughTile, StairTile, Terrain
 
 ROOT = "scene/world"
 #: Thickness (m) of the slabs that carry the flat ground's collision outside the terrain grid.
@@ -87,7 +88,12 @@ ZONE_THICKNESS = 0.1
 FLOOR = -1.0
 CAPSULES = ("mesh", "pybullet")
 
-_OPTIONS = ("name", "scene_dir", "resolution", "floor", "zone_thickness", "capsules")
+_OPTIONS = ("name", "scene_dir", "resolution", "floor", "zone_thickness", "capsules", "tile")
+#: Most links (about one a zone and one an object) a scene's URDF holds in one file; a
+#: larger scene is cut into tiles of about :data:`TILE_LINKS` links each. PyBullet 3.2.7
+#: loads the 15,000 links of urban-tra-city's one-file URDF in about 95 s and crashes
+#: freeing that body.
+MAX_LINKS, TILE_LINKS = 2_000, 1_000
 
 
 def _f(x: float) -> str:
@@ -287,14 +293,16 @@ FRICTION_STEP = 0.01
 
 
 def tile_friction(
-    scene: Scene, zones: Sequence[shapely.Geometry] | None = None
+    scene: Scene, zones: Sequence[shapely.Geometry] | None = None, *, split_flat: bool = False
 ) -> tuple[np.ndarray, str | None]:
     """Each terrain tile's friction coefficient: its own, else its material's, else the
     mean of the zones' frictions over the tile weighted by area (ground no zone covers
     counts as concrete's, :data:`~citygen.spec.surfaces.FRICTION`), rounded to
     :data:`FRICTION_STEP`; and a one-line report of how far that is from the ground under
     the tiles that lie on zones of different friction (None when none does).
-    ``zones`` are the zones' shapes if already made (:func:`~citygen.exporters.glb.zone_polygons`)."""
+    ``zones`` are the zones' shapes if already made (:func:`~citygen.exporters.glb.zone_polygons`).
+    With ``split_flat``, flat tiles without a friction of their own are left out of the
+    report: the URDF exporter cuts them where the zone changes, so they keep it exactly."""
     t = scene.terrain
     if t is None:
         return np.zeros(0), None
@@ -316,6 +324,8 @@ def tile_friction(
         rest = np.clip(s * s - covered, 0.0, None)
         out = np.round((weighted + rest * concrete) / (s * s) / FRICTION_STEP) * FRICTION_STEP
         own = np.array([tile.friction is not None or tile.material is not None for tile in t.tiles])
+        if split_flat:  # exact, so never off: counted as having their own friction
+            own |= np.array([isinstance(tile, FlatTile) for tile in t.tiles])
         keep = areas > 1e-6 * s * s
         off = np.abs(mus - out[ti]) * keep * ~own[ti]
         rest_off = np.abs(concrete - out) * (rest > 1e-6 * s * s) * ~own
@@ -332,7 +342,8 @@ def tile_friction(
     report = None
     if mixed:
         report = (
-            f"$.terrain: {mixed} tile(s) lie on zones of different friction; each gets the zones' "
+            f"$.terrain: {mixed} {'sloped, stepped or rough ' if split_flat else ''}tile(s) lie on zones "
+            "of different friction; each gets the zones' "
             f"friction averaged by area, up to {worst:.2f} off the zone's on "
             f"{100 * mixed_area / (len(ids) * s * s):.1f} % of the terrain's area (MJCF keeps flat "
             "ground's zone friction exactly)"
@@ -367,18 +378,49 @@ def _flat_rectangles(t: Terrain, members: np.ndarray) -> list[tuple[int, int, in
     return sorted(rects)
 
 
-def _add_terrain(w: _Writer, scene: Scene, polys: list, resolution: float | None, floor: float) -> None:
+def _split_flat(
+    t: Terrain, members: np.ndarray, polys: Sequence, mus: Sequence[float]
+) -> dict[float, list[tuple[shapely.Geometry, float]]]:
+    """The flat tiles ``members`` cut where the zone, and so the friction, changes: for each
+    friction coefficient, the pieces ``(area, height)`` of flat ground it holds (ground no
+    zone covers: concrete's)."""
+    s, (ox, oy) = t.tile_size, t.origin
+    out: dict[float, list[tuple[shapely.Geometry, float]]] = {}
+    shapes = np.asarray(polys, dtype=object)
+    tree = shapely.STRtree(shapes) if len(shapes) else None
+    for r0, c0, r1, c1, h in _flat_rectangles(t, members):
+        rect = shapely.box(ox + c0 * s, oy + r0 * s, ox + c1 * s, oy + r1 * s)
+        hit = tree.query(rect, predicate="intersects") if tree is not None else np.zeros(0, dtype=int)
+        covered = []
+        for i in hit.tolist():
+            part = shapely.intersection(shapes[i], rect)
+            if part.area > 1e-9:
+                out.setdefault(round(float(mus[i]), 6), []).append((part, h))
+                covered.append(part)
+        rest = rect.difference(shapely.union_all(covered)) if covered else rect
+        if rest.area > 1e-9:
+            out.setdefault(FRICTION["concrete"], []).append((rest, h))
+    return out
+
+
+def _add_terrain(
+    w: _Writer, scene: Scene, polys: list, friction: np.ndarray, resolution: float | None, floor: float
+) -> None:
+    """The terrain's links, one per friction coefficient. ``friction`` is each tile's
+    (:func:`tile_friction`); flat tiles without a friction of their own are instead cut
+    where the zone changes (:func:`_split_flat`), each piece a slab with its zone's."""
     t = scene.terrain
     if t is None:
         return
     s, (ox, oy) = t.tile_size, t.origin
-    friction, report = tile_friction(scene, polys)
-    if report is not None:
-        warnings.warn(ExportWarning(report), stacklevel=3)
-    values = list(dict.fromkeys(friction.tolist()))  # in order of first tile
+    own = np.array([tile.friction is not None or tile.material is not None for tile in t.tiles])
+    flat = np.array([isinstance(tile, FlatTile) for tile in t.tiles])
+    friction = np.round(friction, 6)
+    split = _split_flat(t, np.flatnonzero(flat & ~own), polys, [z.mu for z in scene.zones])
+    values = list(dict.fromkeys([*friction[~(flat & ~own)].tolist(), *split]))  # deterministic order
     terrain_material = w.material("terrain", TERRAIN_RGBA)
     for g, mu in enumerate(values):
-        members = np.flatnonzero(friction == mu)
+        members = np.flatnonzero((friction == mu) & ~(flat & ~own))
         link = w.link(f"ground/terrain/{g}", friction=mu)
         # The visual is the collision geometry itself (the zones' surfaces colour it).
         boxes = [
@@ -395,22 +437,31 @@ def _add_terrain(w: _Writer, scene: Scene, polys: list, resolution: float | None
         for kind, material in (("visual", terrain_material), ("collision", None)):
             for lo, hi in boxes:
                 _element(link, kind, ("box", {"size": _v(hi - lo)}), (lo + hi) / 2, material=material)
+        slabs = [_slab(area, min(floor, h - MIN_THICKNESS), h) for area, h in split.get(mu, [])]
         meshes = [k for k in members.tolist() if not isinstance(t.tiles[k], FlatTile | StairTile)]
         if meshes:
-            filename = w.mesh(*_tiles(t, np.asarray(meshes), floor, resolution))
+            slabs.append(_tiles(t, np.asarray(meshes), floor, resolution))
+        slabs = [(v, f) for v, f in slabs if len(f)]
+        if slabs:
+            offsets = np.cumsum([0] + [len(v) for v, _ in slabs[:-1]])
+            verts = np.concatenate([v for v, _ in slabs])
+            faces = np.concatenate([f + o for (_, f), o in zip(slabs, offsets, strict=True)])
+            filename = w.mesh(verts, faces)
             _element(link, "visual", _mesh_geometry(filename), material=terrain_material)
             _element(link, "collision", _mesh_geometry(filename), concave=True)
 
 
-def _tiles(t: Terrain, members: np.ndarray, floor: float, resolution: float | None):
-    """The solids of the tiles ``members`` in world coordinates, each distinct tile built once."""
-    cache: dict[str, trimesh.Trimesh] = {}
+def _tiles(t: Terrain, members: np.ndarray, floor: float, resolution: float | np.ndarray | None):
+    """The solids of the tiles ``members`` in world coordinates, each distinct tile built once;
+    ``resolution`` is one cell size (m) for all or an array of each tile's."""
+    cache: dict[tuple[str, float | None], trimesh.Trimesh] = {}
     verts, faces, count = [], [], 0
     for k in members.tolist():
         tile = t.tiles[k]
-        key = tile.model_dump_json(exclude={"material", "friction"})
+        res = float(resolution[k]) if isinstance(resolution, np.ndarray) else resolution
+        key = (tile.model_dump_json(exclude={"material", "friction"}), res)
         if key not in cache:
-            cache[key] = tile_mesh(tile, t.tile_size, floor=floor, resolution=resolution)
+            cache[key] = tile_mesh(tile, t.tile_size, floor=floor, resolution=res)
         mesh = cache[key]
         shift = (t.origin[0] + (k % t.cols) * t.tile_size, t.origin[1] + (k // t.cols) * t.tile_size, 0.0)
         verts.append(mesh.vertices + np.array(shift))
@@ -422,18 +473,104 @@ def _tiles(t: Terrain, members: np.ndarray, floor: float, resolution: float | No
 # --- export -------------------------------------------------------------------------------
 
 
+def _write(
+    out: Path, name: str, piece: tiles.Piece, folder: Path | None, friction: np.ndarray, options: dict,
+    lod_choice: tuple[float | None, np.ndarray | None] | None,
+) -> tuple[Path, list[Path], float | None]:  # fmt: skip
+    """One URDF file of ``piece``: its path, its meshes, and its rough tiles' coarsest cell
+    size. ``lod_choice`` is :func:`_auto_lod`'s, None for an explicit ``resolution``."""
+    view, placements = piece.scene, piece.scene.placements
+    if lod_choice is None:
+        visual = terrain = fit_terrain(view, options["resolution"], "urdf", None)
+    else:
+        visual, cells = lod_choice
+        terrain = (
+            None if cells is None else view.terrain.tile_size / np.maximum(cells[piece.terrain_tiles], 1)
+        )
+    w = _Writer(out, name)
+    _add_ground(w, view, piece.zones, visual, options["thickness"])
+    _add_terrain(w, view, piece.zones, friction[piece.terrain_tiles], terrain, options["floor"])
+    for i in piece.placements:
+        _add_placement(w, placements[i], i, folder, options["capsules"])
+    path = out / f"{name}.urdf"
+    write_atomic(path, w.text().encode("utf-8"))
+    coarsest = terrain if not isinstance(terrain, np.ndarray) else None
+    if isinstance(terrain, np.ndarray):
+        rough = [isinstance(tile, RoughTile) for tile in view.terrain.tiles]
+        coarsest = float(terrain[rough].max()) if any(rough) else None
+    return path, sorted(w.files), coarsest
+
+
+def _auto_lod(model: Scene, pieces: list[tiles.Piece]) -> tuple[float | None, np.ndarray | None]:
+    """The terrain's level of detail when none is asked for: the zones' draped surfaces'
+    cell size (m; None: the default), and each terrain tile's cells along its side (None: the
+    default for every tile). Where the default rough meshes exceed ``lod.BUDGETS["urdf"]``
+    triangles, rougher tiles get finer cells (:func:`~citygen.exporters.lod.allocate`)
+    within that budget a file and ``lod.TILED_BUDGETS["urdf"]`` in all, said in one warning."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ExportWarning)
+        visual = fit_terrain(model, AUTO, "urdf", None)
+    t = model.terrain
+    if visual is None or t is None:
+        return None, None
+    rough = np.array([isinstance(tile, RoughTile) for tile in t.tiles])
+    amplitude = np.array([getattr(tile, "amplitude", 0.0) for tile in t.tiles])
+    scale = np.array([getattr(tile, "scale", 1.0) for tile in t.tiles])
+    most = np.array([rough_cells(x, t.tile_size, None) if isinstance(x, RoughTile) else 0 for x in t.tiles])
+    cells = np.zeros(len(t.tiles), dtype=np.int64)
+    per_file = lod.BUDGETS["urdf"]
+    total = per_file if len(pieces) == 1 else lod.TILED_BUDGETS["urdf"]
+    cells[rough] = lod.allocate(amplitude[rough], scale[rough], t.tile_size, total, most[rough])
+    for piece in pieces:
+        ids = piece.terrain_tiles[rough[piece.terrain_tiles]]
+        if int((2 * cells[ids] ** 2 + 12 * cells[ids]).sum()) > per_file:
+            cells[ids] = np.minimum(
+                cells[ids], lod.allocate(amplitude[ids], scale[ids], t.tile_size, per_file, most[ids])
+            )
+    index = {id(tile): k for k, tile in enumerate(t.tiles)}
+    error = lod.max_error(model, lambda x: int(cells[index[id(x)]]) if isinstance(x, RoughTile) else None)
+    fine, coarse = t.tile_size / cells[rough].max(), t.tile_size / cells[rough].min()
+    budget = f"{total:,} triangles" + (f" ({per_file:,} a tile)" if len(pieces) > 1 else "")
+    option = "resolution= (citygen export --terrain-resolution)"
+    message = lod.describe("URDF", "rough tiles", coarse, error, budget, option)
+    message = message.replace(
+        f"every {coarse:.3g} m", f"every {fine:.3g} to {coarse:.3g} m, finer where rougher"
+    )
+    warnings.warn(ExportWarning(message), stacklevel=3)
+    return visual, cells
+
+
+def links(scene: Scene) -> int:
+    """About how many links the scene's URDF has in one file."""
+    return 2 + len(scene.zones) + len(scene.placements) + (8 if scene.terrain is not None else 0)
+
+
+def tile_side(scene: Scene) -> float:
+    """The side (m) of the square URDF tiles the scene is cut into by default: 0 (one file)
+    up to :data:`MAX_LINKS` links, else about :data:`TILE_LINKS` links a tile."""
+    n = links(scene)
+    if n <= MAX_LINKS:
+        return 0.0
+    w, h = scene.bounds.size
+    return max(w, h) / math.ceil(math.sqrt(n / TILE_LINKS))
+
+
 def export(scene: Scene | str | Path, out_dir: str | Path, **options: Any) -> list[Path]:
     """Write ``<out_dir>/<name>.urdf`` and its meshes under ``<out_dir>/assets/``; returns
-    the URDF's path followed by every mesh file it references, sorted.
+    the URDF's path followed by every mesh file it references, sorted. A scene of more
+    than :data:`MAX_LINKS` links (a city) is cut into square tiles instead
+    (:mod:`citygen.exporters.tiles`): ``<name>-tile-<row>-<col>.urdf`` each, listed with
+    their bounds in ``<name>-urdf-tiles.json``; returns the index, the tiles, then the meshes.
 
     Options: ``name`` (default: the scene file's stem, ``<split>-<index>`` or ``scene``),
     ``scene_dir`` (the folder mesh placements are relative to, for a scene given as a
     model), ``resolution`` (m, cell size of rough tiles' meshes; default
     :func:`~citygen.geometry.terrain.tile_mesh`'s, uniformly coarser with one warning where
-    the terrain would exceed ``lod.BUDGETS["urdf"]`` triangles), ``floor`` (m, bottom of the terrain,
+    a file's terrain would exceed ``lod.BUDGETS["urdf"]`` triangles), ``floor`` (m, bottom of the terrain,
     default -1), ``zone_thickness`` (m, default 0.1), ``capsules`` (``"mesh"``, the
     default, writes capsules as convex meshes every reader loads; ``"pybullet"`` writes
-    PyBullet's ``<capsule>``).
+    PyBullet's ``<capsule>``), ``tile`` (m, side of the URDF tiles; 0 writes one file
+    whatever the size; default :func:`tile_side`).
     """
     check_options(options, _OPTIONS, "urdf")
     name = output_name(scene, options, "urdf")
@@ -447,15 +584,30 @@ def export(scene: Scene | str | Path, out_dir: str | Path, **options: Any) -> li
         raise ExportError(
             f"urdf export: expected zone_thickness > 0 and a finite floor (m), got {thickness!r}, {floor!r}"
         )
+    side = options.get("tile", AUTO)
+    side = tile_side(model) if side == AUTO else side
+    if isinstance(side, bool) or not isinstance(side, int | float) or not math.isfinite(side) or side < 0:
+        raise ExportError(f"urdf export: expected tile >= 0 (m; 0 for one file), got {side!r}")
     resolution = resolution_option(options.get("resolution", AUTO), "urdf")
-    resolution = fit_terrain(model, AUTO if resolution is None else resolution, "urdf", None)
+    settings = {
+        "resolution": AUTO if resolution is None else resolution,
+        "thickness": thickness, "floor": floor, "capsules": capsules,
+    }  # fmt: skip
     out = Path(out_dir)
-    w = _Writer(out, name)
     polys = zone_polygons(model)
-    _add_ground(w, model, polys, resolution, thickness)
-    _add_terrain(w, model, polys, resolution, floor)
-    for i, pl in enumerate(model.placements):
-        _add_placement(w, pl, i, folder, capsules)
+    friction, report = tile_friction(model, polys, split_flat=True)
+    if report is not None:
+        warnings.warn(ExportWarning(report), stacklevel=2)
+    if side == 0:
+        whole = tiles.Piece(
+            0, 0, (*model.bounds.min, *model.bounds.max), model, polys, list(range(len(model.zones))),
+            list(range(len(model.placements))), np.arange(len(model.terrain.tiles) if model.terrain else 0),
+        )  # fmt: skip
+        choice = _auto_lod(model, [whole]) if settings["resolution"] == AUTO else None
+        path, files, _ = _write(out, name, whole, folder, friction, settings, choice)
+        written = [path]
+    else:
+        written, files = _write_tiles(model, out, name, float(side), polys, folder, friction, settings)
     if model.agents:
         warnings.warn(
             ExportWarning(
@@ -467,6 +619,27 @@ def export(scene: Scene | str | Path, out_dir: str | Path, **options: Any) -> li
         warnings.warn(
             ExportWarning(f"$.task: URDF has no task; the {model.task.kind} task is left out"), stacklevel=2
         )
-    path = out / f"{name}.urdf"
-    write_atomic(path, w.text().encode("utf-8"))
-    return [path, *sorted(w.files)]
+    return [*written, *sorted(set(files))]
+
+
+def _write_tiles(
+    model: Scene, out: Path, name: str, side: float, polys: list, folder: Path | None,
+    friction: np.ndarray, settings: dict,
+) -> tuple[list[Path], list[Path]]:  # fmt: skip
+    """Every tile's URDF and the index."""
+    pieces = tiles.plan(model, side, polys)
+    choice = _auto_lod(model, pieces) if settings["resolution"] == AUTO else None
+    digits = tiles.width(pieces)
+    paths, files, entries = [], [], []
+    for piece in pieces:
+        path, meshes, resolution = _write(
+            out, piece.name(name, digits), piece, folder, friction, settings, choice
+        )
+        paths.append(path)
+        files += meshes
+        entries.append(tiles.entry(
+            piece, path.name, links=len(ET.parse(path).getroot().findall("link")),
+            objects=len(piece.placements), terrain_resolution=resolution,
+        ))  # fmt: skip
+    index = tiles.write_index(out / f"{name}-urdf-tiles.json", name, "urdf", entries)
+    return [index, *paths], files

@@ -73,7 +73,9 @@ def render_array(
     vis = model.vis.global_
     vis.offwidth, vis.offheight = max(vis.offwidth, width), max(vis.offheight, height)
     try:
-        renderer = mujoco.Renderer(model, height=height, width=width)
+        # Room for every geom (a city has more than the default 10,000; MuJoCo would print a
+        # warning and leave the rest out of the picture).
+        renderer = mujoco.Renderer(model, height=height, width=width, max_geom=max(10_000, 2 * model.ngeom))
     except Exception as exc:  # the GL backends raise many types (ImportError, EGL errors ...)
         import os
 

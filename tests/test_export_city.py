@@ -1,11 +1,13 @@
-"""urban-tra-city (1.2 km x 1.2 km) exported with one `citygen export --format all`, as a user
-runs it, then every file opened in its real consumer: MJCF compiled and stepped in MuJoCo and
-read by dm_control (a robot attached, the XML it writes compiled and stepped in MuJoCo), URDF
-in PyBullet and yourdfpy, USD through usd-core's validators, GLB in trimesh, the occupancy map
-read back with every object on an obstacle cell.
+"""urban-tra-city (1.2 km x 1.2 km) exported by `citygen export`, as a user runs it, and every
+file opened in its real consumer: MJCF compiled and stepped in MuJoCo and read by dm_control
+(a robot attached, the XML it writes compiled and stepped in MuJoCo), the URDF tiles' index
+checked entry by entry with every tile read by yourdfpy and the tiles along the traverse route
+loaded in PyBullet, USD through usd-core's validators, GLB in trimesh, the occupancy map read
+back with every object on an obstacle cell at 0.25 m.
 
-The city is generated and exported once for the module (a few minutes on two cores); the
-level of detail each format chose is what the exporters pick for any scene of this size.
+The city is generated once and exported once for the module, one `citygen export --format F`
+per format, two at a time (the bench times `--format all` in one process); the level of detail
+each format chose is what the exporters pick for any scene of this size.
 """
 
 from __future__ import annotations
@@ -16,12 +18,14 @@ import os
 import struct
 import subprocess
 import sys
-import warnings
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
+import shapely
 
-from citygen.exporters import ExportWarning, occupancy, usd
+from citygen.exporters import occupancy, usd
+from citygen.exporters.batch import FORMATS
 from citygen.exporters.glb import catalog_asset
 from citygen.geometry.terrain import height_at
 from citygen.io import load_scene
@@ -29,6 +33,7 @@ from citygen.io import load_scene
 pytestmark = pytest.mark.slow
 
 NAME = "urban-tra-city-0000"
+OCCUPANCY_CELL = 0.25  # m
 
 
 def run(*args: str) -> subprocess.CompletedProcess:
@@ -39,31 +44,69 @@ def run(*args: str) -> subprocess.CompletedProcess:
 
 
 @pytest.fixture(scope="module")
-def city(tmp_path_factory) -> tuple[Path, Path, subprocess.CompletedProcess]:
-    """(scene file, export folder, the export's completed process)."""
+def city(tmp_path_factory) -> tuple[Path, Path, dict[str, subprocess.CompletedProcess]]:
+    """(scene file, export folder, each format's completed export)."""
     root = tmp_path_factory.mktemp("city")
     gen = run("generate", "--split", "urban-tra-city", "--out", str(root / "scenes"))
     assert gen.returncode == 0, gen.stderr[-2000:]
     scene = root / "scenes" / "urban-tra-city" / "0000.json"
     out = root / "export"
-    return scene, out, run("export", str(scene), "--format", "all", "--out", str(out))
+
+    def export(fmt: str) -> subprocess.CompletedProcess:
+        extra = ("--occupancy-resolution", str(OCCUPANCY_CELL)) if fmt == "occupancy" else ()
+        return run("export", str(scene), "--format", fmt, "--out", str(out), *extra)
+
+    order = ["png", "urdf", "usd", "glb", "html", "mjcf", "occupancy"]  # the longest first
+    assert sorted(order) == sorted(FORMATS)
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        done = dict(zip(order, pool.map(export, order), strict=True))
+    return scene, out, done
 
 
-def test_every_format_is_written_and_each_coarsening_is_one_warning_line(city):
-    _, out, proc = city
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    assert "Traceback" not in proc.stderr
-    suffixes = (".xml", ".usda", ".urdf", ".npz", ".yaml", ".pgm", "-occupancy.png", ".glb", ".html", ".png")
-    for suffix in suffixes:
+@pytest.fixture(scope="module")
+def scene(city):
+    return load_scene(city[0])
+
+
+@pytest.fixture(scope="module")
+def urdf_index(city) -> dict:
+    _, out, _ = city
+    return json.loads((out / f"{NAME}-urdf-tiles.json").read_text())
+
+
+def coarsening(stderr: str, fmt: str) -> list[float]:
+    """The errors (cm) of the lines saying how finely ``fmt`` samples the ground."""
+    lines = [line for line in stderr.splitlines() if f"$.terrain: {fmt} samples" in line]
+    return [float(line.split("(up to ")[1].split(" cm")[0]) for line in lines]
+
+
+def test_every_format_is_written_and_each_coarsening_is_one_warning_line(city, scene):
+    _, out, done = city
+    for fmt, proc in done.items():
+        assert proc.returncode == 0, (fmt, proc.stderr[-3000:])
+        assert "Traceback" not in proc.stderr, fmt
+    suffixes = (
+        ".xml",
+        ".usda",
+        "-urdf-tiles.json",
+        ".npz",
+        ".yaml",
+        ".pgm",
+        "-occupancy.png",
+        ".glb",
+        ".html",
+    )
+    for suffix in (*suffixes, ".png"):  # and -perspective.png where OpenGL exists
         assert (out / f"{NAME}{suffix}").stat().st_size > 0, suffix
-    coarsened = [line for line in proc.stderr.splitlines() if "off height_at" in line]
-    # MJCF, URDF, GLB and HTML each say once how finely they sample the ground and how far off it is.
+    # MJCF, URDF, GLB and HTML each say once how finely they sample the ground and how far off.
     for fmt in ("MJCF", "URDF", "GLB", "HTML"):
-        lines = [line for line in coarsened if f"$.terrain: {fmt} samples" in line]
-        assert len(lines) == 1, (fmt, coarsened)
-        error_cm = float(lines[0].split("(up to ")[1].split(" cm")[0])
-        assert 0 < error_cm < 30
-    assert any("occupancy cells of" in line for line in proc.stderr.splitlines())
+        errors = coarsening(done[fmt.lower()].stderr, fmt)
+        assert len(errors) == 1 and 0 < errors[0] < 30, (fmt, errors)
+    # URDF samples rougher tiles finer: closer to height_at than the uniform formats.
+    assert coarsening(done["urdf"].stderr, "URDF")[0] < coarsening(done["html"].stderr, "HTML")[0]
+    # The occupancy map at its own choice coarsens to fit, saying so in one line.
+    res, note = occupancy.auto_resolution(scene)
+    assert res > occupancy.DEFAULT_RESOLUTION and "occupancy cells of" in note
 
 
 def test_the_mjcf_steps_in_mujoco(city):
@@ -79,43 +122,76 @@ def test_the_mjcf_steps_in_mujoco(city):
     assert data.time > 0
 
 
-def test_dm_control_reads_the_city_and_a_robot_attached_to_it_steps_in_mujoco(city):
+def test_dm_control_reads_the_city_and_a_robot_attached_to_it_steps_in_mujoco(city, scene):
+    pytest.importorskip("dm_control.mjcf")
     from tests.test_export_dmcontrol import compose_and_settle
 
-    pytest.importorskip("dm_control.mjcf")
-    scene_path, out, _ = city
-    scene = load_scene(scene_path)
+    _, out, _ = city
     x, y = scene.task.start.position
     ground = float(height_at(scene, x, y))
     pos = compose_and_settle(out / f"{NAME}.xml", x, y, ground, steps=200)
     assert pos[2] == pytest.approx(ground + 0.15, abs=0.05)
 
 
-# PyBullet (3.2.7) loads the city's one-body URDF (15,000 fixed links) but segfaults when it
-# frees that body (at disconnect or interpreter exit), so the load runs in a child process that
-# reports the joint count and leaves with os._exit; splitting the city into several URDF tiles
-# is the exporter's open fix (issue 18).
-_PYBULLET_LOAD = """
-import os, sys, pybullet
-client = pybullet.connect(pybullet.DIRECT)
-body = pybullet.loadURDF(sys.argv[1], useFixedBase=True, physicsClientId=client)
-print(pybullet.getNumJoints(body, physicsClientId=client), flush=True)
-os._exit(0)
-"""
-
-
-def test_the_urdf_loads_in_pybullet_and_yourdfpy(city):
+def test_the_urdf_tiles_cover_the_city_and_each_reads_in_yourdfpy(city, scene, urdf_index):
     import yourdfpy
 
     _, out, _ = city
-    done = subprocess.run(
-        [sys.executable, "-c", _PYBULLET_LOAD, str(out / f"{NAME}.urdf")],
-        capture_output=True, text=True, timeout=900, check=False,
-    )  # fmt: skip
-    assert done.returncode == 0, done.stderr[-2000:]
-    assert int(done.stdout.strip().splitlines()[-1]) > 1000
-    robot = yourdfpy.URDF.load(str(out / f"{NAME}.urdf"), build_scene_graph=False, load_meshes=False)
-    assert len(robot.robot.links) > 1000
+    entries = urdf_index["tiles"]
+    assert urdf_index["format"] == "citygen.tiles/1" and urdf_index["scene"] == NAME and len(entries) > 1
+    boxes = [shapely.box(*e["min"], *e["max"]) for e in entries]
+    bounds = shapely.box(*scene.bounds.min, *scene.bounds.max)
+    assert shapely.union_all(boxes).equals(bounds)
+    assert sum(b.area for b in boxes) == pytest.approx(bounds.area)  # no overlap
+    owners: dict[str, list[str]] = {}
+    for e in entries:
+        robot = yourdfpy.URDF.load(str(out / e["file"]), build_scene_graph=False, load_meshes=False)
+        names = [link.name for link in robot.robot.links]
+        assert len(names) == e["links"] < 2_000, e["file"]
+        for name in names:
+            owners.setdefault(name, []).append(e["file"])
+    # Every object is a link of exactly one tile: the one its position lies in.
+    for pl in scene.placements:
+        (file,) = owners[pl.id]
+        entry = next(e for e in entries if e["file"] == file)
+        assert shapely.box(*entry["min"], *entry["max"]).covers(shapely.Point(pl.position[:2])), pl.id
+
+
+# PyBullet 3.2.7 takes about 1 s to free a 1,000-link tile alone in its client, but far longer
+# for several tiles in one client: each tile gets a client of its own, as a user streaming
+# tiles around a robot would load them.
+def test_the_tiles_along_the_route_load_in_pybullet_on_the_ground(city, scene, urdf_index):
+    import pybullet
+
+    _, out, done = city
+    error = coarsening(done["urdf"].stderr, "URDF")[0] / 100
+    task = scene.task
+    points = [task.start.position, *task.route]
+    by_tile: dict[str, list] = {}
+    for x, y in points:
+        e = next(
+            e
+            for e in urdf_index["tiles"]
+            if e["min"][0] <= x < e["max"][0] and e["min"][1] <= y < e["max"][1]
+        )
+        by_tile.setdefault(e["file"], []).append((x, y))
+    checked = 0
+    for file, xys in by_tile.items():
+        client = pybullet.connect(pybullet.DIRECT)
+        try:
+            body = pybullet.loadURDF(str(out / file), useFixedBase=True, physicsClientId=client)
+            names = {-1: "scene/world"}
+            for j in range(pybullet.getNumJoints(body, physicsClientId=client)):
+                names[j] = pybullet.getJointInfo(body, j, physicsClientId=client)[12].decode()
+            for x, y in xys:
+                hit = pybullet.rayTest([x, y, 50.0], [x, y, -50.0], physicsClientId=client)[0]
+                assert hit[0] == body, (file, x, y)
+                if names[hit[1]].startswith("ground/"):
+                    assert hit[3][2] == pytest.approx(float(height_at(scene, x, y)), abs=error + 0.01), (x, y)
+                    checked += 1
+        finally:
+            pybullet.disconnect(client)
+    assert len(by_tile) > 1 and checked >= 0.9 * len(points)
 
 
 def test_the_usd_stage_passes_the_validators(city):
@@ -135,12 +211,10 @@ def test_the_glb_opens_in_trimesh_with_buffer_view_targets(city):
     assert len(loaded.geometry) > 10 and len(loaded.graph.nodes_geometry) > 3000
 
 
-def test_every_object_of_the_city_covers_an_obstacle_cell_at_a_quarter_metre(city):
-    scene_path, out, _ = city
-    scene = load_scene(scene_path)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", ExportWarning)
-        m = occupancy.occupancy(scene, resolution=0.25)
+def test_every_object_of_the_city_covers_an_obstacle_cell_at_a_quarter_metre(city, scene):
+    _, out, _ = city
+    m = occupancy.load(out / f"{NAME}.npz")  # as written by the export, at 0.25 m
+    assert m.resolution == OCCUPANCY_CELL
     missing = []
     for i, pl in enumerate(scene.placements):
         # A point of the object's base, in the world: the cell holding it overlaps the base.
@@ -151,7 +225,3 @@ def test_every_object_of_the_city_covers_an_obstacle_cell_at_a_quarter_metre(cit
         if m.label_at(x, y) not in occupancy.OBSTACLE_CLASSES:
             missing.append(pl.id)
     assert not missing, f"{len(missing)} of {len(scene.placements)} objects: no obstacle cell, {missing[:5]}"
-    # The map the export wrote reads back, at the resolution it chose for a city.
-    written = occupancy.load(out / f"{NAME}.npz")
-    assert written.resolution > occupancy.DEFAULT_RESOLUTION
-    assert written.shape[0] * written.shape[1] <= occupancy.MAX_CELLS

@@ -8,6 +8,7 @@ friction. The scene builders here are shared with the GLB and HTML tests.
 
 from __future__ import annotations
 
+import json
 import math
 import warnings
 from pathlib import Path
@@ -15,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pybullet
 import pytest
+import shapely
 import trimesh
 import yourdfpy
 from shapely.geometry import Polygon
@@ -464,3 +466,71 @@ def test_bad_options_and_assets_are_clear_errors(street, tmp_path):
         export_quiet(unknown, tmp_path)
     # Given the folder, a scene model exports its mesh placements too.
     assert export_quiet(scene, tmp_path, scene_dir=path.parent)[0].is_file()
+
+
+def test_flat_terrain_keeps_each_zone_friction_where_the_zone_changes(tmp_path, bullet):
+    """A zone edge across flat tiles cuts them: each side keeps its own zone's friction, so
+    only sloped, stepped and rough tiles get an average (and the report says only those)."""
+    zones = [
+        {"id": "walk", "kind": "sidewalk", "polygon": _rect(0, 0, 24, 5)},
+        {"id": "square", "kind": "vegetation", "polygon": _rect(0, 5, 24, 10)},
+    ]
+    scene = terrain_scene(zones=zones, placements=[], agents=[], task=None)
+    walk, square = scene.zones
+    assert walk.mu != square.mu
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ExportWarning)
+        files = urdf.export(scene, tmp_path, name="cut")
+    b = bullet(files[0])
+    checked = 0
+    for col, tile in enumerate(TILE_ROW):
+        if tile["kind"] != "flat" or "friction" in tile or "material" in tile:
+            continue
+        for y, zone in ((4.6, walk), (5.4, square)):
+            xy = (ORIGIN[0] + (col + 0.4) * TILE, y)
+            link, z = b.ray(xy)
+            assert link.startswith("ground/terrain/") and z == pytest.approx(height_at(scene, *xy), abs=1e-6)
+            assert b.friction(link) == pytest.approx(zone.mu), (xy, link)
+            checked += 1
+    assert checked == 4
+    (report,) = [str(w.message) for w in caught if "friction" in str(w.message)]
+    assert "sloped, stepped or rough tile(s)" in report
+
+
+def test_a_scene_cut_into_tiles_loads_tile_by_tile_and_fits_together(street, tmp_path, bullet, monkeypatch):
+    path, scene = street
+    assert urdf.tile_side(scene) == 0  # small scenes stay one file
+    monkeypatch.setattr(urdf, "MAX_LINKS", 5)  # as if it were a city: cut by default
+    monkeypatch.setattr(urdf, "TILE_LINKS", 6)
+    files = export_quiet(path, tmp_path)
+    index = json.loads(files[0].read_text())
+    assert files[0].name == "street-urdf-tiles.json" and index["format"] == "citygen.tiles/1"
+    entries = index["tiles"]
+    assert len(entries) > 1 and [tmp_path / e["file"] for e in entries] == files[1 : 1 + len(entries)]
+    boxes = [shapely.box(*e["min"], *e["max"]) for e in entries]
+    # The tiles cover the scene's bounds without overlapping, their edges on the terrain's grid.
+    assert shapely.union_all(boxes).equals(shapely.box(*scene.bounds.min, *scene.bounds.max))
+    assert sum(b.area for b in boxes) == pytest.approx(24.0 * 10.0)
+    owner = {}
+    for e, box in zip(entries, boxes, strict=True):
+        assert e["file"] == f"street-tile-{e['row']:02d}-{e['col']:02d}.urdf"
+        b = bullet(tmp_path / e["file"])
+        assert len(b.links) == e["links"]
+        for i, pl in enumerate(scene.placements):
+            if pl.id in b.index:
+                owner.setdefault(pl.id, []).append(e["file"])
+                assert box.covers(shapely.Point(pl.position[:2]))
+                if not pl.is_mesh:
+                    xy = probe_point(scene, i)
+                    assert b.ray(xy) == (pl.id, pytest.approx(top_at(placed_parts(scene, i), xy), abs=2e-3))
+        for xy in _terrain_probes():
+            inside = box.buffer(-1e-6).contains(shapely.Point(xy))
+            if inside and not any(
+                not math.isnan(top_at(placed_parts(scene, i, path.parent), xy))
+                for i in range(len(scene.placements))
+            ):
+                link, z = b.ray(xy)
+                assert link.startswith("ground/terrain/"), xy
+                assert z == pytest.approx(height_at(scene, *xy), abs=0.05), xy
+    assert sorted(owner) == sorted(p.id for p in scene.placements)
+    assert all(len(tiles) == 1 for tiles in owner.values())  # every object in exactly one tile
