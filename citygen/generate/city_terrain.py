@@ -12,7 +12,8 @@ hard ground pins nearly every tile); what a city adds to that are local features
   risers up, reached by a flight of steps on one side (``terrace-steps-<k>``) and a ramp of
   at most 1:12 on another (``terrace-ramp-<k>``), as accessibility codes ask.
 
-Rough paving stays with the tile grid (rough tiles of cracked concrete, cobbles or setts).
+Rough paving stays with the tile grid (rough tiles of cracked concrete, cobbles or setts),
+except under a feature, where the tile is made flat so no bump pokes through a tread.
 A feature never reaches into hard ground (roadway, curb, crosswalk, parking, another
 building), never overlaps another feature, and keeps clear of the traverse route's
 corridor, so the route stays on level ground; it passes the features beside it.
@@ -32,7 +33,7 @@ from citygen.geometry.features import feature_polygon
 from citygen.geometry.terrain import height_at
 from citygen.seeding import uniform
 from citygen.spec.base import quantize
-from citygen.spec.terrain import LandingFeature, RampFeature, StepsFeature, Terrain
+from citygen.spec.terrain import FlatTile, LandingFeature, RampFeature, StepsFeature, Terrain
 from citygen.spec.zones import Zone
 
 #: Share of buildings with front steps.
@@ -118,6 +119,7 @@ def city_features(
             t += 1
     if not features:
         return terrain
+    terrain = _flatten_under(terrain, taken)
     # Each feature stands on the ground under its low edge (street level in a city).
     feet = np.array([_foot(f) for f in features])
     ground = height_at(terrain, feet[:, 0], feet[:, 1])
@@ -126,6 +128,24 @@ def city_features(
     ]
     features = [type(f).model_validate(f.model_dump()) for f in features]
     return terrain.model_copy(update={"features": tuple(features)})
+
+
+def _flatten_under(terrain: Terrain, shapes: list[Polygon]) -> Terrain:
+    """``terrain`` with every rough tile a feature stands on made flat at its height (its
+    edges are level at that height, so its neighbours still agree): bumps never poke
+    through a landing or a tread."""
+    s, (ox, oy) = terrain.tile_size, terrain.origin
+    tiles = list(terrain.tiles)
+    for shape in shapes:
+        x0, y0, x1, y1 = shape.bounds
+        for row in range(max(0, math.floor((y0 - oy) / s)), min(terrain.rows, math.floor((y1 - oy) / s) + 1)):
+            for col in range(
+                max(0, math.floor((x0 - ox) / s)), min(terrain.cols, math.floor((x1 - ox) / s) + 1)
+            ):
+                k = row * terrain.cols + col
+                if tiles[k].kind == "rough":
+                    tiles[k] = FlatTile(kind="flat", height=tiles[k].height, material=tiles[k].material)
+    return terrain.model_copy(update={"tiles": tuple(tiles)})
 
 
 def _keys(x0: float, y0: float, x1: float, y1: float) -> list[tuple[int, int]]:

@@ -214,3 +214,20 @@ def feature_polygon(feature: AnyFeature):
     return Polygon(
         [(x + c * a - s * b, y + s * a + c * b) for a, b in ((-hl, -hw), (hl, -hw), (hl, hw), (-hl, hw))]
     )
+
+
+def feature_mask(features: Sequence[AnyFeature], xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """bool ``(len(ys), len(xs))``: whether the point ``(xs[j], ys[i])`` (m) lies in one of
+    ``features``' rectangles (``xs``, ``ys`` increasing)."""
+    out = np.zeros((len(ys), len(xs)), dtype=bool)
+    for f in features:
+        x0, y0, x1, y1 = feature_polygon(f).bounds
+        j0, j1 = np.searchsorted(xs, x0), np.searchsorted(xs, x1, side="right")
+        i0, i1 = np.searchsorted(ys, y0), np.searchsorted(ys, y1, side="right")
+        if i0 >= i1 or j0 >= j1:
+            continue
+        c, s = math.cos(f.yaw), math.sin(f.yaw)
+        dx, dy = xs[None, j0:j1] - f.center[0], ys[i0:i1, None] - f.center[1]
+        along, across = dx * c + dy * s, -dx * s + dy * c
+        out[i0:i1, j0:j1] |= (np.abs(along) <= f.length / 2) & (np.abs(across) <= f.width / 2)
+    return out

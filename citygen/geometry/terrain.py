@@ -43,7 +43,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from citygen.geometry.features import raise_heights
+from citygen.geometry.features import box_corners, feature_boxes, raise_heights
 from citygen.spec.scene import Scene
 from citygen.spec.terrain import FlatTile, RoughTile, SlopeTile, StairTile, Terrain, feature_top, peak
 
@@ -653,6 +653,17 @@ def terrain_mesh(
         all_faces.append((faces[None, :, :] + offsets[:, None, None]).reshape(-1, 3))
         face_tile.append(np.repeat(ids, len(faces)))
         count += placed.shape[0] * placed.shape[1]
+    # Terrain features: a closed box per part, labelled with the tile under its centre.
+    box_faces = trimesh.creation.box().faces
+    for f in terrain.features or ():
+        col = int(np.clip((f.center[0] - terrain.origin[0]) // s, 0, terrain.cols - 1))
+        row = int(np.clip((f.center[1] - terrain.origin[1]) // s, 0, terrain.rows - 1))
+        for part in feature_boxes(f):
+            corners = box_corners(part)
+            all_verts.append(corners)  # in trimesh's box order (x slowest, z fastest)
+            all_faces.append(box_faces + count)
+            face_tile.append(np.full(len(box_faces), row * terrain.cols + col))
+            count += 8
     mesh = trimesh.Trimesh(np.concatenate(all_verts), np.concatenate(all_faces), process=False)
     mesh.metadata["face_tile"] = np.concatenate(face_tile)
     return mesh

@@ -30,7 +30,7 @@ import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from citygen.geometry.features import feature_polygon
+from citygen.geometry.features import feature_mask, feature_polygon
 from citygen.geometry.terrain import tile_grid
 from citygen.spec.task import STEP_RUN, Mobility
 from citygen.spec.terrain import RampFeature, RoughTile, SlopeTile, StairTile, StepsFeature, Terrain
@@ -113,7 +113,7 @@ def blocked_cells(terrain: Terrain | None, mobility: Mobility, xs: np.ndarray, y
     out = np.zeros((len(ys), len(xs)), dtype=bool)
     features = blocked_features(terrain, mobility)
     if features:
-        _mark_features(features, np.asarray(xs, dtype=np.float64), np.asarray(ys, dtype=np.float64), out)
+        out |= feature_mask(features, np.asarray(xs, dtype=np.float64), np.asarray(ys, dtype=np.float64))
     blocked = blocked_tiles(terrain, mobility)
     if not blocked.any():
         return out
@@ -128,17 +128,3 @@ def blocked_cells(terrain: Terrain | None, mobility: Mobility, xs: np.ndarray, y
     out[inside] = blocked[rr[inside], cc[inside]]
     return out
 
-
-def _mark_features(features: list, xs: np.ndarray, ys: np.ndarray, out: np.ndarray) -> None:
-    """Set ``out[i, j]`` where the point ``(xs[j], ys[i])`` lies in one of ``features``."""
-    for f in features:
-        x0, y0, x1, y1 = feature_polygon(f).bounds
-        j = np.flatnonzero((xs >= x0) & (xs <= x1))
-        i = np.flatnonzero((ys >= y0) & (ys <= y1))
-        if not (i.size and j.size):
-            continue
-        c, s = math.cos(f.yaw), math.sin(f.yaw)
-        dx, dy = xs[j][None, :] - f.center[0], ys[i][:, None] - f.center[1]
-        along, across = dx * c + dy * s, -dx * s + dy * c
-        inside = (np.abs(along) <= f.length / 2) & (np.abs(across) <= f.width / 2)
-        out[np.ix_(i, j)] |= inside
