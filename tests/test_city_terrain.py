@@ -15,7 +15,7 @@ from citygen.exporters import mjcf, occupancy
 from citygen.geometry.features import feature_polygon
 from citygen.geometry.terrain import height_at, max_step, terrain_mesh
 from citygen.geometry.traversable import blocked_cells
-from citygen.io import dumps, load_scene, parse
+from citygen.io import dumps, load_scene
 from citygen.spec.scene import Scene
 from citygen.spec.task import ROBOTS
 from citygen.spec.terrain import LandingFeature, RampFeature, StepsFeature
@@ -87,10 +87,10 @@ def test_wheels_cannot_cross_steps_or_climb_a_terrace_but_legs_climb_steps():
     xs, ys = np.array([x]), np.array([y])
     assert blocked_cells(scene.terrain, ROBOTS["wheeled"], xs, ys)[0, 0]
     assert not blocked_cells(scene.terrain, ROBOTS["quadruped"], xs, ys)[0, 0]
-    terrace = next(f for f in scene.terrain.features if f.kind == "landing")
-    assert blocked_cells(
-        scene.terrain, ROBOTS["quadruped"], np.array([terrace.center[0]]), np.array([terrace.center[1]])
-    )[0, 0]
+    city = small_city(3)
+    terrace = next(f for f in city.terrain.features if f.kind == "landing")
+    xs, ys = np.array([terrace.center[0]]), np.array([terrace.center[1]])
+    assert blocked_cells(city.terrain, ROBOTS["quadruped"], xs, ys)[0, 0]
     assert max_step(scene) >= max(
         f.step_count * f.step_height for f in scene.terrain.features if f.kind == "steps"
     )
@@ -98,12 +98,12 @@ def test_wheels_cannot_cross_steps_or_climb_a_terrace_but_legs_climb_steps():
 
 FEATURES = (
     StepsFeature(
-        id="steps-1", kind="steps", center=(2.0, 1.2), yaw=0.5, length=1.5, width=2.0,
+        id="steps-1", kind="steps", center=(2.0, 5.0), yaw=0.5, length=1.5, width=2.0,
         step_height=0.15, step_count=3, landing=0.6,
     ),
-    RampFeature(id="ramp-1", kind="ramp", center=(6.0, 1.2), yaw=2.0, length=3.6, width=1.5, rise=0.3),
+    RampFeature(id="ramp-1", kind="ramp", center=(6.0, 5.0), yaw=2.0, length=3.6, width=1.5, rise=0.3),
     LandingFeature(
-        id="landing-1", kind="landing", center=(8.5, 1.2), yaw=-0.3, length=1.5, width=1.0, rise=0.3
+        id="landing-1", kind="landing", center=(8.5, 5.0), yaw=-0.3, length=1.5, width=1.0, rise=0.3
     ),
 )  # fmt: skip
 
@@ -115,7 +115,7 @@ def featured() -> Scene:
 
 
 def test_features_round_trip_and_scenes_without_them_leave_the_key_out(featured):
-    assert parse(dumps(featured)) == featured
+    assert Scene.model_validate_json(dumps(featured)) == featured
     assert '"features"' not in dumps(load_scene("examples/nav_static_10m.json"))
     assert '"features"' not in dumps(citygen.generate("urban-nav-2-train", index=0))
 
@@ -128,7 +128,7 @@ def test_mjcf_ground_under_features_is_height_at(featured):
     rng = np.random.default_rng(0)
     geom = np.zeros(1, dtype=np.int32)
     groups = np.array([1, 0, 0, 0, 0, 0], dtype=np.uint8)
-    for x, y in rng.uniform([0.2, 0.2], [9.8, 2.3], size=(800, 2)):
+    for x, y in rng.uniform([0.2, 3.9], [9.8, 6.1], size=(800, 2)):
         dist = mujoco.mj_ray(
             model, data, np.array([x, y, 5.0]), np.array([0.0, 0.0, -1.0]), groups, 1, -1, geom
         )

@@ -125,6 +125,6 @@ def blocked_cells(terrain: Terrain | None, mobility: Mobility, xs: np.ndarray, y
     inside = rin[:, None] & cin[None, :]
     rr = np.broadcast_to(np.clip(r, 0, terrain.rows - 1)[:, None], out.shape)
     cc = np.broadcast_to(np.clip(c, 0, terrain.cols - 1)[None, :], out.shape)
-    out[inside] = blocked[rr[inside], cc[inside]]
+    out[inside] |= blocked[rr[inside], cc[inside]]
     return out
 
