@@ -46,7 +46,8 @@ the rectangle's low edge along ``yaw`` (``0 .. length``) and ``h`` the feature's
   top tread is ``landing`` metres deeper than the others (front steps end at a door);
 - **ramp**: ``h + rise * a / length``.
 
-A feature lies on the tile grid (:func:`citygen.validate` checks it). Its sides are vertical (a wall, a building's facade or a retaining wall stands
+A feature lies on the tile grid (:func:`citygen.validate` checks it). Its sides are
+vertical (a wall, a building's facade or a retaining wall stands
 there, or the robot meets a riser): it is crossed along its ``yaw``.
 """
 
