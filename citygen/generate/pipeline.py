@@ -47,6 +47,7 @@ from citygen.errors import GenerationError, Problem, SpecError
 from citygen.generate.agents import place_agents
 from citygen.generate.blocks import connect_blocks
 from citygen.generate.city import plan_city
+from citygen.generate.city_furniture import street_furniture
 from citygen.generate.city_ground import plan_city_ground
 from citygen.generate.city_terrain import city_features
 from citygen.generate.ground import ground_margin, plan_ground, plan_region
@@ -210,6 +211,9 @@ def _finish(scene: Scene, config: GeneratorConfig, seed: int, *, keep: int) -> S
             seed=seed,
             walkable=passable,
         )
+        if config.layout == "city":
+            rng = child(stage_rng(seed, "placement"), 300)
+            placements = street_furniture(scene.zones, terrain, placements, rng, keep_clear=_corridor(ends))
     if keep >= 3:
         agents = scene.agents
     elif track is not None:
