@@ -101,9 +101,12 @@ FEATURES = (
         id="steps-1", kind="steps", center=(2.0, 5.0), yaw=0.5, length=1.5, width=2.0,
         step_height=0.15, step_count=3, landing=0.6,
     ),
-    RampFeature(id="ramp-1", kind="ramp", center=(6.0, 5.0), yaw=2.0, length=3.6, width=1.5, rise=0.3),
+    RampFeature(
+        id="ramp-1", kind="ramp", center=(6.0, 5.0), yaw=2.0, length=3.6, width=1.5, height=0.3, rise=0.3,
+    ),
     LandingFeature(
-        id="landing-1", kind="landing", center=(8.5, 5.0), yaw=-0.3, length=1.5, width=1.0, rise=0.3
+        id="landing-1", kind="landing", center=(8.5, 5.0), yaw=-0.3, length=1.5, width=1.0, height=0.3,
+        rise=0.3,
     ),
 )  # fmt: skip
 
@@ -146,3 +149,22 @@ def test_occupancy_and_the_terrain_mesh_show_the_steps(featured):
     assert mesh.is_watertight
     hit, _, _ = mesh.ray.intersects_location([[x, y, 5.0]], [[0.0, 0.0, -1.0]], multiple_hits=False)
     assert hit[0][2] == pytest.approx(0.3, abs=1e-9)
+
+
+def test_urdf_ground_under_features_is_height_at(featured, tmp_path):
+    from citygen.exporters import urdf
+    from tests.test_export_urdf import Bullet
+
+    path = urdf.export(featured, tmp_path)[0]
+    body = Bullet(path)
+    try:
+        rng = np.random.default_rng(1)
+        for x, y in rng.uniform([0.2, 3.9], [9.8, 6.1], size=(400, 2)):
+            link, z = body.ray((x, y))
+            if link is not None and link.startswith(("ground/", "zone")):
+                assert z == pytest.approx(float(height_at(featured, x, y)), abs=2e-3)
+        for f, a in ((FEATURES[0], 1.4), (FEATURES[1], 1.8), (FEATURES[2], 0.7)):  # on each feature
+            x, y = at(f, a)
+            assert body.ray((x, y))[1] == pytest.approx(float(height_at(featured, x, y)), abs=2e-3)
+    finally:
+        body.close()
