@@ -8,7 +8,7 @@ import math
 import mujoco
 import numpy as np
 import pytest
-from shapely.geometry import LineString, Polygon
+from shapely.geometry import LineString, Point, Polygon
 
 import citygen
 from citygen.exporters import mjcf, occupancy
@@ -168,3 +168,21 @@ def test_urdf_ground_under_features_is_height_at(featured, tmp_path):
             assert body.ray((x, y))[1] == pytest.approx(float(height_at(featured, x, y)), abs=2e-3)
     finally:
         body.close()
+
+
+def test_usd_terrain_holds_the_feature_solids(featured, tmp_path):
+    from pxr import Usd, UsdGeom
+
+    from citygen.exporters import usd
+
+    stage = Usd.Stage.Open(str(usd.export(featured, tmp_path)[0]))
+    points = np.concatenate(
+        [
+            np.asarray(UsdGeom.Mesh(p).GetPointsAttr().Get())
+            for p in stage.Traverse()
+            if p.GetTypeName() == "Mesh" and "/Terrain/" in str(p.GetPath())
+        ]
+    )
+    for f in FEATURES:  # the top of each feature, over its rectangle
+        top = points[np.abs(points[:, 2] - (f.height + (f.rise if f.kind != "steps" else 0.45))) < 1e-4]
+        assert any(feature_polygon(f).buffer(0.01).contains(Point(p[:2])) for p in top)
