@@ -11,6 +11,13 @@ fresh process (so its peak memory is its own, ``ru_maxrss``), two at a time. Per
 - ``by_sidewalk``: share of the buildings within 12 m of a sidewalk;
 - ``route_m``: length of the traverse route (start, then every waypoint), which runs on
   sidewalks and crosswalks only;
+- ``front_steps``, ``terraces`` (raised plaza landings, each with its steps) and
+  ``ramps`` (1:12 ramps up to a terrace): the terrain features (issue 19's terrain where a
+  city has it); ``rough_tiles``: tiles of rough paving;
+- ``furniture_per_km``: objects other than buildings per km of sidewalk (the sidewalk
+  zones' area over their mean width, taken as the sum of the clear strips' lengths: area / width);
+- ``route_features``: features within 5 m of the traverse route (it passes them; it never
+  crosses one), ``route_rough_m``: metres of the route on rough paving;
 - ``problems``: what ``citygen validate`` finds;
 - ``generate_s`` (wall), ``cpu_s`` and ``peak_mib`` of the generating process.
 
@@ -42,6 +49,7 @@ SPLIT = "urban-tra-city"
 def figures(scene) -> dict:
     """The issue's figures of one scene (see the module docstring)."""
     import networkx as nx
+    import numpy as np
     import shapely
     from shapely.geometry import Polygon, box
 
@@ -60,7 +68,35 @@ def figures(scene) -> dict:
     buildings = kinds.get("building", [])
     near = sum(bool(shapely.dwithin(sidewalk, b, 12.0)) for b in buildings)
     route = [scene.task.start.position, *scene.task.route] if scene.task is not None else []
+    from citygen.geometry.features import feature_polygon
+
+    features = scene.terrain.features or () if scene.terrain is not None else ()
+    line = shapely.LineString(route) if len(route) >= 2 else None
+    near_route = sum(bool(line is not None and feature_polygon(f).distance(line) < 5.0) for f in features)
+    rough_m = 0.0
+    if line is not None and scene.terrain is not None:
+        t = scene.terrain
+        d = np.arange(0.0, line.length, 1.0)
+        pts = shapely.get_coordinates(shapely.line_interpolate_point(line, d))
+        col = np.clip(((pts[:, 0] - t.origin[0]) // t.tile_size).astype(int), 0, t.cols - 1)
+        row = np.clip(((pts[:, 1] - t.origin[1]) // t.tile_size).astype(int), 0, t.rows - 1)
+        rough_m = float(sum(t.tiles[r * t.cols + c].kind == "rough" for r, c in zip(row, col, strict=True)))
+    clear = [Polygon(z.polygon, z.holes) for z in scene.zones if z.kind == "sidewalk" and z.strip == "clear"]
+    # A clear strip's length along its street: half its perimeter (it is long and narrow).
+    sidewalk_km = sum(p.exterior.length / 2 for p in clear) / 1000.0
+    furniture = sum(not p.id.startswith("building-") for p in scene.placements)
     return {
+        "front_steps": sum(f.id.startswith("front-steps-") for f in features),
+        "terraces": sum(
+            f.id.startswith("terrace-") and f.kind == "landing" and "top" not in f.id for f in features
+        ),
+        "ramps": sum(f.kind == "ramp" for f in features),
+        "rough_tiles": sum(t.kind == "rough" for t in scene.terrain.tiles)
+        if scene.terrain is not None
+        else 0,
+        "furniture_per_km": round(furniture / max(sidewalk_km, 1e-9), 1),
+        "route_features": near_route,
+        "route_rough_m": round(rough_m, 1),
         "connected": bool(scene.blocks) and nx.is_connected(road_graph(scene.blocks)),
         "city_blocks": len(blocks),
         "near_street": round(road.buffer(60.0, quad_segs=4).intersection(area).area / area.area, 4),
@@ -131,6 +167,13 @@ def main() -> None:
         "by_sidewalk",
         "buildings",
         "route_m",
+        "front_steps",
+        "terraces",
+        "ramps",
+        "rough_tiles",
+        "furniture_per_km",
+        "route_features",
+        "route_rough_m",
         "problems",
         "generate_s",
         "cpu_s",
@@ -147,6 +190,10 @@ def main() -> None:
         "city_built_min": min(r["built"] for r in rows),
         "city_by_sidewalk_min": min(r["by_sidewalk"] for r in rows),
         "city_route_m_min": min(r["route_m"] for r in rows),
+        "city_front_steps_min": min(r["front_steps"] for r in rows),
+        "city_terraces_min": min(r["terraces"] for r in rows),
+        "city_furniture_per_km_min": min(r["furniture_per_km"] for r in rows),
+        "city_route_features_min": min(r["route_features"] for r in rows),
         "city_problems_max": max(r["problems"] for r in rows),
         "city_generate_s_max": max(r["generate_s"] for r in rows),
         "city_cpu_s_max": max(r["cpu_s"] for r in rows),

@@ -25,6 +25,7 @@ from shapely.geometry import Point, Polygon, box
 from shapely.validation import explain_validity
 
 from citygen.errors import Problem
+from citygen.geometry.features import feature_polygon
 from citygen.spec import limits
 from citygen.spec.agents import Person
 from citygen.spec.scene import Scene
@@ -229,6 +230,7 @@ def _check_terrain(scene: Scene, area: Polygon) -> list[Problem]:
         problems.append(
             Problem("$.terrain", "a tile grid inside $.bounds", f"a grid spanning {_pt(grid.bounds)}")
         )
+    problems += _check_features(t, grid)
     s = t.tile_size
     for r in range(t.rows):
         for c in range(t.cols):
@@ -248,6 +250,27 @@ def _check_terrain(scene: Scene, area: Polygon) -> list[Problem]:
                             f"{_describe_profile(mine)} against {_describe_profile(other)}",
                         )
                     )
+    return problems
+
+
+def _check_features(t, grid: Polygon) -> list[Problem]:
+    """Terrain features lie on the tile grid, with unique ids."""
+    problems, seen = [], set()
+    for i, f in enumerate(t.features or ()):
+        if f.id in seen:
+            problems.append(
+                Problem(f"$.terrain.features[{i}].id", "an id unique among the features", repr(f.id))
+            )
+        seen.add(f.id)
+        shape = feature_polygon(f)
+        if not grid.buffer(1e-3).covers(shape):
+            problems.append(
+                Problem(
+                    f"$.terrain.features[{i}]",
+                    "a feature on the tile grid",
+                    f"one spanning {_pt(shape.bounds)}",
+                )
+            )
     return problems
 
 

@@ -103,6 +103,7 @@ from shapely.geometry import box as rect
 from citygen.assets import Box, Capsule, ConvexMesh, Cylinder, UnknownAsset, resolve
 from citygen.errors import DependencyMissing, ExportError, Problem, SpecError
 from citygen.exporters import ZONE_COLORS, ExportWarning, as_scene, lod, output_name, shared_file
+from citygen.geometry.features import feature_boxes
 from citygen.geometry.terrain import MIN_THICKNESS, height_at, tile_boxes, tile_grid
 from citygen.io import write_atomic
 from citygen.spec.agents import Person
@@ -570,6 +571,24 @@ def _ground(b: _Builder) -> None:
             _slab(b, b.world, name_of("zone:none:outside"), ring, 0.0, DEFAULT_FRICTION, mat)
     if terrain is not None:
         _shaped_tiles(b, zones, tree)
+        _features(b)
+
+
+def _features(b: _Builder) -> None:
+    """Each terrain feature as oriented boxes (:func:`~citygen.geometry.features.feature_boxes`):
+    ``terrain:<feature kind>:<feature id>:<k>``, with its material's friction."""
+    for f in b.scene.terrain.features or ():
+        material = f.material or "concrete"
+        mat = b.material(f"terrain:{material}", ZONE_RGBA["plaza" if material == "paving_stone" else "curb"])
+        for k, (centre, half, yaw, pitch) in enumerate(feature_boxes(f)):
+            # Yaw about z, then the pitch that raises the box's +x end (about its -y).
+            cy, sy, cp, sp = math.cos(yaw / 2), math.sin(yaw / 2), math.cos(pitch / 2), math.sin(pitch / 2)
+            quat = (cy * cp, sy * sp, -cy * sp, sy * cp)
+            ET.SubElement(
+                b.world, "geom", name=f"terrain:{f.kind}:{f.id}:{k}", type="box", pos=_v(centre),
+                size=_v(half), quat=_v(quat), **{"class": "static"}, material=mat,
+                friction=_friction(FRICTION[material]),
+            )  # fmt: skip
 
 
 def _zone_areas(

@@ -21,7 +21,8 @@ object's base at all. Three layers, each ``(rows, cols)``:
   *conservatively*: every cell their base overlaps at all is theirs
   (:func:`conservative`), so a thin post or sign always occupies a cell; zones take the
   cells whose centres they hold.
-- ``terrain`` (uint8): the kind of the terrain tile under the cell centre, an index into
+- ``terrain`` (uint8): the kind of the terrain tile under the cell centre (of a terrain
+  feature where one covers it: ``stair`` for steps, ``slope`` for a ramp), an index into
   :data:`TERRAIN_CLASSES` (``flat`` outside the tile grid and without terrain; pyramids and
   pits are ``slope`` or ``stair``). It is a separate layer because a stair on a sidewalk is
   still a sidewalk: a legged robot may walk it, a wheeled one may not.
@@ -112,6 +113,7 @@ from citygen.exporters.picture import (
     _style,
     scale_bar_length,
 )
+from citygen.geometry.features import feature_mask
 from citygen.geometry.raster import Grid, erode, paint
 from citygen.geometry.terrain import height_at
 from citygen.io import write_atomic
@@ -398,6 +400,11 @@ def _terrain(scene: Scene, grid: Grid) -> np.ndarray:
     window[~on_y, :] = 0
     window[:, ~on_x] = 0
     out[rows, cols] = window
+    # A terrain feature's cells: steps are stairs, a ramp a slope, a landing flat ground.
+    for kind, tile_kind in (("landing", "flat"), ("ramp", "slope"), ("steps", "stair")):
+        features = [f for f in t.features or () if f.kind == kind]
+        if features:
+            out[feature_mask(features, grid.xs(), grid.ys())] = TERRAIN_CLASSES.index(tile_kind)
     return out
 
 

@@ -58,6 +58,7 @@ from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 from citygen.assets import UnknownAsset, resolve
 from citygen.errors import ExportError, Problem, SpecError
 from citygen.exporters import ZONE_COLORS, as_scene, output_name
+from citygen.geometry.features import feature_polygon
 from citygen.geometry.roads import block_outline
 from citygen.geometry.terrain import height_at
 from citygen.io import write_atomic
@@ -322,6 +323,29 @@ def _draw_terrain(ax: Axes, scene: Scene, px_per_m: float, legend: _Legend) -> N
     tile_px = t.tile_size * px_per_m
     if tile_px >= GLYPH_MIN_PX:
         _draw_tile_marks(ax, t, tile_px, legend)
+    _draw_features(ax, t, legend)
+
+
+#: Fill of each kind of terrain feature, and its legend label.
+FEATURE_STYLE = {
+    "steps": ("#00b8d9", "steps"),
+    "ramp": ("#3aa84a", "ramp"),
+    "landing": ("#9b5d2e", "raised landing (terrace)"),
+}
+
+
+def _draw_features(ax: Axes, t: Any, legend: _Legend) -> None:
+    """Terrain features as filled rectangles, grown to at least a few pixels' outline so
+    front steps stay visible on a city-wide map."""
+    features = t.features or ()
+    for kind, (colour, label) in FEATURE_STYLE.items():
+        rects = [np.asarray(feature_polygon(f).exterior.coords) for f in features if f.kind == kind]
+        if not rects:
+            continue
+        ax.add_collection(
+            PolyCollection(rects, facecolors=colour, edgecolors=colour, linewidths=0.6, zorder=3.5)
+        )
+        legend.add(Patch(facecolor=colour, edgecolor="none", label=label))
 
 
 def _hillshade(z: np.ndarray, dx: float, dy: float) -> np.ndarray:
@@ -681,6 +705,7 @@ def _legend_size(scene: Scene, terrain: bool) -> int:
     if terrain and scene.terrain is not None:
         marked = {t.kind for t in scene.terrain.tiles} - {"flat"}
         n += 1 + len(marked) + ("stair" in marked or "slope" in marked)  # pyramids and pits too
+        n += len({f.kind for f in scene.terrain.features or ()})
     return n
 
 

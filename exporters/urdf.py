@@ -74,6 +74,7 @@ from citygen.exporters.glb import (
     zone_polygons,
     zone_rgba,
 )
+from citygen.geometry.features import feature_boxes
 from citygen.geometry.terrain import MIN_THICKNESS, tile_boxes, tile_mesh
 from citygen.io import write_atomic
 from citygen.spec.placements import Placement
@@ -179,10 +180,11 @@ def _element(
     yaw: float = 0.0,
     material: str | None = None,
     concave: bool = False,
+    pitch: float = 0.0,
 ) -> None:
-    """A ``<visual>`` or ``<collision>`` element of ``link``."""
+    """A ``<visual>`` or ``<collision>`` element of ``link`` (``pitch`` raises its +x end)."""
     el = ET.SubElement(link, kind, {"concave": "yes"} if concave else {})
-    ET.SubElement(el, "origin", xyz=_v(xyz), rpy=_v((0.0, 0.0, yaw)))
+    ET.SubElement(el, "origin", xyz=_v(xyz), rpy=_v((0.0, -pitch, yaw)))
     geo = ET.SubElement(el, "geometry")
     ET.SubElement(geo, geometry[0], geometry[1])
     if material is not None:
@@ -449,6 +451,17 @@ def _add_terrain(
             filename = w.mesh(verts, faces)
             _element(link, "visual", _mesh_geometry(filename), material=terrain_material)
             _element(link, "collision", _mesh_geometry(filename), concave=True)
+    # Terrain features: oriented boxes, one link per friction.
+    groups: dict[float, list] = {}
+    for f in t.features or ():
+        groups.setdefault(FRICTION[f.material or "concrete"], []).append(f)
+    for g, (mu, group) in enumerate(groups.items()):
+        link = w.link(f"ground/features/{g}", friction=mu)
+        for f in group:
+            for centre, half, yaw, pitch in feature_boxes(f):
+                for kind, material in (("visual", terrain_material), ("collision", None)):
+                    size = ("box", {"size": _v(2.0 * np.asarray(half))})
+                    _element(link, kind, size, centre, yaw, material=material, pitch=pitch)
 
 
 def _tiles(t: Terrain, members: np.ndarray, floor: float, resolution: float | np.ndarray | None):

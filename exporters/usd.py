@@ -94,6 +94,7 @@ from shapely.geometry import Polygon
 from citygen.assets import Asset, Box, Capsule, ConvexMesh, Cylinder, Look, UnknownAsset, resolve
 from citygen.errors import DependencyMissing, ExportError, Problem, SpecError
 from citygen.exporters import ExportWarning, as_scene, lod, output_name, shared_file
+from citygen.geometry.features import box_corners, feature_boxes
 from citygen.geometry.terrain import DEFAULT_ROUGH_CELLS, MAX_ROUGH_CELLS, height_at, height_grid, tile_mesh
 from citygen.spec.agents import Person, Vehicle
 from citygen.spec.scene import Scene
@@ -803,7 +804,22 @@ def _terrain_parts(
         verts, faces = cache[key]
         shift = np.array([terrain.origin[0] + (k % cols) * s, terrain.origin[1] + (k // cols) * s, 0.0])
         add(classes[k], verts + shift, faces, np.full(len(faces), keys[k]))
+    # Terrain features: a closed box per part, in the class of the zone under their centre.
+    for f in terrain.features or ():
+        hit = tree.query(shapely.points(f.center), predicate="intersects")
+        zone = scene.zones[int(hit.min())] if len(hit) else None
+        fallback = (zone.surface, zone.mu) if zone else (UNZONED_MATERIAL, FRICTION[UNZONED_MATERIAL])
+        key = ground.key(_surface(f.material, None, fallback))
+        for part in feature_boxes(f):
+            add(zone.kind if zone else GROUND_CLASS, box_corners(part), _BOX_FACES, np.full(12, key))
     return parts
+
+
+#: The 12 outward triangles of a box whose corners are in :func:`box_corners`' order.
+_BOX_FACES = np.array(
+    [[1, 3, 0], [4, 1, 0], [0, 3, 2], [2, 4, 0], [1, 7, 3], [5, 1, 4],
+     [5, 7, 1], [3, 7, 2], [6, 4, 2], [2, 7, 6], [6, 5, 4], [7, 5, 6]]
+)  # fmt: skip
 
 
 def _author_ground(world: Sdf.PrimSpec, scene: Scene, resolution: float | None, floor: float) -> None:

@@ -47,7 +47,9 @@ from citygen.errors import GenerationError, Problem, SpecError
 from citygen.generate.agents import place_agents
 from citygen.generate.blocks import connect_blocks
 from citygen.generate.city import plan_city
+from citygen.generate.city_furniture import street_furniture
 from citygen.generate.city_ground import plan_city_ground
+from citygen.generate.city_terrain import city_features
 from citygen.generate.ground import ground_margin, plan_ground, plan_region
 from citygen.generate.placement import place_objects
 from citygen.generate.space import (
@@ -186,6 +188,9 @@ def _finish(scene: Scene, config: GeneratorConfig, seed: int, *, keep: int) -> S
         )
         if track is None and ends is not None and ends.needs_path:
             terrain = keep_crossable(bounds, zones, terrain, walkable, ends, config, seed, pins)
+        if config.layout == "city":
+            rng = child(stage_rng(seed, "terrain"), 3)
+            terrain = city_features(zones, terrain, rng, keep_clear=_corridor(ends))
     # The ground the task's robot can cross: walkable zones less the tiles it cannot cross.
     passable = walkable
     if ends is not None and ends.needs_path:
@@ -206,6 +211,9 @@ def _finish(scene: Scene, config: GeneratorConfig, seed: int, *, keep: int) -> S
             seed=seed,
             walkable=passable,
         )
+        if config.layout == "city":
+            rng = child(stage_rng(seed, "placement"), 300)
+            placements = street_furniture(scene.zones, terrain, placements, rng, keep_clear=_corridor(ends))
     if keep >= 3:
         agents = scene.agents
     elif track is not None:
@@ -268,6 +276,14 @@ def keep_crossable(
         corridor=corridor,
         mobility=mobility,
     )
+
+
+def _corridor(ends: Endpoints | None) -> BaseGeometry | None:
+    """The ground a city's features keep clear of: the robot's corridor along the route."""
+    if ends is None:
+        return None
+    line = LineString([ends.start, *ends.route]) if ends.route else LineString([ends.start, ends.start])
+    return line.buffer(ends.radius + 0.3, quad_segs=4)
 
 
 def _level(levels: tuple[float, ...], index: int) -> float:

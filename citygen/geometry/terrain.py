@@ -43,8 +43,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from citygen.geometry.features import box_corners, feature_boxes, raise_heights
 from citygen.spec.scene import Scene
-from citygen.spec.terrain import FlatTile, RoughTile, SlopeTile, StairTile, Terrain, peak
+from citygen.spec.terrain import FlatTile, RoughTile, SlopeTile, StairTile, Terrain, feature_top, peak
 
 if TYPE_CHECKING:
     import trimesh
@@ -278,6 +279,7 @@ def height_at(scene_or_terrain: Scene | Terrain | None, xs, ys) -> np.ndarray:
         v = np.clip(y[inside] - oy - row * s, 0.0, s)
         t = (row * terrain.cols + col).astype(np.int64)
         z[inside] = _evaluate(tab, t, u, v)
+        raise_heights(terrain.features, x, y, z)
     z[np.isnan(x) | np.isnan(y)] = np.nan
     return z.reshape(shape)
 
@@ -333,6 +335,11 @@ def height_grid(scene_or_terrain: Scene | Terrain | None, xs, ys) -> np.ndarray:
     if rest.any():
         ub, vb = np.broadcast_to(u[:, None, :], t.shape), np.broadcast_to(v[:, :, None], t.shape)
         z[rest] = _evaluate(tab, t[rest], ub[rest], vb[rest])
+    if terrain.features:
+        xb, yb = np.broadcast_to(x[:, None, :], t.shape), np.broadcast_to(y[:, :, None], t.shape)
+        flat = z.reshape(-1)
+        raise_heights(terrain.features, xb.reshape(-1), yb.reshape(-1), flat)
+        z = flat.reshape(t.shape)
     z[np.isnan(y)[:, :, None] | np.isnan(x)[:, None, :]] = np.nan
     return z.reshape(*lead, ky, kx)
 
@@ -373,12 +380,14 @@ def tile_grid(tile: AnyTile, tile_size: float, us, vs) -> np.ndarray:
 
 def max_step(scene_or_terrain: Scene | Terrain | None) -> float:
     """The largest vertical discontinuity (m) the terrain may legitimately have inside its
-    grid: its largest stair riser, 0 without stairs. (Where the grid's outer edge is not at
-    z = 0 the ground also drops to 0 there; that edge is not counted.)"""
+    grid: its largest stair riser, 0 without stairs, or the rise of a feature's vertical
+    side where it is higher. (Where the grid's outer edge is not at z = 0 the ground also
+    drops to 0 there; that edge is not counted.)"""
     terrain = _terrain_of(scene_or_terrain)
     if terrain is None:
         return 0.0
-    return max((t.step_height for t in terrain.tiles if isinstance(t, StairTile)), default=0.0)
+    step = max((t.step_height for t in terrain.tiles if isinstance(t, StairTile)), default=0.0)
+    return max([step, *(feature_top(f) - f.height for f in terrain.features or ())])
 
 
 def max_slope(scene_or_terrain: Scene | Terrain | None) -> float:
@@ -644,6 +653,17 @@ def terrain_mesh(
         all_faces.append((faces[None, :, :] + offsets[:, None, None]).reshape(-1, 3))
         face_tile.append(np.repeat(ids, len(faces)))
         count += placed.shape[0] * placed.shape[1]
+    # Terrain features: a closed box per part, labelled with the tile under its centre.
+    box_faces = trimesh.creation.box().faces
+    for f in terrain.features or ():
+        col = int(np.clip((f.center[0] - terrain.origin[0]) // s, 0, terrain.cols - 1))
+        row = int(np.clip((f.center[1] - terrain.origin[1]) // s, 0, terrain.rows - 1))
+        for part in feature_boxes(f):
+            corners = box_corners(part)
+            all_verts.append(corners)  # in trimesh's box order (x slowest, z fastest)
+            all_faces.append(box_faces + count)
+            face_tile.append(np.full(len(box_faces), row * terrain.cols + col))
+            count += 8
     mesh = trimesh.Trimesh(np.concatenate(all_verts), np.concatenate(all_faces), process=False)
     mesh.metadata["face_tile"] = np.concatenate(face_tile)
     return mesh

@@ -9,7 +9,10 @@ the same ground:
 - a stair: when the robot climbs stairs and the risers are at most its ``max_step``;
 - rough ground: when no two points :data:`~citygen.spec.task.STEP_RUN` apart along x or y
   differ by more than its ``max_step`` (sampled four times finer than that run, with a
-  10 % allowance for the peaks between samples).
+  10 % allowance for the peaks between samples);
+- a terrain feature's rectangle: steps as stairs, a ramp as a slope of ``atan(rise /
+  length)``, a landing when it rises at most ``max_step`` (its sides are vertical: a
+  raised landing is reached by its steps or ramp, and is not ground to plan across).
 
 >>> from citygen.spec.task import ROBOTS
 >>> from citygen.spec.terrain import StairTile
@@ -20,15 +23,17 @@ the same ground:
 
 from __future__ import annotations
 
+import math
 from functools import lru_cache
 
 import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
 
+from citygen.geometry.features import feature_mask, feature_polygon
 from citygen.geometry.terrain import tile_grid
 from citygen.spec.task import STEP_RUN, Mobility
-from citygen.spec.terrain import RoughTile, SlopeTile, StairTile, Terrain
+from citygen.spec.terrain import RampFeature, RoughTile, SlopeTile, StairTile, StepsFeature, Terrain
 
 #: Samples per :data:`STEP_RUN` when a rough tile's steps are measured.
 _SAMPLES = 4
@@ -57,6 +62,22 @@ def tile_crossable(tile: object, tile_size: float, mobility: Mobility) -> bool:
     return True
 
 
+def feature_crossable(feature: object, mobility: Mobility) -> bool:
+    """Whether a robot of ``mobility`` can cross a terrain feature (see the module docstring)."""
+    if isinstance(feature, StepsFeature):
+        return mobility.stairs and feature.step_height <= mobility.max_step
+    if isinstance(feature, RampFeature):
+        return math.atan2(feature.rise, feature.length) <= mobility.max_slope
+    return feature.rise <= mobility.max_step
+
+
+def blocked_features(terrain: Terrain | None, mobility: Mobility) -> list:
+    """The features of ``terrain`` a robot of ``mobility`` cannot cross."""
+    if terrain is None or not terrain.features:
+        return []
+    return [f for f in terrain.features if not feature_crossable(f, mobility)]
+
+
 def blocked_tiles(terrain: Terrain | None, mobility: Mobility) -> np.ndarray:
     """bool ``(rows, cols)``: the tiles of ``terrain`` the robot cannot cross (row 0 at the
     grid's minimum y); ``(0, 0)`` without terrain."""
@@ -73,20 +94,26 @@ def blocked_tiles(terrain: Terrain | None, mobility: Mobility) -> np.ndarray:
 
 
 def blocked_ground(terrain: Terrain | None, mobility: Mobility) -> BaseGeometry:
-    """The union of the squares of the tiles the robot cannot cross (empty when none)."""
+    """The union of the squares of the tiles and the rectangles of the features the robot
+    cannot cross (empty when none)."""
     blocked = blocked_tiles(terrain, mobility)
-    if not blocked.any():
+    features = [feature_polygon(f) for f in blocked_features(terrain, mobility)]
+    if not blocked.any() and not features:
         return shapely.Polygon()
     r, c = np.nonzero(blocked)
     s, (ox, oy) = terrain.tile_size, terrain.origin
     boxes = shapely.box(ox + c * s, oy + r * s, ox + (c + 1) * s, oy + (r + 1) * s)
-    return shapely.union_all(boxes)
+    return shapely.union_all([*boxes, *features])
 
 
 def blocked_cells(terrain: Terrain | None, mobility: Mobility, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
     """bool ``(len(ys), len(xs))``: whether each point of the grid ``xs`` (columns) by ``ys``
-    (rows), in metres, lies on a tile the robot cannot cross (False off the tile grid)."""
+    (rows), in metres, lies on a tile or a feature the robot cannot cross (False off the
+    tile grid)."""
     out = np.zeros((len(ys), len(xs)), dtype=bool)
+    features = blocked_features(terrain, mobility)
+    if features:
+        out |= feature_mask(features, np.asarray(xs, dtype=np.float64), np.asarray(ys, dtype=np.float64))
     blocked = blocked_tiles(terrain, mobility)
     if not blocked.any():
         return out
@@ -98,5 +125,6 @@ def blocked_cells(terrain: Terrain | None, mobility: Mobility, xs: np.ndarray, y
     inside = rin[:, None] & cin[None, :]
     rr = np.broadcast_to(np.clip(r, 0, terrain.rows - 1)[:, None], out.shape)
     cc = np.broadcast_to(np.clip(c, 0, terrain.cols - 1)[None, :], out.shape)
-    out[inside] = blocked[rr[inside], cc[inside]]
+    out[inside] |= blocked[rr[inside], cc[inside]]
     return out
+

@@ -27,5 +27,7 @@ MAX_GRID_SIDE = 2_048
 """Rows or columns of a terrain tile grid."""
 MAX_TILES = 1_048_576
 """Tiles in a terrain grid (1024 x 1024)."""
+MAX_FEATURES = 200_000
+"""Local features (steps, ramps, landings) on a terrain grid."""
 MAX_TEXT = 10_000
 """Characters in a free-text field."""

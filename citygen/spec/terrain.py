@@ -32,6 +32,23 @@ edge and ``sign`` +1 for a pyramid, -1 for a pit:
 Because their edges are level, pyramids and pits stand side by side in any order.
 - **rough**: noise of peak ``amplitude`` and wavelength ``scale`` around ``h``,
   tapered to zero at the edges, reproducible from ``seed``.
+
+**Features** (``features``, optional) are local level changes a tile grid is too coarse for:
+front steps at a building's entrance, a ramp and a flight of steps up to a raised plaza.
+Each stands in an oriented rectangle (``center``, ``length`` along its ``yaw``, ``width``
+across it) on the ground; inside it the ground is the higher of the tiles' and the
+feature's surface, so a feature only ever raises the ground. With ``a`` the distance from
+the rectangle's low edge along ``yaw`` (``0 .. length``) and ``h`` the feature's ``height``:
+
+- **landing**: level at ``h + rise`` (a raised plaza, a terrace);
+- **steps**: ``h + step_height * min(floor(a / d) + 1, step_count)`` with treads of depth
+  ``d = (length - landing) / step_count``: the first riser stands on the low edge and the
+  top tread is ``landing`` metres deeper than the others (front steps end at a door);
+- **ramp**: ``h + rise * a / length``.
+
+A feature lies on the tile grid (:func:`citygen.validate` checks it). Its sides are
+vertical (a wall, a building's facade or a retaining wall stands
+there, or the robot meets a riser): it is crossed along its ``yaw``.
 """
 
 from __future__ import annotations
@@ -42,7 +59,7 @@ from typing import Annotated, Literal
 from pydantic import Field
 
 from citygen.spec import limits
-from citygen.spec.base import SpecModel, Vec2, bounded_float, bounded_int
+from citygen.spec.base import Identifier, SpecModel, Vec2, Yaw, bounded_float, bounded_int
 from citygen.spec.surfaces import Material
 
 Direction = Literal["+x", "+y", "-x", "-y"]
@@ -112,8 +129,69 @@ Tile = Annotated[FlatTile | SlopeTile | StairTile | RoughTile, Field(discriminat
 TILE_TYPES = (FlatTile, SlopeTile, StairTile, RoughTile)
 
 
+class _Feature(SpecModel):
+    id: Identifier
+    """Unique among the terrain's features, for example ``steps-12``."""
+    center: Vec2
+    """Centre of the feature's rectangle ``[x, y]``, in metres."""
+    yaw: Yaw = 0.0
+    """Direction (rad, counter-clockwise from +x) in which the feature rises."""
+    length: bounded_float(0.05, 100.0)
+    """Side of the rectangle along ``yaw``, in metres."""
+    width: bounded_float(0.05, 100.0)
+    """Side of the rectangle across ``yaw``, in metres."""
+    height: Height = 0.0
+    """Height (m) of the ground the feature stands on (the foot of its steps or ramp)."""
+    material: Material | None = None
+    """Surface material; when left out, the zone's (or concrete where no zone is)."""
+
+
+class LandingFeature(_Feature):
+    """A level platform (a raised plaza, the landing at the top of steps)."""
+
+    kind: Literal["landing"]
+    rise: bounded_float(0.0, 10.0)
+    """Height (m) of the platform above the ground it stands on."""
+
+
+class StepsFeature(_Feature):
+    """A flight of steps (front steps to a door, steps up to a raised plaza)."""
+
+    kind: Literal["steps"]
+    step_height: bounded_float(0.005, 0.5)
+    """Riser height in metres."""
+    step_count: bounded_int(1, 64)
+    """Number of risers; the first stands on the feature's low edge."""
+    landing: bounded_float(0.0, 100.0) = 0.0
+    """Extra depth (m) of the top tread, where a door or a plaza begins."""
+
+
+class RampFeature(_Feature):
+    """An inclined plane (a ramp up to a raised plaza or an entrance)."""
+
+    kind: Literal["ramp"]
+    rise: bounded_float(0.0, 10.0)
+    """Height (m) gained from the low edge to the high edge."""
+
+
+Feature = Annotated[LandingFeature | StepsFeature | RampFeature, Field(discriminator="kind")]
+FEATURE_TYPES = (LandingFeature, StepsFeature, RampFeature)
+
+
+def feature_top(feature: LandingFeature | StepsFeature | RampFeature) -> float:
+    """The highest point of a feature (m).
+
+    >>> feature_top(StepsFeature(id="s", kind="steps", center=(0, 0), length=1.2, width=2,
+    ...     height=0.1, step_height=0.15, step_count=3))
+    0.55
+    """
+    if isinstance(feature, StepsFeature):
+        return round(feature.height + feature.step_count * feature.step_height, 6)
+    return feature.height + feature.rise
+
+
 class Terrain(SpecModel):
-    """A ``rows`` x ``cols`` grid of square tiles."""
+    """A ``rows`` x ``cols`` grid of square tiles, and local features on it."""
 
     origin: Vec2
     """Minimum ``[x, y]`` corner of the grid, in metres."""
@@ -125,6 +203,8 @@ class Terrain(SpecModel):
     """Tiles along x."""
     tiles: tuple[Tile, ...] = Field(min_length=1, max_length=limits.MAX_TILES)
     """``rows * cols`` tiles in row-major order: ``tiles[row * cols + col]``."""
+    features: tuple[Feature, ...] | None = Field(default=None, max_length=limits.MAX_FEATURES)
+    """Local level changes on the tiles (see the module docstring); left out: none."""
 
     def tile(self, row: int, col: int) -> FlatTile | SlopeTile | StairTile | RoughTile:
         return self.tiles[row * self.cols + col]
