@@ -520,11 +520,15 @@ class NavEnv(_CitygenEnv):
         d = self.data
         if self._dynamic() and self.prepared.agent_bodies:
             from citygen.runner.crowd import Crowd, Traffic
+            from citygen.runner.traffic import city_agents
 
             self.crowd = Crowd(self.scene, self.prepared.occupancy, rng=self.np_random, dt=self.dt)
             if len(self.crowd.ids) == 0:
                 self.crowd = None
-            self.traffic = Traffic(self.scene, dt=self.dt)
+            if self.scene.signals:  # a city: signals for vehicles and people (runner.traffic)
+                self.crowd, self.traffic = city_agents(self.prepared, self.scene, self.crowd, self.dt)
+            else:
+                self.traffic = Traffic(self.scene, dt=self.dt)
             if len(self.traffic.ids) == 0:
                 self.traffic = None
             self._write_agents()
