@@ -22,6 +22,7 @@ come from :class:`~citygen.runner.signals.SignalPlan`.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -153,26 +154,23 @@ def _route_sockets(vehicle: Vehicle, blocks, by_id) -> list[tuple] | None:
     graph = road_graph(blocks)
     start, goal = np.asarray(vehicle.start, float), np.asarray(vehicle.goal, float)
 
-    def nearest(block, xy):
-        arms = block_geometry(block).arms
+    def nearest(block, xy, other=None):
+        """The arm nearest ``xy`` (of those but ``other`` when the block has more)."""
+        arms = [a for a in block_geometry(block).arms if a.socket != other] or block_geometry(block).arms
         return arms[int(np.argmin([np.hypot(*(np.asarray(a.position) - xy)) for a in arms]))].socket
 
+    links = []
+    for a, b in itertools.pairwise(route):
+        edge = graph.get_edge_data(a.id, b.id)
+        if edge is None:
+            return None
+        links.append((edge["sockets"][a.id], edge["sockets"][b.id]))
     out = []
     for k, block in enumerate(route):
-        if k == 0:
-            entry = nearest(block, start)
-        else:
-            edge = graph.get_edge_data(route[k - 1].id, block.id)
-            if edge is None:
-                return None
-            entry = edge["sockets"][block.id]
-        if k == len(route) - 1:
-            exit_ = nearest(block, goal)
-        else:
-            edge = graph.get_edge_data(block.id, route[k + 1].id)
-            if edge is None:
-                return None
-            exit_ = edge["sockets"][block.id]
+        exit_ = links[k][0] if k < len(links) else None
+        entry = links[k - 1][1] if k > 0 else nearest(block, start, exit_)
+        if exit_ is None:
+            exit_ = nearest(block, goal, entry)
         out.append((block, entry, exit_))
     return out
 
@@ -452,7 +450,7 @@ class CityTraffic(Traffic):
         for i, p in enumerate(nxt):
             if p is None or p.s_stop - front[i] > LOOK:
                 continue
-            if not self._may_enter(i, p, occupants, []) or not self._exit_clear(i, p, gap[i]):
+            if not self._may_enter(i, p, occupants, []) or not self._exit_clear(i, p, gap[i], lead_v[i]):
                 g = max(p.s_stop - front[i], 0.0)
                 if g < gap[i]:
                     gap[i], lead_v[i] = g, 0.0
@@ -490,11 +488,11 @@ class CityTraffic(Traffic):
         self._restart()
         self.t += self.dt
 
-    def _exit_clear(self, i: int, p: Passage, gap: float) -> bool:
+    def _exit_clear(self, i: int, p: Passage, gap: float, lead_v: float) -> bool:
         """Whether the vehicle, once through the junction, has room beyond it (a standing
-        queue reaching back into the junction blocks it)."""
+        queue reaching back into the junction blocks it; a moving one does not)."""
         need = p.s_exit - (self.s[i] + self.length[i] / 2) + self.length[i] + IDM_GAP
-        return gap >= need or gap == np.inf
+        return gap >= need or lead_v > 1.0
 
     def _untangle(self, old_s: np.ndarray) -> None:
         """Take back steps that would make two vehicles overlap (each stays where it was)."""
