@@ -136,6 +136,13 @@ class Passage:
     swept: object
 
 
+def _from(p: Passage, front: float) -> Passage:
+    """``p`` with its stop line no nearer the path's start than ``front`` (m)."""
+    if p.s_stop >= front:
+        return p
+    return Passage(p.junction, p.lane, front, max(p.s_exit, front), p.swept)
+
+
 @dataclass
 class DrivePath:
     """A vehicle's path: points every :data:`STEP` metres, their arcs, the speed limit at each
@@ -248,17 +255,31 @@ def drive_path(vehicle: Vehicle, blocks, walks=None) -> DrivePath:
     path = np.concatenate([start[None], pts[keep], goal[None]])
     passages = []
     for k, block, entry, exit_, lane in junctions:
-        sub = pts[owner == k]
+        sub, a = pts[owner == k], arc[owner == k]
         c = _centre(block)
-        d = np.linalg.norm(sub - c, axis=1)
-        r_in, r_out = _stop_radius(block, entry, walks), _stop_radius(block, exit_, walks)
-        inside = np.flatnonzero(d <= r_in)
-        outside = np.flatnonzero(d <= r_out)
-        if not len(inside) or not len(outside):
+        arms = {arm.socket: arm for arm in block_geometry(block).arms}
+        s_in = _crossing(sub, a, c, arms[entry].yaw, _stop_radius(block, entry, walks), first=True)
+        s_out = _crossing(sub, a, c, arms[exit_].yaw, _stop_radius(block, exit_, walks), first=False)
+        if s_in is None or s_out is None:
             continue
-        a = arc[owner == k]
-        passages.append((block.id, f"{entry}:{lane}", a[inside[0]] - s0, a[outside[-1]] - s0, sub))
+        passages.append((block.id, f"{entry}:{lane}", s_in - s0, s_out - s0, sub))
     return _resample(path, limits, passages, [vehicle.width])
+
+
+def _crossing(pts: np.ndarray, arc: np.ndarray, c: np.ndarray, yaw: float, r: float, *, first: bool):
+    """Arc (m) where the polyline ``pts`` crosses the line ``r`` metres from ``c`` along the arm
+    direction ``yaw`` (a stop line across the arm): the first crossing inwards when ``first``,
+    else the last outwards; None when it never does."""
+    along = (pts - c) @ np.array([math.cos(yaw), math.sin(yaw)]) - r
+    inside = along <= 0
+    if not inside.any():
+        return None
+    k = int(np.argmax(inside)) if first else len(inside) - 1 - int(np.argmax(inside[::-1]))
+    j = k - 1 if first else k + 1
+    if j < 0 or j >= len(pts):
+        return float(arc[k])
+    t = along[k] / (along[k] - along[j])  # from k towards j, where along crosses 0
+    return float(arc[k] + t * (arc[j] - arc[k]))
 
 
 def _project(path: np.ndarray, s: np.ndarray, xy: np.ndarray) -> float:
@@ -312,7 +333,11 @@ class CityTraffic(Traffic):
             drives = [drive_path(c, scene.blocks, tree) for c in cars]
             if crossings is not None:
                 crossings.drives = drives  # kept with the scene's cached data
-        self.drives = drives
+        # A vehicle starting past a stop line (its start on the crosswalk) waits there.
+        self.drives = [
+            DrivePath(d.points, d.arc, d.limit, [_from(p, c.length / 2) for p in d.passages])
+            for d, c in zip(drives, cars, strict=True)
+        ]
         self.paths = [d.points for d in self.drives]
         self._arc = [d.arc for d in self.drives]
         self.total = np.array([a[-1] for a in self._arc], dtype=np.float64)
