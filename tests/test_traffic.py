@@ -28,9 +28,10 @@ def _blocks():
     b1 = Intersection(id="b1", kind="intersection", pose=Pose2(position=(0.0, 0.0)), arm_length=15.0,
                       lane_width=LANE)  # fmt: skip
     b2 = Straight(id="b2", kind="straight", pose=Pose2(position=(30.0, 0.0)), length=150.0, lane_width=LANE)
-    b3 = Straight(id="b3", kind="straight", pose=Pose2(position=(15.0, -165.0), yaw=math.pi / 2), length=150.0,
+    up = math.pi / 2
+    b3 = Straight(id="b3", kind="straight", pose=Pose2(position=(15.0, -165.0), yaw=up), length=150.0,
                   lane_width=LANE)  # fmt: skip
-    b4 = Straight(id="b4", kind="straight", pose=Pose2(position=(15.0, 15.0), yaw=math.pi / 2), length=150.0,
+    b4 = Straight(id="b4", kind="straight", pose=Pose2(position=(15.0, 15.0), yaw=up), length=150.0,
                   lane_width=LANE)  # fmt: skip
     links = {
         "b0": [("out", "b1", "in")],
@@ -108,7 +109,8 @@ def test_vehicles_queue_at_red_and_the_queue_clears_on_green():
 
 
 def test_crossing_vehicles_at_an_unsignalised_junction_take_turns_and_never_overlap():
-    north = {"id": "car-n", "kind": "vehicle", "start": (15.0 + LANE / 2, -60.0), "goal": (15.0 + LANE / 2, 160.0),
+    x = 15.0 + LANE / 2
+    north = {"id": "car-n", "kind": "vehicle", "start": (x, -60.0), "goal": (x, 160.0),
              "route": ("b3", "b1", "b4"), "speed": 12.0}  # fmt: skip
     east = _car(0, -45.0)
     traffic = CityTraffic(junction([east, north], signal=None), dt=0.1)
@@ -140,7 +142,10 @@ def test_a_phase_naming_a_missing_lane_or_crosswalk_is_one_problem_at_its_path()
     bad = {**SIGNAL, "phases": [{**SIGNAL["phases"][0], "lanes": ["left:0", "north:0"]},
                                 {**SIGNAL["phases"][1], "crosswalks": ["zone-9"]}]}  # fmt: skip
     problems = citygen.validate(junction([], signal=bad))
-    assert [p.path for p in problems] == ["$.signals[0].phases[0].lanes[1]", "$.signals[0].phases[1].crosswalks[0]"]
+    assert [p.path for p in problems] == [
+        "$.signals[0].phases[0].lanes[1]",
+        "$.signals[0].phases[1].crosswalks[0]",
+    ]
     assert "'north:0'" in str(problems[0]) and "sockets in, out, left, right" in str(problems[0])
     short = {**SIGNAL, "cycle": 45.0}
     assert [str(p) for p in citygen.validate(junction([], signal=short))] == [

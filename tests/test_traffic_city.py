@@ -9,8 +9,8 @@ step, the robot standing at the task's start) without MuJoCo: the city's env ste
 invariants on its own agents.
 
 The invariants are measured on the scene's zones, independently of the runner's bookkeeping:
-a signalised junction is the convex hull of its phases' crosswalks grown by the stop margin
-(its stop lines), entered when a vehicle's front bumper crosses into it.
+a signalised junction is the ground inside its stop lines (STOP_MARGIN beyond the far edge of
+each arm's crosswalks), entered when a vehicle's front bumper crosses one of them.
 """
 
 from __future__ import annotations
@@ -55,7 +55,7 @@ class Invariants:
                 [math.cos(block.pose.yaw), math.sin(block.pose.yaw)]
             )
             walks = [zones[w] for p in s.phases for w in p.crosswalks]
-            box, lines = g.outline, []
+            box, lines = g.outline.buffer(10.0), []  # bounded by the stop lines, not the curbs
             for arm in g.arms:
                 d = np.array([math.cos(arm.yaw), math.sin(arm.yaw)])
                 mine = [

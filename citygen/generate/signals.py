@@ -66,7 +66,7 @@ def signalise(blocks: Sequence, zones: Sequence[Zone]) -> tuple[Signal, ...]:
     >>> scene = layout(GeneratorConfig(size=(400.0, 400.0), layout="city"), 1)
     >>> s = scene.signals[0]
     >>> [p.id for p in s.phases], s.phases[0].lanes[:2], s.cycle
-    (['in-out', 'left-right'], ('in:0', 'in:1'), 70.0)
+    (['in-out', 'side'], ('in:0', 'in:1'), 70.0)
     """
     walks = [z for z in zones if z.kind == "crosswalk"]
     polys = [Polygon(z.polygon, z.holes) for z in walks]
