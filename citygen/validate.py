@@ -55,6 +55,7 @@ def validate(scene: Scene, base_dir: str | Path | None = None) -> list[Problem]:
     zones = [Polygon(z.polygon, z.holes) for z in scene.zones]
     problems += _check_unique_ids(scene)
     problems += _check_blocks(scene)
+    problems += _check_signals(scene)
     problems += _check_zones(scene, zones, area)
     # Later checks use the zones as shapes; an invalid ring (already reported) is
     # repaired so that unions and overlap tests never fail on it.
@@ -147,6 +148,66 @@ def _check_blocks(scene: Scene) -> list[Problem]:
                         "a one-way connection",
                     )
                 )
+    return problems
+
+
+# --- signals ---------------------------------------------------------------------
+
+
+def _check_signals(scene: Scene) -> list[Problem]:
+    """Each signal's junction is a block, its phases name that block's approach lanes and
+    crosswalk zones, and its cycle is the sum of the phases' times."""
+    problems: list[Problem] = []
+    blocks = {b.id: b for b in scene.blocks}
+    crosswalks = {z.id for z in scene.zones if z.kind == "crosswalk"}
+    seen: dict[str, int] = {}
+    for i, signal in enumerate(scene.signals or ()):
+        where = f"$.signals[{i}]"
+        if signal.id in seen:
+            problems.append(
+                Problem(
+                    f"{where}.id",
+                    "an id not used before in signals",
+                    f"{signal.id!r}, also $.signals[{seen[signal.id]}]",
+                )
+            )
+        seen.setdefault(signal.id, i)
+        block = blocks.get(signal.junction)
+        if block is None:
+            problems.append(
+                Problem(f"{where}.junction", "the id of a block in $.blocks", repr(signal.junction))
+            )
+        else:
+            sockets = [s.id for s in block.sockets]
+            for j, phase in enumerate(signal.phases):
+                for k, lane in enumerate(phase.lanes):
+                    socket, n = lane.rsplit(":", 1)
+                    if socket not in sockets or int(n) >= block.lanes:
+                        problems.append(
+                            Problem(
+                                f"{where}.phases[{j}].lanes[{k}]",
+                                f"an approach lane '<socket>:<k>' of block {block.id!r} (sockets "
+                                f"{', '.join(sockets) or 'none'}; lanes 0-{block.lanes - 1})",
+                                repr(lane),
+                            )
+                        )
+        for j, phase in enumerate(signal.phases):
+            for k, walk in enumerate(phase.crosswalks):
+                if walk not in crosswalks:
+                    problems.append(
+                        Problem(
+                            f"{where}.phases[{j}].crosswalks[{k}]", "the id of a crosswalk zone", repr(walk)
+                        )
+                    )
+        total = sum(p.green + p.amber + p.red for p in signal.phases)
+        if abs(total - signal.cycle) > 1e-3:
+            problems.append(
+                Problem(
+                    f"{where}.cycle",
+                    f"the sum of the phases' green, amber and red times ({_fmt(total)} s)",
+                    _fmt(signal.cycle),
+                )
+            )
     return problems
 
 

@@ -35,6 +35,8 @@ What the model holds (metres, radians, Z up; ``<compiler angle="radian"/>``):
   Each agent's goal is a site ``agent:<id>:goal`` (group 4, hidden), its preferred speed
   (m/s) ``<custom><numeric name="agent:<id>:speed">`` and a vehicle's route of block ids
   ``<custom><text name="agent:<id>:route">``.
+- **Signals.** Sites ``signal:<id>:head:<k>`` where each light hangs, ``signal:<id>:<phase>``
+  (group 4) per phase, custom entries of each phase's times, lanes and crosswalks.
 - **Task.** Sites ``task:start`` (its frame turned by the start yaw), ``task:goal`` (a
   disc of the goal tolerance) and for a traverse ``task:waypoint:<k>``; custom entries
   ``task:kind``, ``task:robot`` (text), ``task:time_limit`` (s) and for locomotion
@@ -152,6 +154,8 @@ _AGENT_RGBA = {
 _START_RGBA, _GOAL_RGBA = (0.04, 0.56, 0.23, 0.8), (0.82, 0.12, 0.29, 0.45)
 
 #: Height (m) of the capsule standing for each kind of person.
+SIGNAL_HEIGHT = 3.0
+"""Height (m) of a signal head's site above the ground."""
 PERSON_HEIGHT = MappingProxyType({"pedestrian": 1.75, "cyclist": 1.8, "scooter": 1.8})
 #: Height (m) of the box standing for a vehicle.
 VEHICLE_HEIGHT = 1.5
@@ -871,6 +875,32 @@ def _agents(b: _Builder) -> None:
             b.custom("text", f"agent:{a.id}:route", " ".join(a.route))
 
 
+def _signals(b: _Builder) -> None:
+    """Per signal head a site ``signal:<id>:head:<k>`` where the light hangs (facing the
+    traffic it signals); per phase a hidden site ``signal:<id>:<phase>`` over the junction
+    and custom entries ``signal:<id>:<phase>:times`` (green, amber, red: s),
+    ``signal:<id>:<phase>:lanes`` and ``:crosswalks`` (text), ``signal:<id>:plan`` (cycle,
+    offset: s)."""
+    for s in b.scene.signals or ():
+        heads = [h.position for h in s.heads]
+        for k, h in enumerate(s.heads):
+            z = float(height_at(b.scene, *h.position))
+            ET.SubElement(
+                b.world, "site", name=f"signal:{s.id}:head:{k}", type="box", size="0.15 0.15 0.4",
+                pos=_v((*h.position, z + SIGNAL_HEIGHT)), euler=_v((0, 0, h.yaw)), rgba="0.1 0.1 0.1 1",
+            )  # fmt: skip
+        cx, cy = np.mean(heads, axis=0) if heads else (0.0, 0.0)
+        for phase in s.phases:
+            name = f"signal:{s.id}:{phase.id}"
+            ET.SubElement(b.world, "site", name=name, pos=_v((cx, cy, SIGNAL_HEIGHT)), size="0.1", group="4")
+            b.custom("numeric", f"{name}:times", _v((phase.green, phase.amber, phase.red)))
+            if phase.lanes:
+                b.custom("text", f"{name}:lanes", " ".join(phase.lanes))
+            if phase.crosswalks:
+                b.custom("text", f"{name}:crosswalks", " ".join(phase.crosswalks))
+        b.custom("numeric", f"signal:{s.id}:plan", _v((s.cycle, s.offset)))
+
+
 def _task(b: _Builder) -> None:
     task = b.scene.task
     if task is None:
@@ -971,6 +1001,7 @@ def _build(b: _Builder, name: str) -> MJCF:
     _ground(b)
     _objects(b)
     _agents(b)
+    _signals(b)
     _task(b)
     centre, side, span = _extent(b)
     ET.SubElement(

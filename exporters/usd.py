@@ -23,6 +23,9 @@ Stage (``upAxis = "Z"``, ``metersPerUnit = 1``, ``kilogramsPerUnit = 1``,
                                  xformOps translate, rotateZ (degrees), scale
       Agents/<agent id>          Xform at the start (facing the goal); citygen:kind,
                                  start, goal (points, m), radius/speed or length/width/route
+      Signals/<signal id>        Xform labelled traffic_signal; citygen:junction, cycle, offset (s);
+                                 Head_<k> Xforms where the lights stand (traffic_light),
+                                 Phase_<id> Scopes: citygen:lanes, crosswalks, times (s)
       Task                       citygen:kind, robot, timeLimit (s), goalTolerance (m) ...
         Start, Goal              Xforms at the robot's start pose and at the goal
 
@@ -956,6 +959,30 @@ def _author_agents(world: Sdf.PrimSpec, scene: Scene) -> None:
             _set(spec, "citygen:route", t.StringArray, list(agent.route), custom=True)
 
 
+def _author_signals(world: Sdf.PrimSpec, scene: Scene) -> None:
+    if not scene.signals:
+        return
+    t = Sdf.ValueTypeNames
+    signals = _define(world, "Signals", "Xform")
+    for signal, name in zip(scene.signals, prim_names(s.id for s in scene.signals), strict=True):
+        spec = _define(signals, name, "Xform")
+        _label(spec, "traffic_signal")
+        _set(spec, "citygen:id", t.String, signal.id, custom=True)
+        _set(spec, "citygen:junction", t.String, signal.junction, custom=True)
+        _set(spec, "citygen:cycle", t.Double, signal.cycle, custom=True)
+        _set(spec, "citygen:offset", t.Double, signal.offset, custom=True)
+        for k, head in enumerate(signal.heads):
+            h = _define(spec, f"Head_{k}", "Xform")
+            _xform(h, _ground_point(scene, head.position), head.yaw)
+            _label(h, "traffic_light")
+        for phase, pname in zip(signal.phases, prim_names(p.id for p in signal.phases), strict=True):
+            p = _define(spec, f"Phase_{pname}", "Scope")
+            _set(p, "citygen:id", t.String, phase.id, custom=True)
+            _set(p, "citygen:lanes", t.StringArray, list(phase.lanes), custom=True)
+            _set(p, "citygen:crosswalks", t.StringArray, list(phase.crosswalks), custom=True)
+            _set(p, "citygen:times", t.Double3, Gf.Vec3d(phase.green, phase.amber, phase.red), custom=True)
+
+
 def _author_task(world: Sdf.PrimSpec, scene: Scene) -> None:
     task = scene.task
     if task is None:
@@ -1049,6 +1076,7 @@ def export(
         _author_roads(world, model)
         _author_objects(world, model, refs)
         _author_agents(world, model)
+        _author_signals(world, model)
         _author_task(world, model)
     path = out / f"{name}.{format}"
     _write_layer(layer, path)

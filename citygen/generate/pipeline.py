@@ -52,6 +52,7 @@ from citygen.generate.city_ground import plan_city_ground
 from citygen.generate.city_terrain import city_features
 from citygen.generate.ground import ground_margin, plan_ground, plan_region
 from citygen.generate.placement import place_objects
+from citygen.generate.signals import place_lights, signalise
 from citygen.generate.space import (
     connects,
     free_space,
@@ -82,6 +83,7 @@ def layout(
     """Stages 1 and 2: the road blocks (for ``layout="blocks"`` and ``"city"``) and the zones of a scene."""
     bounds = Bounds(min=(0.0, 0.0), max=config.size)
     blocks: tuple = ()
+    signals = None
     if config.layout == "blocks":
         blocks = connect_blocks(
             bounds, config.blocks, stage_rng(seed, "blocks"), seed=seed, margin=ground_margin(config.ground)
@@ -95,6 +97,7 @@ def layout(
         zones = plan_city_ground(
             bounds, plan, config.ground, config.city, stage_rng(seed, "ground"), seed=seed
         )
+        signals = signalise(blocks, zones)
     elif config.layout == "region":
         zones = plan_region(bounds, config.region, stage_rng(seed, "ground"), seed=seed)
     elif config.layout == "track":
@@ -102,7 +105,7 @@ def layout(
     else:
         zones = ()
     meta = Meta(generator=GENERATOR, split=split, index=index, seed=seed)
-    return Scene(format=SCENE_FORMAT, meta=meta, bounds=bounds, blocks=blocks, zones=zones)
+    return Scene(format=SCENE_FORMAT, meta=meta, bounds=bounds, blocks=blocks, zones=zones, signals=signals)
 
 
 def generate(
@@ -214,6 +217,8 @@ def _finish(scene: Scene, config: GeneratorConfig, seed: int, *, keep: int) -> S
         if config.layout == "city":
             rng = child(stage_rng(seed, "placement"), 300)
             placements = street_furniture(scene.zones, terrain, placements, rng, keep_clear=_corridor(ends))
+        if scene.signals:
+            placements = place_lights(scene.signals, scene.zones, placements, terrain)
     if keep >= 3:
         agents = scene.agents
     elif track is not None:

@@ -516,6 +516,7 @@ class NavEnv(_CitygenEnv):
         self.collisions = 0
         self._last_collision = False
         self.recorder = self._new_record()
+        self.traffic_record = M.TrafficRecord() if self.scene.signals else None
         obs = self._observation()
         return obs, self._info(distance=self._distance())
 
@@ -532,11 +533,15 @@ class NavEnv(_CitygenEnv):
         d = self.data
         if self._dynamic() and self.prepared.agent_bodies:
             from citygen.runner.crowd import Crowd, Traffic
+            from citygen.runner.traffic import city_agents
 
             self.crowd = Crowd(self.scene, self.prepared.occupancy, rng=self.np_random, dt=self.dt)
             if len(self.crowd.ids) == 0:
                 self.crowd = None
-            self.traffic = Traffic(self.scene, dt=self.dt)
+            if self.scene.signals:  # a city: signals for vehicles and people (runner.traffic)
+                self.crowd, self.traffic = city_agents(self.prepared, self.scene, self.crowd, self.dt)
+            else:
+                self.traffic = Traffic(self.scene, dt=self.dt)
             if len(self.traffic.ids) == 0:
                 self.traffic = None
             self._write_agents()
@@ -596,6 +601,18 @@ class NavEnv(_CitygenEnv):
         self.steps += 1
         return self._after_step()
 
+    def _record_traffic(self, x: float, y: float) -> None:
+        """Red-light crossings and roadway incursions of the robot, in a city (runner.signals)."""
+        if self.traffic_record is not None:
+            from citygen.runner.signals import crossings_of
+
+            c = crossings_of(self.prepared, self.scene)
+            xy = np.array([[x, y]])
+            t = self.steps * self.dt
+            self.traffic_record.record_step(
+                on_roadway=bool(c.on_roadway(xy)[0]), on_red_crosswalk=bool(c.no_walk(xy, t)[0])
+            )
+
     def _distance(self) -> float:
         x, y, _, _ = self.handle.pose(self.data)
         gx, gy = self._goal()
@@ -634,12 +651,15 @@ class NavEnv(_CitygenEnv):
         terminated = success or lost
         truncated = not terminated and self.steps >= self.horizon
         self.recorder.record_step((x, y), walkable=walkable, collision=collision)
+        self._record_traffic(x, y)
         obs = self._observation()
         info = self._info(distance=d, walkable=walkable, collision=collision, success=success, lost=lost)
         if terminated or truncated:
             left = 0.0 if success else self.prepared.geodesic((x, y), self.goal, self.tolerance)
             self.recorder.finish(success=success, distance_left=left if math.isfinite(left) else d)
             info["metrics"] = M.nav_metrics(self.recorder)
+            if self.traffic_record is not None:
+                info["metrics"].update(self.traffic_record.metrics())
             info["is_success"] = success
         return obs, float(reward), bool(terminated), bool(truncated), info
 
@@ -778,6 +798,7 @@ class TraverseEnv(NavEnv):
             collision=collision and not self._last_collision,  # Collision Times counts contacts, not steps
         )
         self._last_collision = collision
+        self._record_traffic(x, y)
         obs = self._observation()
         info = self._info(
             distance=d, waypoint=self.waypoint, waypoints=len(self.route), attempts=self.attempts,
@@ -790,6 +811,8 @@ class TraverseEnv(NavEnv):
                 "success_rate": 100.0 * done,
                 "route_completion": 100.0 * self.progress["done"],
             }
+            if self.traffic_record is not None:
+                info["metrics"].update(self.traffic_record.metrics())
         return obs, float(reward), bool(done), bool(truncated), info
 
 

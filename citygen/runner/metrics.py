@@ -51,6 +51,8 @@ METRICS: Mapping[str, tuple[str, int]] = {
     "speed": ("Speed (m/s)", 2),
     "collision_times": ("Collision Times", 2),
     "time": ("Time (s)", 1),
+    "red_light_crossings": ("Red-light Crossings", 2),
+    "roadway_incursions": ("Roadway Incursions", 2),
 }
 
 
@@ -90,6 +92,37 @@ def _require_steps(ep: object, steps: int, kind: str) -> None:
 
 
 # --- navigation ------------------------------------------------------------------------------
+
+
+@dataclass
+class TrafficRecord:
+    """The robot's traffic behaviour in a city (beyond the paper): how often it stepped onto a
+    signalised crosswalk that did not show *walk* (a red-light crossing), and how often it went
+    onto the roadway off the crosswalks (a roadway incursion). Each counts entries, not steps.
+
+    >>> rec = TrafficRecord()
+    >>> for road, red in ((False, False), (True, False), (True, False), (False, True), (False, False)):
+    ...     rec.record_step(on_roadway=road, on_red_crosswalk=red)
+    >>> rec.roadway_incursions, rec.red_light_crossings
+    (1, 1)
+    """
+
+    red_light_crossings: int = 0
+    roadway_incursions: int = 0
+    _road: bool = False
+    _red: bool = False
+
+    def record_step(self, *, on_roadway: bool, on_red_crosswalk: bool) -> None:
+        """Where the robot is after a step: on the roadway, on a crosswalk showing no *walk*."""
+        self.roadway_incursions += int(on_roadway and not self._road)
+        self.red_light_crossings += int(on_red_crosswalk and not self._red)
+        self._road, self._red = bool(on_roadway), bool(on_red_crosswalk)
+
+    def metrics(self) -> dict[str, float]:
+        return {
+            "red_light_crossings": float(self.red_light_crossings),
+            "roadway_incursions": float(self.roadway_incursions),
+        }
 
 
 @dataclass

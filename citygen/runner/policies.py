@@ -93,7 +93,24 @@ class PlannerPolicy:
             v, w = self.planner.command((x, y, yaw), *env.others())
         else:
             v, w = self.planner.command((x, y, yaw))
+        if v > 0 and wait_for_walk(env, x, y, yaw):
+            v = 0.0
         return np.array([v / env.robot.max_speed, w / env.robot.max_yaw_rate], dtype=np.float32).clip(-1, 1)
+
+
+def wait_for_walk(env: Any, x: float, y: float, yaw: float) -> bool:
+    """Whether the robot at ``(x, y)`` facing ``yaw`` stands at the edge of a signalised
+    crosswalk that does not show *walk* (in a city; once on a crosswalk it walks on)."""
+    if not getattr(env.scene, "signals", None) or getattr(env, "prepared", None) is None:
+        return False
+    from citygen.runner.signals import crossings_of
+
+    c = crossings_of(env.prepared, env.scene)
+    if c.crosswalk_at(np.array([[x, y]]))[0] >= 0:
+        return False
+    reach = env.robot.radius + np.array([0.3, 1.0])
+    ahead = np.stack([x + reach * math.cos(yaw), y + reach * math.sin(yaw)], axis=1)
+    return bool(c.no_walk(ahead, env.steps * env.dt).any())
 
 
 class GaitPolicy:

@@ -2,7 +2,7 @@
 
 Metres, radians and seconds; Z up, right-handed; yaw counter-clockwise about +Z.
 The top-level keys (``$schema``, ``format``, ``meta``, ``bounds``, ``blocks``, ``zones``,
-``terrain``, ``placements``, ``agents``, ``task``) are a public contract that other
+``terrain``, ``placements``, ``agents``, ``task``, ``signals``) are a public contract that other
 simulators read.
 """
 
@@ -17,6 +17,7 @@ from citygen.spec.agents import Agent
 from citygen.spec.base import Identifier, SpecModel, Vec2, bounded_int
 from citygen.spec.blocks import Block
 from citygen.spec.placements import Placement
+from citygen.spec.signals import Signal
 from citygen.spec.task import Task
 from citygen.spec.terrain import Terrain
 from citygen.spec.zones import Zone
@@ -73,3 +74,5 @@ class Scene(SpecModel):
     """Pedestrians, cyclists, scooter riders and vehicles."""
     task: Task | None = None
     """The benchmark task; scenes made only to look at or to export may have none."""
+    signals: tuple[Signal, ...] | None = Field(default=None, max_length=limits.MAX_BLOCKS)
+    """Signalised junctions (left out where no junction has traffic lights)."""

@@ -1,0 +1,179 @@
+"""Traffic signals for a city's junctions (part of stage 2 for ``layout = "city"``), and the
+traffic lights that stand where they are (after stage 4).
+
+Every ``intersection`` and ``t_intersection`` block gets a two-phase plan: the arms along one
+axis (``in`` and ``out``; ``left`` and ``right`` or a T's ``side``) share a phase, so opposing
+traffic goes together. A phase serves all lanes of its arms and the crosswalks over the
+*other* arms (people walk beside the traffic that has green). Green is
+:data:`BASE_GREEN` plus :data:`GREEN_PER_LANE` per lane of the street an arm leads to (arterials
+get longer greens), then :data:`AMBER` and :data:`ALL_RED`. Offsets make a green wave for
+traffic going east at :data:`WAVE_SPEED`. Roundabouts are left unsignalised (vehicles yield),
+as are curves and mid-block crosswalks.
+
+Nothing is drawn from a generator: the plan is a function of the blocks and zones, so it is
+the same for the same streets and costs no seeds.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+import shapely
+from shapely.geometry import Polygon
+
+from citygen.generate.placement import base_of
+from citygen.geometry.roads import block_geometry
+from citygen.geometry.terrain import height_at
+from citygen.spec.blocks import Intersection, TIntersection
+from citygen.spec.placements import Placement
+from citygen.spec.signals import Head, Phase, Signal
+from citygen.spec.terrain import Terrain
+from citygen.spec.zones import Zone
+
+BASE_GREEN, GREEN_PER_LANE = 14.0, 8.0
+"""Green time (s) of a phase: this base plus this much per lane of its widest street."""
+AMBER, ALL_RED = 3.0, 2.0
+"""Amber and all-red clearance times (s) after each green."""
+WAVE_SPEED = 12.0
+"""Speed (m/s) of the green wave the offsets make for eastbound traffic."""
+HEAD_SIDE = (1.0, 0.6, 1.5, 0.3)
+"""Distances (m) beyond the road's edge tried for a light's pole, on the sidewalk or curb."""
+LIGHT_ASSET = "traffic_light/0000"
+"""The catalog variant of the lights that stand at signalised junctions."""
+
+
+def _axis_groups(arms) -> list[list]:
+    """Arms grouped by their road's axis (opposite arms together), in arm order."""
+    groups: list[list] = []
+    for arm in arms:
+        for g in groups:
+            if abs(math.remainder(arm.yaw - g[0].yaw, math.pi)) < 0.1:
+                g.append(arm)
+                break
+        else:
+            groups.append([arm])
+    return groups
+
+
+def signalise(blocks: Sequence, zones: Sequence[Zone]) -> tuple[Signal, ...]:
+    """One :class:`~citygen.spec.signals.Signal` per intersection and T-intersection of
+    ``blocks``, its phases naming the crosswalk zones of ``zones`` at each arm.
+
+    >>> from citygen.generate.pipeline import layout
+    >>> from citygen.spec.config import GeneratorConfig
+    >>> scene = layout(GeneratorConfig(size=(400.0, 400.0), layout="city"), 1)
+    >>> s = scene.signals[0]
+    >>> [p.id for p in s.phases], s.phases[0].lanes[:2], s.cycle
+    (['in-out', 'side'], ('in:0', 'in:1'), 70.0)
+    """
+    walks = [z for z in zones if z.kind == "crosswalk"]
+    polys = [Polygon(z.polygon, z.holes) for z in walks]
+    tree = shapely.STRtree(polys)
+    lanes_of = {b.id: b.lanes for b in blocks}
+    out = []
+    for block in blocks:
+        if not isinstance(block, Intersection | TIntersection):
+            continue
+        g = block_geometry(block)
+        centre = np.asarray(block.pose.position) + block.arm_length * np.array(
+            [math.cos(block.pose.yaw), math.sin(block.pose.yaw)]
+        )
+        neighbour = {c.socket: c.block for c in block.connections}
+        crossing: dict[str, list[str]] = {}
+        far: dict[str, float] = {}
+        for arm, site in zip(g.arms, g.crossings, strict=True):
+            d = np.array([math.cos(arm.yaw), math.sin(arm.yaw)])
+            n = np.array([-d[1], d[0]])
+            a, b = centre + d * site.offset, centre + d * min(site.offset + 6.0, block.arm_length)
+            span = site.half_width + 0.5
+            band = Polygon([a - n * span, b - n * span, b + n * span, a + n * span])
+            hits = sorted(int(k) for k in tree.query(band, predicate="intersects"))
+            hits = [k for k in hits if polys[k].intersection(band).area > 0.5]
+            crossing[arm.socket] = [walks[k].id for k in hits]
+            reach = [float(np.max(np.asarray(polys[k].exterior.coords) @ d - centre @ d)) for k in hits]
+            far[arm.socket] = max(reach, default=site.offset + 3.0)
+        phases = []
+        for group in _axis_groups(g.arms):
+            names = [a.socket for a in group]
+            widest = max(lanes_of.get(neighbour.get(s, ""), block.lanes) for s in names)
+            phases.append(
+                Phase(
+                    id="-".join(names),
+                    lanes=tuple(f"{s}:{k}" for s in names for k in range(block.lanes)),
+                    crosswalks=tuple(c for a in g.arms if a.socket not in names for c in crossing[a.socket]),
+                    green=BASE_GREEN + GREEN_PER_LANE * widest,
+                    amber=AMBER,
+                    red=ALL_RED,
+                )
+            )
+        cycle = sum(p.green + p.amber + p.red for p in phases)
+        heads = []
+        for arm in g.arms:
+            d = np.array([math.cos(arm.yaw), math.sin(arm.yaw)])
+            n = np.array([-d[1], d[0]])  # the right of traffic coming in along this arm
+            p = centre + d * (far[arm.socket] + 1.0) + n * arm.half_width
+            heads.append(Head(position=(float(p[0]), float(p[1])), yaw=math.remainder(arm.yaw, 2 * math.pi)))
+        out.append(
+            Signal(
+                id=f"signal-{block.id}",
+                junction=block.id,
+                phases=tuple(phases),
+                cycle=cycle,
+                offset=round((centre[0] / WAVE_SPEED) % cycle, 1),
+                heads=tuple(heads),
+            )
+        )
+    return tuple(out)
+
+
+def place_lights(
+    signals: Sequence[Signal], zones: Sequence[Zone], placements: Sequence[Placement], terrain: Terrain | None
+) -> tuple[Placement, ...]:
+    """``placements`` with a traffic light at each signal head: its pole moved out from the
+    road's edge (:data:`HEAD_SIDE`) to the first spot on sidewalk or curb; objects its base
+    would touch (not buildings) make way. Heads are moved onto the spot found."""
+
+    def base_at(x: float, y: float, yaw: float) -> Polygon:
+        return base_of(Placement(id="light", asset=LIGHT_ASSET, position=(x, y, 0.0), yaw=yaw))
+
+    ground = [Polygon(z.polygon, z.holes) for z in zones if z.kind in ("sidewalk", "curb")]
+    tree = shapely.STRtree(ground)
+    lights: list[Placement] = []
+    bases: list[Polygon] = []
+    for s in signals:
+        for k, head in enumerate(s.heads):
+            yaw = head.yaw
+            d = np.array([math.cos(yaw), math.sin(yaw)])
+            n = np.array([-d[1], d[0]])
+            for side in HEAD_SIDE:
+                x, y = np.asarray(head.position) + n * side
+                base = base_at(float(x), float(y), yaw)
+                hits = tree.query(base, predicate="intersects")
+                on_ground = len(hits) and shapely.union_all([ground[i] for i in hits]).covers(base)
+                if on_ground and not any(base.intersects(b) for b in bases):
+                    break
+            else:
+                continue
+            z = round(float(height_at(terrain, x, y)), 3) + 0.0
+            lights.append(
+                Placement(
+                    id=f"{s.id}-light-{k + 1}",
+                    asset=LIGHT_ASSET,
+                    position=(round(float(x), 3) + 0.0, round(float(y), 3) + 0.0, z),
+                    yaw=round(yaw, 6) + 0.0,
+                )
+            )
+            bases.append(base)
+    if not lights:
+        return tuple(placements)
+    tree_l = shapely.STRtree(bases)
+    kept = []
+    for p in placements:
+        if p.asset.startswith("building/") or p.is_mesh:
+            kept.append(p)
+            continue
+        if len(tree_l.query(base_of(p).buffer(0.1), predicate="intersects")) == 0:
+            kept.append(p)
+    return (*kept, *lights)
