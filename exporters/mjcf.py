@@ -179,7 +179,7 @@ MAX_ORTHOGRAPHIC = 170.0
 OFFSCREEN = (1280, 960)
 
 #: ``<size memory>``: MiB for contacts and constraints, plus bytes a geom (broadphase).
-ARENA_BASE_MB, ARENA_PER_GEOM = 32, 2048
+ARENA_BASE_MB, ARENA_PER_GEOM = 32, 4096
 
 _AREA_EPS = 1e-6  # m^2: pieces smaller than this are numerical slivers
 _OPTIONS = ("name", "resolution", "apron", "mesh_dir")
@@ -1027,8 +1027,8 @@ def _build(b: _Builder, name: str) -> MJCF:
 def arena_mb(ngeom: int) -> int:
     """The ``<size memory>`` (MiB) of a model with ``ngeom`` geoms: MuJoCo's broadphase
     takes about 700 bytes a geom of the arena at every step on a 62,000-geom city, and
-    ~1,300 on the 0.3.0 city (115,000 geoms: front steps and furniture crowd the
-    broadphase), contacts and constraints a few MiB; :data:`ARENA_PER_GEOM` a geom and
+    one ~148 MB block on the 0.3.0 city (115,000 geoms) on top of ~150 MB in use, contacts
+    and constraints a few MiB; :data:`ARENA_PER_GEOM` a geom and
     :data:`ARENA_BASE_MB` leave room for a robot's contacts with heightfields."""
     return ARENA_BASE_MB + math.ceil(ngeom * ARENA_PER_GEOM / (1 << 20))
 
