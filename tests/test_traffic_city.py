@@ -15,9 +15,8 @@ each arm's crosswalks), entered when a vehicle's front bumper crosses one of the
 
 from __future__ import annotations
 
-import os
-
 import math
+import os
 
 import numpy as np
 import pytest

@@ -127,4 +127,3 @@ def blocked_cells(terrain: Terrain | None, mobility: Mobility, xs: np.ndarray, y
     cc = np.broadcast_to(np.clip(c, 0, terrain.cols - 1)[None, :], out.shape)
     out[inside] |= blocked[rr[inside], cc[inside]]
     return out
-
