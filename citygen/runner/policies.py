@@ -264,11 +264,12 @@ class ControlMode:
         self.driver = driver or ScriptedOracle()
         self.interval = interval
         self.ai: Policy | None = None
+        self._robot: str | None = None  # whose AI self.ai is
         self.env = None
 
     def reset(self, env: Any) -> None:
         self.env = env
-        if self.ai is None or getattr(self, "_robot", None) != env.robot.name:
+        if self._robot != env.robot.name:
             self.ai, self._robot = traverse_ai(env.robot.name), env.robot.name
         self.ai.reset(env)
         self.driver.reset(env)
