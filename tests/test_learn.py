@@ -130,6 +130,56 @@ def test_numpy_policy_gives_the_actions_of_torch(run):
     np.testing.assert_allclose(numpy_actions, torch_actions, atol=1e-5)
 
 
+def test_the_map_encoder_exports_to_numpy_exactly():
+    """The CNN that reads ``local_map`` (strided convolutions, then a linear layer) gives the
+    same features in numpy as in PyTorch, for a batch of random maps."""
+    import gymnasium
+    import torch
+
+    from citygen.runner.learn.export import NumpyPolicy
+    from citygen.runner.learn.nets import MapEncoder
+
+    space = gymnasium.spaces.Dict(
+        {
+            "goal": gymnasium.spaces.Box(-np.inf, np.inf, (2,), np.float32),
+            "local_map": gymnasium.spaces.Box(-np.inf, np.inf, (2, 32, 32), np.float32),
+        }
+    )
+    torch.manual_seed(0)
+    encoder = MapEncoder(space, conv=((8, 5, 2), (16, 3, 2)), map_features=24)
+    assert encoder.features_dim == 2 + 24
+    seq = encoder.encoders["local_map"]
+    convs = [m for m in seq if isinstance(m, torch.nn.Conv2d)]
+    arrays = {"w0": np.zeros((3, encoder.features_dim), np.float32), "b0": np.zeros(3, np.float32)}
+    for i, c in enumerate(convs):
+        arrays[f"enc/local_map/conv{i}/w"] = c.weight.detach().numpy()
+        arrays[f"enc/local_map/conv{i}/b"] = c.bias.detach().numpy()
+    arrays["enc/local_map/fc/w"] = seq[-2].weight.detach().numpy()
+    arrays["enc/local_map/fc/b"] = seq[-2].bias.detach().numpy()
+    meta = {
+        "keys": ["goal", "local_map"],
+        "shapes": [[2], [2, 32, 32]],
+        "encoders": {"local_map": {"strides": [2, 2]}},
+        "activation": "tanh",
+        "action_low": [-1.0] * 3,
+        "action_high": [1.0] * 3,
+        "action_shape": [3],
+        "clip_obs": 10.0,
+        "epsilon": 1e-8,
+    }
+    policy = NumpyPolicy(meta, arrays)
+    rng = np.random.default_rng(1)
+    obs = {
+        "goal": rng.normal(size=(5, 2)).astype(np.float32),
+        "local_map": rng.random((5, 2, 32, 32), np.float32),
+    }
+    with torch.no_grad():
+        expected = encoder({k: torch.as_tensor(v) for k, v in obs.items()}).numpy()
+    got = policy.features(obs)
+    assert np.abs(expected[:, 2:]).max() > 1e-3  # the map's features are not all zero
+    np.testing.assert_allclose(got, expected, atol=1e-5)
+
+
 @pytest.mark.slow
 def test_a_seeded_run_is_reproducible(tmp_path):
     config = tmp_path / "tiny.toml"
@@ -294,3 +344,36 @@ def test_progress_shaping_pays_for_geodesic_progress_and_only_in_training():
         assert gained == pytest.approx(gained2, abs=1e-6)  # same episode, same physics
         assert (gained > 0.5) == toward and (gained < -0.5) == (not toward)
         assert total - base == pytest.approx(2.0 * gained, rel=1e-6, abs=1e-6)
+
+
+def test_a_success_earns_holding_the_goal_so_hovering_never_pays_more():
+    """Reaching the goal ends the episode; the shaping pays the discounted tracking reward of
+    standing on the goal until the horizon, so finishing sooner is worth more than hovering
+    just outside the tolerance (where the paper's tracking term pays ~1 a step)."""
+    from citygen.runner.bench import make_env
+    from citygen.runner.learn.shaping import TRACK_AT_GOAL, ProgressReward
+
+    env = ProgressReward(make_env("nav-clear", split="urban-nav-1-train", robot="wheeled"), 1.0, 0.99)
+    plain = make_env("nav-clear", split="urban-nav-1-train", robot="wheeled")
+    outcomes = []
+    for e in (env, plain):
+        obs, _ = e.reset(seed=3, options={"index": 0})
+        rewards = []
+        for _ in range(200):
+            g = obs["goal"]
+            heading = float(np.arctan2(g[1], g[0]))
+            obs, r, term, trunc, info = e.step(
+                np.array([0.8 if abs(heading) < 0.5 else 0.0, np.clip(heading, -1, 1)])
+            )
+            rewards.append(r)
+            if term or trunc:
+                break
+        outcomes.append((rewards, info, e.unwrapped.steps, e.unwrapped.horizon))
+    (shaped, info, steps, horizon), (base, base_info, _, _) = outcomes
+    assert info["is_success"] and base_info["is_success"] and len(shaped) == len(base)
+    left = horizon - steps
+    hold = TRACK_AT_GOAL * 0.99 * (1 - 0.99**left) / (1 - 0.99)
+    assert hold > 50  # more than the success bonus: hovering ~1 a step for the rest cannot beat it
+    # the last step: the paper's reward + the last bit of progress + holding the goal
+    assert shaped[-1] - base[-1] == pytest.approx(hold, abs=1.5)
+    assert shaped[-1] - base[-1] > hold

@@ -80,6 +80,15 @@ class TrainConfig(BaseModel):
         (128, 128), description="Hidden layer widths (actor and critic)."
     )
     activation: Literal["tanh", "relu", "elu"] = "tanh"
+    conv: tuple[tuple[PositiveInt, PositiveInt, PositiveInt], ...] = Field(
+        ((16, 5, 2), (32, 3, 2)),
+        description="CNN over image-like keys (local_map): (channels, kernel, stride) per layer, "
+        "then a linear layer of map_features units; () flattens them into the MLP.",
+    )
+    map_features: PositiveInt = Field(128, description="Units the CNN's linear layer gives the MLP.")
+    target_kl: Annotated[float, Field(gt=0)] | None = Field(
+        None, description="Stop a rollout's epochs early past this approximate KL (None: never)."
+    )
     keys: tuple[str, ...] | None = Field(
         None,
         description="Observation keys the policy sees; default goal, velocity, height_map and "

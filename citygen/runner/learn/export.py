@@ -11,12 +11,16 @@ An exported policy file holds (``np.load(path, allow_pickle=False)`` reads it):
 - ``obs_mean/<key>``, ``obs_var/<key>``: the running observation statistics (absent when
   the run did not normalise observations);
 - ``w<i>``, ``b<i>``: the actor's hidden layers, then the action layer, as float32
-  ``(out, in)`` weights and ``(out,)`` biases; ``log_std`` for reference.
+  ``(out, in)`` weights and ``(out,)`` biases; ``log_std`` for reference;
+- for each key the CNN encodes (:mod:`citygen.runner.learn.nets`; listed in the meta's
+  ``encoders`` with each layer's ``strides``): ``enc/<key>/conv<i>/w`` ``(out, in, k, k)``
+  and ``.../b``, then its linear layer ``enc/<key>/fc/w`` and ``.../b`` (ReLU after each).
 
-:func:`act` computes what SB3's ``model.predict(obs, deterministic=True)`` computes for the
-same observation (after ``VecNormalize``): normalise and clip each key, flatten and
-concatenate in ``keys`` order, the hidden layers with their activation, the action layer's
-mean, clipped to the action bounds.
+:meth:`NumpyPolicy.predict` computes what SB3's ``model.predict(obs, deterministic=True)``
+computes for the same observation (after ``VecNormalize``): normalise and clip each key that
+was normalised, encode the map keys with their CNN and flatten the others, concatenate in
+``keys`` order, the hidden layers with their activation, the action layer's mean, clipped
+to the action bounds.
 """
 
 from __future__ import annotations
@@ -38,6 +42,17 @@ _ACTIVATIONS = {
 }
 
 
+def _relu(x: np.ndarray) -> np.ndarray:
+    return np.maximum(x, 0.0)
+
+
+def conv2d(x: np.ndarray, w: np.ndarray, b: np.ndarray, stride: int) -> np.ndarray:
+    """PyTorch's ``Conv2d`` without padding: ``x`` ``(batch, in, H, W)``, ``w`` ``(out, in, k, k)``."""
+    k = w.shape[-1]
+    windows = np.lib.stride_tricks.sliding_window_view(x, (k, k), axis=(2, 3))[:, :, ::stride, ::stride]
+    return np.einsum("bchwij,ocij->bohw", windows, w, optimize=True) + b[None, :, None, None]
+
+
 class NumpyPolicy:
     """An exported policy (see the module docstring); ``reset(env)`` and ``act(obs)`` as the
     runner's baselines."""
@@ -54,6 +69,21 @@ class NumpyPolicy:
             for k in self.keys
             if f"obs_mean/{k}" in arrays
         }
+        self.encoders = {
+            key: (
+                [
+                    (
+                        arrays[f"enc/{key}/conv{i}/w"].astype(np.float32),
+                        arrays[f"enc/{key}/conv{i}/b"].astype(np.float32),
+                        s,
+                    )
+                    for i, s in enumerate(spec["strides"])
+                ],
+                arrays[f"enc/{key}/fc/w"].astype(np.float32),
+                arrays[f"enc/{key}/fc/b"].astype(np.float32),
+            )
+            for key, spec in meta.get("encoders", {}).items()
+        }
         self.activation = _ACTIVATIONS[meta["activation"]]
         self.low = np.asarray(meta["action_low"], dtype=np.float32)
         self.high = np.asarray(meta["action_high"], dtype=np.float32)
@@ -68,6 +98,11 @@ class NumpyPolicy:
             if k in self.norm:
                 mean, std = self.norm[k]
                 x = np.clip((x - mean) / std.astype(np.float32), -clip, clip)
+            if k in self.encoders:
+                convs, w, b = self.encoders[k]
+                for cw, cb, stride in convs:
+                    x = _relu(conv2d(x, cw, cb, stride))
+                x = _relu(x.reshape(x.shape[0], -1) @ w.T + b)
             parts.append(x.reshape(x.shape[0], -1))
         return np.concatenate(parts, axis=1)
 
@@ -113,8 +148,21 @@ def policy_arrays(
         arrays[f"w{i}"] = layer.weight.detach().cpu().numpy().astype(np.float32)
         arrays[f"b{i}"] = layer.bias.detach().cpu().numpy().astype(np.float32)
     arrays["log_std"] = policy.log_std.detach().cpu().numpy().astype(np.float32)
+    encoders = {}
+    extractor = policy.pi_features_extractor
+    for key, module in getattr(extractor, "encoders", {}).items():
+        convs = [m for m in module.modules() if isinstance(m, torch.nn.Conv2d)]
+        if not convs:
+            continue
+        for i, conv in enumerate(convs):
+            arrays[f"enc/{key}/conv{i}/w"] = conv.weight.detach().cpu().numpy().astype(np.float32)
+            arrays[f"enc/{key}/conv{i}/b"] = conv.bias.detach().cpu().numpy().astype(np.float32)
+        (fc,) = [m for m in module.modules() if isinstance(m, torch.nn.Linear)]
+        arrays[f"enc/{key}/fc/w"] = fc.weight.detach().cpu().numpy().astype(np.float32)
+        arrays[f"enc/{key}/fc/b"] = fc.bias.detach().cpu().numpy().astype(np.float32)
+        encoders[key] = {"strides": [int(c.stride[0]) for c in convs]}
     if obs_rms is not None:
-        for k in keys:
+        for k in (k for k in keys if k in obs_rms):
             arrays[f"obs_mean/{k}"] = np.asarray(obs_rms[k].mean, dtype=np.float64)
             arrays[f"obs_var/{k}"] = np.asarray(obs_rms[k].var, dtype=np.float64)
     act = model.action_space
@@ -128,6 +176,7 @@ def policy_arrays(
         "action_low": np.asarray(act.low, dtype=float).ravel().tolist(),
         "action_high": np.asarray(act.high, dtype=float).ravel().tolist(),
         "activation": activation,
+        "encoders": encoders,
         "clip_obs": float(clip_obs),
         "epsilon": float(epsilon),
         "train": train or {},
@@ -166,8 +215,8 @@ def read_policy(path: str | Path) -> NumpyPolicy:
         raise ValueError(f"format {FORMAT!r} in its metadata, found {found!r}")
     try:
         policy = NumpyPolicy(meta, arrays)
-        width = sum(int(np.prod(s)) for s in policy.shapes.values())
         probe = {k: np.zeros(s, dtype=np.float32) for k, s in policy.shapes.items()}
+        width = policy.features(probe).shape[1]
         if policy.weights[0].shape[1] != width:
             raise ValueError(f"a first layer reading {width} inputs, found {policy.weights[0].shape[1]}")
         policy.predict(probe)

@@ -9,6 +9,14 @@ adds ``scale`` reward per metre the robot gets closer to the goal *along the wal
 geodesic* (the fast-marching field SPL measures with, so progress around an obstacle
 counts and progress into a dead end does not), and takes it back for moving away.
 
+The paper's tracking term also pays up to 2.4 a step for standing near the goal, and
+reaching it (within the tolerance) ends the episode with +50: a policy learns to hover just
+outside the tolerance, collecting more than the success is worth (seen: 94 % training success
+at 100k steps falling to 21 % by 210k while the mean return rose from 68 to 95). So the
+wrapper also treats the goal as the absorbing state it is meant to be: a success earns the
+tracking reward of standing on the goal for the rest of the horizon, discounted by ``gamma``
+(:attr:`ProgressReward.hold`), so reaching the goal sooner is always worth more.
+
 It wraps a training sub-environment only: the environment's reward, its metrics and
 ``citygen bench`` are the paper's. ``citygen train --config`` sets ``progress = 0`` to train
 on the paper's reward alone.
@@ -21,13 +29,25 @@ import math
 import gymnasium
 
 
-class ProgressReward(gymnasium.Wrapper):
-    """Adds ``scale`` x (geodesic distance before - after) to every step's reward."""
+#: The paper's tracking reward on the goal itself: 2.0 x [(1 - tanh 0) + 0.2 (1 - tanh 0)].
+TRACK_AT_GOAL = 2.4
 
-    def __init__(self, env: gymnasium.Env, scale: float):
+
+class ProgressReward(gymnasium.Wrapper):
+    """Adds ``scale`` x (geodesic distance before - after) to every step's reward, and on a
+    success the discounted tracking reward of holding the goal until the horizon."""
+
+    def __init__(self, env: gymnasium.Env, scale: float, gamma: float = 0.99):
         super().__init__(env)
         self.scale = float(scale)
+        self.gamma = float(gamma)
         self._d = math.inf
+
+    def hold(self) -> float:
+        """The discounted tracking reward of standing on the goal from now to the horizon."""
+        env = self.env.unwrapped
+        left = max(env.horizon - env.steps, 0)
+        return TRACK_AT_GOAL * self.gamma * (1.0 - self.gamma**left) / (1.0 - self.gamma)
 
     def _geodesic(self) -> float:
         env = self.env.unwrapped
@@ -44,5 +64,7 @@ class ProgressReward(gymnasium.Wrapper):
         d = self._geodesic()
         if math.isfinite(d) and math.isfinite(self._d):
             reward = float(reward) + self.scale * (self._d - d)
+        if terminated and info.get("is_success"):
+            reward = float(reward) + self.hold()
         self._d = d
         return obs, reward, terminated, truncated, info

@@ -283,14 +283,28 @@ def train(
         model = PPO.load(ckpt[1], env=venv, device="cpu")
         print(f"resuming from {ckpt[1]} ({ckpt[0]:,} steps)", flush=True)
     else:
+        from citygen.runner.learn.nets import MapEncoder, is_map
+
+        space = inner.observation_space
+        maps = [k for k in space.spaces if cfg.conv and is_map(space[k])]
         venv = VecNormalize(
             inner,
             norm_obs=cfg.normalize,
             norm_reward=cfg.normalize,
             gamma=cfg.gamma,
             epsilon=cfg.norm_epsilon,
+            # A map's cells keep their metres and 0/1: the CNN's filters slide over them.
+            norm_obs_keys=[k for k in space.spaces if k not in maps],
         )
         activation = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU, "elu": torch.nn.ELU}[cfg.activation]
+        encoder = (
+            {
+                "features_extractor_class": MapEncoder,
+                "features_extractor_kwargs": {"conv": cfg.conv, "map_features": cfg.map_features},
+            }
+            if maps
+            else {}
+        )
         model = PPO(
             "MultiInputPolicy",
             venv,
@@ -304,12 +318,14 @@ def train(
             ent_coef=cfg.ent_coef,
             vf_coef=cfg.vf_coef,
             max_grad_norm=cfg.max_grad_norm,
+            target_kl=cfg.target_kl,
             seed=cfg.seed,
             device="cpu",
             verbose=0,
             policy_kwargs={
                 "net_arch": {"pi": list(cfg.net_arch), "vf": list(cfg.net_arch)},
                 "activation_fn": activation,
+                **encoder,
             },
         )
     runs = len(list((out / "logs").glob("run-*"))) if (out / "logs").exists() else 0

@@ -63,7 +63,7 @@ class SceneSchedule(gymnasium.Wrapper):
 
 def _sub_env(
     task: str, split: str, robot: str, scenes: int | None, sampling: str, seed: int, rank: int, period: int,
-    progress: float = 0.0,
+    progress: float = 0.0, gamma: float = 0.99,
 ) -> gymnasium.Env:  # fmt: skip
     import multiprocessing
     import signal
@@ -78,7 +78,7 @@ def _sub_env(
     if progress and task.startswith("nav"):
         from citygen.runner.learn.shaping import ProgressReward
 
-        env = ProgressReward(env, progress)
+        env = ProgressReward(env, progress, gamma)
     return SceneSchedule(env, scenes=scenes, sampling=sampling, seed=seed, rank=rank, period=period)
 
 
@@ -195,6 +195,7 @@ def make_training_env(cfg: TrainConfig) -> Sb3VecEnv:
             rank,
             cfg.n_steps,
             cfg.progress,
+            cfg.gamma,
         )
         for rank in range(cfg.envs)
     ]
