@@ -57,6 +57,14 @@ def train(
         str | None,
         typer.Option("--sampling", help="async (a scene per sub-environment) or sync.  [default: async]"),
     ] = None,
+    init: Annotated[
+        Path | None,
+        typer.Option(
+            "--init",
+            help="Start from another run's weights and observation statistics (its folder or "
+            "model.zip; same observation keys and action space), e.g. another robot's or task's policy.",
+        ),
+    ] = None,
 ) -> None:
     """Train a PPO policy (the paper's hyperparameters) and export it for `citygen bench --policy`."""
     from citygen.runner.learn.config import load_config
@@ -75,6 +83,7 @@ def train(
         scenes=scenes,
         sampling=sampling,
         processes=processes,
+        init=None if init is None else str(init),
     )
     command = (
         "citygen " + shlex.join(sys.argv[1:]) if sys.argv and Path(sys.argv[0]).name == "citygen" else None

@@ -377,3 +377,30 @@ def test_a_success_earns_holding_the_goal_so_hovering_never_pays_more():
     # the last step: the paper's reward + the last bit of progress + holding the goal
     assert shaped[-1] - base[-1] == pytest.approx(hold, abs=1.5)
     assert shaped[-1] - base[-1] > hold
+
+
+@pytest.mark.slow
+def test_init_starts_from_another_runs_weights_and_a_misfit_is_one_line(run, tmp_path):
+    """``--init`` fine-tunes: a short run started from the fixture's model stays next to its
+    weights (a fresh run is far from them); a model of another network shape is one line."""
+    config = run["config"]
+    r = _train(
+        "--steps", 100, "--config", config, "--out", tmp_path / "ft", "--seed", 4, "--init", run["out"]
+    )
+    assert r.returncode == 0, r.stderr
+    fresh = _train("--steps", 100, "--config", config, "--out", tmp_path / "fresh", "--seed", 4)
+    assert fresh.returncode == 0, fresh.stderr
+
+    def weights(folder):
+        with np.load(folder / "policy.npz") as data:
+            return data["w0"]
+
+    base = weights(run["out"])
+    assert (
+        np.abs(weights(tmp_path / "ft") - base).mean()
+        < 0.1 * np.abs(weights(tmp_path / "fresh") - base).mean()
+    )
+    other = tmp_path / "other.toml"
+    other.write_text(config.read_text().replace("net_arch = [32, 32]", "net_arch = [16]"))
+    r = _train("--steps", 100, "--config", other, "--out", tmp_path / "bad", "--init", run["out"])
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--init" in r.stderr, r.stderr

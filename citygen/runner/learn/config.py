@@ -18,8 +18,11 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-#: Observation keys a navigation policy sees (images stay off: an MLP policy).
-NAV_KEYS = ("goal", "velocity", "height_map", "local_map")
+#: Observation keys a navigation policy sees: the goal, its own velocity and the local map
+#: (through a CNN). The 1.6 m x 1.0 m ``height_map`` stays out: the local map's elevation
+#: layer covers its ground at 0.2 m, and its 187 extra inputs slowed NavClear to 10-16 %
+#: training success at 100k steps where these three keys reach 51 %.
+NAV_KEYS = ("goal", "velocity", "local_map")
 #: Observation keys a locomotion policy sees.
 LOCO_KEYS = ("base_lin_vel", "base_ang_vel", "command", "joint_pos", "joint_vel", "last_action", "height_map")
 
@@ -91,8 +94,8 @@ class TrainConfig(BaseModel):
     )
     keys: tuple[str, ...] | None = Field(
         None,
-        description="Observation keys the policy sees; default goal, velocity, height_map and "
-        "local_map for navigation, the paper's proprioception and height map for locomotion.",
+        description="Observation keys the policy sees; default goal, velocity and local_map for "
+        "navigation, the paper's proprioception and height map for locomotion.",
     )
     progress: Annotated[float, Field(ge=0)] = Field(
         1.0,
@@ -105,6 +108,11 @@ class TrainConfig(BaseModel):
         description="Added to the running variance before dividing: a floor under the scale of "
         "near-constant inputs (a height map on flat ground varies by millimetres; SB3's 1e-8 "
         "would blow its jitter up to the clip).",
+    )
+    init: str | None = Field(
+        None,
+        description="A run folder or model.zip whose weights and observation statistics start "
+        "this run (same observation keys and action space): fine-tune another robot's or task's policy.",
     )
     # CPU and bookkeeping
     torch_threads: Annotated[int, Field(ge=0, le=256)] = Field(

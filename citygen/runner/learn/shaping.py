@@ -28,7 +28,6 @@ import math
 
 import gymnasium
 
-
 #: The paper's tracking reward on the goal itself: 2.0 x [(1 - tanh 0) + 0.2 (1 - tanh 0)].
 TRACK_AT_GOAL = 2.4
 

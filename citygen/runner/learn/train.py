@@ -236,6 +236,33 @@ def _check_resume(cfg: TrainConfig, out: Path) -> None:
             raise TrainError(f"--resume: {out} holds a run of {key} {saved.get(key)!r}, not {now!r}")
 
 
+def _start_from(model: Any, venv: Any, init: Path) -> None:
+    """Load ``init``'s policy weights into ``model`` and its observation statistics into
+    ``venv`` (``--init``); a one-line :class:`TrainError` when they do not fit."""
+    import pickle
+
+    zip_ = init / "model.zip" if init.is_dir() else init
+    stats = zip_.with_name(zip_.stem.replace("model", "vecnormalize") + ".pkl")
+    if not zip_.is_file():
+        raise TrainError(f"--init: expected a run folder or model.zip saved by citygen train, got {init}")
+    try:
+        model.set_parameters(str(zip_), exact_match=True, device="cpu")
+    except Exception as exc:  # SB3 raises bare exceptions on mismatched state dicts
+        detail = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise TrainError(
+            f"--init: {zip_} does not fit this run's observation keys and action space ({detail})"
+        ) from None
+    if stats.is_file():
+        with open(stats, "rb") as f:
+            saved = pickle.load(f)
+        if set(saved.obs_rms) != set(venv.obs_rms):
+            raise TrainError(
+                f"--init: {stats} normalises {sorted(saved.obs_rms)}, this run {sorted(venv.obs_rms)}"
+            )
+        venv.obs_rms = saved.obs_rms
+        venv.ret_rms = saved.ret_rms
+
+
 def train(
     cfg: TrainConfig,
     out: str | Path,
@@ -328,6 +355,8 @@ def train(
                 **encoder,
             },
         )
+        if cfg.init:
+            _start_from(model, venv, Path(cfg.init))
     runs = len(list((out / "logs").glob("run-*"))) if (out / "logs").exists() else 0
     formats = ["csv"]
     try:
