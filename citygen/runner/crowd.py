@@ -49,6 +49,7 @@ import numpy as np
 import scipy.ndimage
 import scipy.sparse
 import scipy.sparse.csgraph
+from scipy.spatial import cKDTree
 
 from citygen.exporters.occupancy import OccupancyMap
 from citygen.geometry.roads import block_geometry, road_graph
@@ -352,12 +353,10 @@ class Crowd:
             cand = np.where(fine[:, None], out, cand)
         # Rare conflicts ORCA left (a person squeezed between the robot, others and a wall): each
         # conflicted person takes, of a few steps it could make, the one that overlaps least.
-        gap_old = self._gaps(old)
-        floor = np.minimum(np.min(gap_old, axis=1), 0.0)  # overlaps already there may stay
+        floor = self._worst_overlap(old)  # overlaps already there may stay
         for _ in range(2):
-            gap = self._gaps(cand)
             conflict = np.flatnonzero(
-                (np.min(gap, axis=1) < floor - OVERLAP_SLACK) | (depth(cand) > OVERLAP_SLACK)
+                (self._worst_overlap(cand) < floor - OVERLAP_SLACK) | (depth(cand) > OVERLAP_SLACK)
             )
             if not len(conflict):
                 break
@@ -380,9 +379,9 @@ class Crowd:
         pinned = depth(old) > OVERLAP_SLACK  # a step back would leave them inside the robot
         back = np.zeros(len(cand), dtype=bool)
         for _ in range(len(cand)):
-            gap = self._gaps(cand)
-            worse = (gap < -OVERLAP_SLACK) & (gap < gap_old - 1e-9)
-            i, j = np.nonzero(np.triu(worse, 1))
+            i, j, gap = self._overlaps(cand)
+            worse = (gap < -OVERLAP_SLACK) & (gap < self._gap(old, i, j) - 1e-9)
+            i, j = i[worse], j[worse]
             movers = np.unique(np.concatenate([i, j]))
             movers = movers[~back[movers] & ~pinned[movers]]
             if not len(movers):
@@ -391,11 +390,26 @@ class Crowd:
             cand[movers] = old[movers]
         return cand
 
-    def _gaps(self, xy: np.ndarray) -> np.ndarray:
-        """Pairwise gaps (m) between people's discs at ``xy``; ``inf`` on the diagonal."""
-        d = np.linalg.norm(xy[:, None] - xy[None], axis=-1) - (self.radius[:, None] + self.radius[None])
-        np.fill_diagonal(d, np.inf)
-        return d
+    def _gap(self, xy: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+        """Gaps (m) between the discs of people ``i`` and ``j`` at ``xy``."""
+        return np.linalg.norm(xy[i] - xy[j], axis=1) - (self.radius[i] + self.radius[j])
+
+    def _overlaps(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The pairs ``i < j`` of people whose discs overlap at ``xy`` and their gaps (m, < 0),
+        found by a KD-tree: only people within two of the largest radii can overlap."""
+        pairs = cKDTree(xy).query_pairs(2 * float(self.radius.max()), output_type="ndarray")
+        i, j = pairs[:, 0], pairs[:, 1]
+        gap = self._gap(xy, i, j)
+        over = gap < 0.0
+        return i[over], j[over], gap[over]
+
+    def _worst_overlap(self, xy: np.ndarray) -> np.ndarray:
+        """Per person the gap (m) to the person it overlaps most at ``xy``; 0 if none."""
+        worst = np.zeros(len(xy))
+        i, j, gap = self._overlaps(xy)
+        np.minimum.at(worst, i, gap)
+        np.minimum.at(worst, j, gap)
+        return worst
 
     def headings(self) -> np.ndarray:
         """Yaw (rad) each person faces: where it moves, or where it last moved when standing."""

@@ -236,7 +236,7 @@ def _triangle(n_lines: int, first: int) -> dict[str, np.ndarray]:
         "chk_j": cand_i[chk_cand] * n_lines + chk_j,
         "chk_real": a(chk_real, bool),
         "chk_start": a(chk_start, int),
-        "cand_c": np.concatenate([np.arange(i + 1) for i in range(first, n_lines)]).astype(int),
+        "cand_c": np.concatenate([np.zeros(0, int), *(np.arange(i + 1) for i in range(first, n_lines))]),
     }
 
 
@@ -245,6 +245,8 @@ def _solve_projected(qx, qy, ex, ey, sub_valid, radius, opt_x, opt_y, first: int
     (dense ``[a, i, j]`` lines, sub-problem ``i`` over lines ``j < i``), by the candidate rule
     over only the line pairs and triples a sub-problem has: ``(x, y, ok)`` of shape ``(A, L)``."""
     n_agents, n_lines = opt_x.shape
+    if first >= n_lines:
+        return np.zeros(opt_x.shape), np.zeros(opt_x.shape), np.zeros(opt_x.shape, bool)
     lay = _triangle(n_lines, first)
     qx, qy, ex, ey = (v.reshape(n_agents, -1) for v in (qx, qy, ex, ey))
     sv = sub_valid.reshape(n_agents, -1)
@@ -392,6 +394,21 @@ def _neighbours(p: np.ndarray, k: int, neighbor_dist: float) -> tuple[np.ndarray
     return idx, present
 
 
+def _present_columns(valid: np.ndarray, n_static: int) -> tuple[np.ndarray | None, int]:
+    """Per agent the columns of its lines to keep, ``(A, L')``, present static lines first
+    (in order), then the neighbours (present ones come first already), ``L'`` the most any
+    agent has; and the new count of static columns. None where nothing can be dropped."""
+    n_lines = valid.shape[1]
+    statics = valid[:, :n_static]
+    keep_s = int(statics.sum(axis=1).max(initial=0))
+    keep_n = int(valid[:, n_static:].sum(axis=1).max(initial=0))
+    if keep_s == n_static and keep_n == n_lines - n_static:
+        return None, n_static
+    order = np.argsort(~statics, axis=1, kind="stable")[:, :keep_s]
+    rest = np.broadcast_to(np.arange(n_static, n_static + keep_n), (len(valid), keep_n))
+    return np.concatenate([order, rest], axis=1), keep_s
+
+
 def _as_agents(x, shape: tuple[int, ...], name: str) -> np.ndarray:
     try:
         return np.broadcast_to(np.asarray(x, dtype=np.float64), shape)
@@ -491,6 +508,13 @@ def orca_velocities(
     rx, ry, rvx, rvy, comb, inv_tau, share, valid = (
         np.concatenate(c, axis=-1).reshape(b * n, -1) for c in zip(*parts, strict=True)
     )
+    # Lines no agent has are dropped (absent static discs moved last first): the answer of
+    # each agent depends only on its present lines, in order.
+    cols, n_static = _present_columns(valid, n_static)
+    if cols is not None:
+        rx, ry, rvx, rvy, comb, inv_tau, share, valid = (
+            np.take_along_axis(v, cols, 1) for v in (rx, ry, rvx, rvy, comb, inv_tau, share, valid)
+        )
     dx, dy, ux, uy = half_planes(rx, ry, rvx, rvy, comb, inv_tau, 1.0 / dt)
     px = vx.reshape(-1, 1) + share * ux
     py = vy.reshape(-1, 1) + share * uy
