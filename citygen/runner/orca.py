@@ -329,15 +329,23 @@ def _least_violation(px, py, dx, dy, valid, n_static: int, radius, sx, sy, begin
     sub_valid = valid[:, None, :] & (stat_b | projected)
     opt_x, opt_y = -dy, dx
     rad = np.broadcast_to(radius[:, None], opt_x.shape)
-    first = max(n_static, int(begin.min()))  # sub-problems before any begin are never taken
-    x, y, ok = _solve_projected(qx, qy, ex, ey, sub_valid, radius, opt_x, opt_y, first)
-    # The worst violation of an agent line by each sub-problem's answer.
-    off = (dx * py - dy * px)[:, None, :] - dx[:, None, :] * y[:, :, None] + dy[:, None, :] * x[:, :, None]
-    worst = np.max(np.where(valid[:, None, :] & ~static, off, -np.inf), axis=-1)
-    idx = np.arange(n_lines)
-    take = ok & valid & ~static & (idx >= begin[:, None])
-    rx, ry, found = _pick(x, y, take, worst)
-    rx, ry = np.where(found, rx, sx), np.where(found, ry, sy)
+    rx, ry = sx.copy(), sy.copy()
+    reg = np.flatnonzero(begin >= n_static)
+    if len(reg):
+        first = int(begin[reg].min())  # sub-problems before any begin are never taken
+        sub = (qx[reg], qy[reg], ex[reg], ey[reg], sub_valid[reg])
+        x, y, ok = _solve_projected(*sub, radius[reg], opt_x[reg], opt_y[reg], first)
+        # The worst violation of an agent line by each sub-problem's answer.
+        lx, ly, lpx, lpy, lv = dx[reg], dy[reg], px[reg], py[reg], valid[reg]
+        off = (
+            (lx * lpy - ly * lpx)[:, None, :]
+            - lx[:, None, :] * y[:, :, None]
+            + ly[:, None, :] * x[:, :, None]
+        )
+        worst = np.max(np.where(lv[:, None, :] & ~static, off, -np.inf), axis=-1)
+        take = ok & lv & ~static & (np.arange(n_lines) >= begin[reg][:, None])
+        bx, by, found = _pick(x, y, take, worst)
+        rx[reg], ry[reg] = np.where(found, bx, sx[reg]), np.where(found, by, sy[reg])
     odd = np.flatnonzero(begin < n_static)
     if len(odd):
         # The static lines themselves conflict: RVO2's steps depend on its tolerances; take them.
