@@ -81,6 +81,12 @@ def half_planes(rx, ry, vx, vy, combined, inv_tau, inv_dt):
     return dx, dy, ux, uy
 
 
+@functools.lru_cache(maxsize=64)
+def _strictly_lower(n: int) -> np.ndarray:
+    """``[i, j]``: ``j < i``."""
+    return np.tri(n, k=-1, dtype=bool)
+
+
 def _candidates(px, py, dx, dy, valid, radius, ox, oy, direction_opt: bool):
     """Every velocity RVO2's ``linearProgram2`` may hold, for lines ``(..., L)`` in order:
     the start (``opt`` clipped to the disc of ``radius``, or ``opt * radius`` when
@@ -99,7 +105,7 @@ def _candidates(px, py, dx, dy, valid, radius, ox, oy, direction_opt: bool):
         dxj, dyj, pxj, pyj = dx[..., None, :], dy[..., None, :], px[..., None, :], py[..., None, :]
         den = dxi * dyj - dyi * dxj
         num = dxj * (pyi - pyj) - dyj * (pxi - pxj)
-        earlier = np.tri(n_lines, k=-1, dtype=bool) & valid[..., None, :]
+        earlier = _strictly_lower(n_lines) & valid[..., None, :]
         parallel = np.abs(den) <= RVO_EPSILON
         ok &= ~np.any(earlier & parallel & (num < 0.0), axis=-1)
         use = earlier & ~parallel
@@ -134,11 +140,10 @@ def _keeps(cx, cy, px, py, dx, dy, valid) -> np.ndarray:
 
 
 def _pick(cx, cy, fit, score) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The fitting candidate of least ``score`` (last axis): ``(x, y, any_fit)``."""
-    best = np.argmin(np.where(fit, score, np.inf), axis=-1)[..., None]
-    x = np.take_along_axis(cx, best, -1)[..., 0]
-    y = np.take_along_axis(cy, best, -1)[..., 0]
-    return x, y, fit.any(axis=-1)
+    """The fitting candidate of least ``score`` of each row ``(A, C)``: ``(x, y, any_fit)``."""
+    best = np.argmin(np.where(fit, score, np.inf), axis=-1)
+    rows = np.arange(len(cx))
+    return cx[rows, best], cy[rows, best], fit.any(axis=-1)
 
 
 def _scan(cx, cy, usable, px, py, dx, dy, valid):
@@ -220,6 +225,9 @@ def _triangle(n_lines: int, first: int) -> dict[str, np.ndarray]:
             cand_i.append(i)
             cand_slot.append(base + c - 1 if c else -1)
     a = np.asarray
+    cand_c = np.concatenate([np.zeros(0, int), *(np.arange(i + 1) for i in range(first, n_lines))])
+    cand_of = np.zeros((n_lines, n_lines + 1), int)  # [i, c]: the candidate's flat index
+    cand_of[a(cand_i, int), cand_c] = np.arange(len(cand_i))
     slot_i, slot_k, tri_slot, tri_j = a(slot_i, int), a(slot_k, int), a(tri_slot, int), a(tri_j, int)
     cand_i, chk_cand, chk_j = a(cand_i, int), a(chk_cand, int), a(chk_j, int)
     return {
@@ -236,7 +244,8 @@ def _triangle(n_lines: int, first: int) -> dict[str, np.ndarray]:
         "chk_j": cand_i[chk_cand] * n_lines + chk_j,
         "chk_real": a(chk_real, bool),
         "chk_start": a(chk_start, int),
-        "cand_c": np.concatenate([np.zeros(0, int), *(np.arange(i + 1) for i in range(first, n_lines))]),
+        "cand_c": cand_c,
+        "cand_of": cand_of,
     }
 
 
@@ -294,13 +303,9 @@ def _solve_projected(qx, qy, ex, ey, sub_valid, radius, opt_x, opt_y, first: int
     dense = np.full((n_agents, n_lines, n_lines + 1), np.inf)
     dense[:, ci, lay["cand_c"]] = np.where(fit, score, np.inf)
     best = np.argmin(dense, axis=-1)
-    found = np.isfinite(np.take_along_axis(dense, best[..., None], -1)[..., 0])
-    flat = np.full((n_lines, n_lines + 1), 0)
-    flat[ci, lay["cand_c"]] = np.arange(len(ci))
-    pick = flat[np.arange(n_lines)[None, :], best]
-    x = np.take_along_axis(cx, pick, 1)
-    y = np.take_along_axis(cy, pick, 1)
-    return x, y, found
+    rows, subs = np.arange(n_agents)[:, None], np.arange(n_lines)[None, :]
+    pick = lay["cand_of"][subs, best]
+    return cx[rows, pick], cy[rows, pick], np.isfinite(dense[rows, subs, best])
 
 
 def _least_violation(px, py, dx, dy, valid, n_static: int, radius, sx, sy, begin):
@@ -325,7 +330,7 @@ def _least_violation(px, py, dx, dy, valid, n_static: int, radius, sx, sy, begin
     qy = np.where(stat_b, pyj, qy)
     ex = np.where(stat_b, dxj, ex)
     ey = np.where(stat_b, dyj, ey)
-    projected = np.tri(n_lines, k=-1, dtype=bool) & ~static[None, :] & ~same
+    projected = _strictly_lower(n_lines) & ~static[None, :] & ~same
     sub_valid = valid[:, None, :] & (stat_b | projected)
     opt_x, opt_y = -dy, dx
     rad = np.broadcast_to(radius[:, None], opt_x.shape)
@@ -514,14 +519,16 @@ def orca_velocities(
         scale = np.where(over, vmax / np.sqrt(np.where(over, n2, 1.0)), 1.0)[..., None]
         return np.where(coop[..., None], pref * scale, vel).reshape(pos.shape)
     rx, ry, rvx, rvy, comb, inv_tau, share, valid = (
-        np.concatenate(c, axis=-1).reshape(b * n, -1) for c in zip(*parts, strict=True)
+        (c[0] if len(c) == 1 else np.concatenate(c, axis=-1)).reshape(b * n, -1)
+        for c in zip(*parts, strict=True)
     )
     # Lines no agent has are dropped (absent static discs moved last first): the answer of
     # each agent depends only on its present lines, in order.
     cols, n_static = _present_columns(valid, n_static)
     if cols is not None:
+        rows = np.arange(len(cols))[:, None]
         rx, ry, rvx, rvy, comb, inv_tau, share, valid = (
-            np.take_along_axis(v, cols, 1) for v in (rx, ry, rvx, rvy, comb, inv_tau, share, valid)
+            v[rows, cols] for v in (rx, ry, rvx, rvy, comb, inv_tau, share, valid)
         )
     dx, dy, ux, uy = half_planes(rx, ry, rvx, rvy, comb, inv_tau, 1.0 / dt)
     px = vx.reshape(-1, 1) + share * ux
