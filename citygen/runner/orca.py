@@ -19,8 +19,12 @@ it is an array operation over all agents, lines and line pairs at once, with the
   by the same candidate rule, and the answer is the solution of the worst violation.
 
 Neighbours come from a KD-tree (:class:`scipy.spatial.cKDTree`) for large crowds and from
-the dense distance matrix for small ones. Results agree with RVO2 to float precision
-(``tests/test_crowd.py`` compares with RVO2 through ``pyrvo``).
+the dense distance matrix for small ones; lines no agent has (far static discs, missing
+neighbours) are dropped first. Results agree with RVO2 to float precision
+(``tests/test_crowd.py`` compares with RVO2 through ``pyrvo``). One exception, with static
+discs: the line of a standing obstacle passes through zero velocity, and where several such
+lines leave zero alone RVO2's rounding decides whether that is feasible; here it is (the
+person stands), where RVO2 may fall back to ``linearProgram3``.
 """
 
 from __future__ import annotations
