@@ -72,6 +72,14 @@ def bench(
     output: Annotated[
         Path | None, typer.Option("--output", "-o", help="Write the table and every episode as JSON.")
     ] = None,
+    max_steps: Annotated[
+        int | None,
+        typer.Option(
+            "--max-steps",
+            min=1,
+            help="Cut each episode after this many steps (0.1 s each).  [default: the task's time limit]",
+        ),
+    ] = None,
 ) -> None:
     """Run a baseline on a split and print the URBAN-BENCH table (mean and standard error per metric)."""
     from citygen.runner.bench import run_bench
@@ -85,8 +93,9 @@ def bench(
     if output is not None and output.exists() and output.is_dir():
         raise SpecError(f"{output}: expected a file path for --output, got a folder")
     with progress_bar(episodes, _bar_enabled()) as advance:
+        limit = {} if max_steps is None else {"max_steps": max_steps}
         rows = run_bench(task, split, robot=robot, policy=policy, episodes=episodes, jobs=jobs, seed=seed,
-                         progress=advance, **options)  # fmt: skip
+                         progress=advance, **options, **limit)  # fmt: skip
     _print_table(rows, task=task, split=split, robot=loaded.name, policy=policy, seed=seed, output=output)
 
 

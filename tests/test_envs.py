@@ -178,6 +178,17 @@ def test_cli_bench_prints_the_table_and_writes_json(cli, tmp_path):
     assert doc["summary"]["success_rate"]["n"] == 2
 
 
+def test_cli_bench_max_steps_cuts_every_episode(cli, tmp_path):
+    out = tmp_path / "bench.json"
+    r = cli("bench", "--task", "nav-static", "--split", "urban-nav-2-test", "--policy", "random",
+            "--episodes", "2", "--jobs", "1", "--max-steps", "7", "--output", out)  # fmt: skip
+    assert r.code == 0, r.err
+    rows = json.loads(out.read_text())["rows"]
+    assert len(rows) == 2 and all(1 <= row["steps"] <= 7 for row in rows)
+    bad = cli("bench", "--task", "nav-static", "--max-steps", "0")
+    assert bad.code == 2 and "--max-steps" in bad.err and "Traceback" not in bad.err
+
+
 def test_cli_run_saves_frames(cli, tmp_path):
     scene = tmp_path / "s.json"
     citygen.save_scene(citygen.generate("urban-nav-2-train", index=1), scene)

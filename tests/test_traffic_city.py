@@ -31,9 +31,10 @@ from citygen.runner.traffic import STOP_MARGIN, CityTraffic, rectangles
 pytestmark = pytest.mark.slow
 
 DT = 0.1
-# Simulated steps of the rules test: 2 minutes in CI (each step moves ~200 people through
-# ORCA, ~70 ms); CITYGEN_TRAFFIC_STEPS=6000 runs the 10 minutes.
-STEPS = int(os.environ.get("CITYGEN_TRAFFIC_STEPS", "1200"))
+# Simulated steps of the rules test: the 10 minutes (each step moves ~200 people
+# through ORCA and 30 vehicles, ~10 ms with the checks; ~1.5 minutes on the 2-core machine
+# with the city's setup); CITYGEN_TRAFFIC_STEPS sets fewer or more.
+STEPS = int(os.environ.get("CITYGEN_TRAFFIC_STEPS", "6000"))
 
 
 @pytest.fixture(scope="module")

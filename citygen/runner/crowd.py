@@ -2,13 +2,9 @@
 
 People (:class:`Crowd`) avoid each other and the robot by ORCA, *Optimal Reciprocal
 Collision Avoidance* (van den Berg, Guy, Lin and Manocha, 2011), as the reference RVO2
-library computes it: one half-plane of allowed velocities per neighbour, then the 2-D
-linear program of RVO2 (``linearProgram2``, and ``linearProgram3`` where the half-planes
-leave no feasible velocity). :func:`orca_velocities` does it for every agent at once with
-numpy: neighbour search, half-planes and the linear program are array operations over
-all agents (and over a leading batch of environments); the only Python loops run over
-the constraint index of the linear program (at most ``max_neighbors`` plus the static
-obstacles), never over agents or neighbours.
+library computes it: :func:`citygen.runner.orca.orca_velocities` (re-exported here) does it
+for every agent at once with numpy, neighbour search, half-planes and RVO2's linear
+programs as array operations over all agents (and over a leading batch of environments).
 
 Static obstacles are discs (a point of blocked ground grown by a radius) with zero
 velocity for which the agent takes full responsibility; RVO2 models walls as polygons
@@ -53,14 +49,14 @@ import numpy as np
 import scipy.ndimage
 import scipy.sparse
 import scipy.sparse.csgraph
+from scipy.spatial import cKDTree
 
 from citygen.exporters.occupancy import OccupancyMap
 from citygen.geometry.roads import block_geometry, road_graph
+from citygen.runner.orca import orca_velocities
 from citygen.spec.agents import Person, Vehicle
 from citygen.spec.scene import Scene
 
-RVO_EPSILON = 1e-5
-"""RVO2's tolerance for parallel lines (its ``RVO_EPSILON``)."""
 OVERLAP_SLACK = 1e-3
 """Overlap (m) of two people's discs the safety pass lets grow in one step (rounding)."""
 SPEED_FACTOR = 1.5
@@ -86,7 +82,7 @@ JITTER = 0.01
 (RVO2's examples do the same)."""
 
 
-# --- ORCA --------------------------------------------------------------------------------
+# --- vector helpers ----------------------------------------------------------------------
 
 
 def _det(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -103,258 +99,6 @@ def _unit(w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     safe = n > 1e-12
     u = np.where(safe[..., None], w / np.where(safe, n, 1.0)[..., None], np.array([1.0, 0.0]))
     return u, n
-
-
-def _half_planes(
-    rel_pos: np.ndarray, rel_vel: np.ndarray, combined: np.ndarray, tau: float, dt: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """RVO2's ORCA line for a neighbour at ``rel_pos`` moving at ``-rel_vel`` relative to the agent:
-    ``(direction, u)``, the line's direction and the smallest change of relative velocity out of
-    the velocity obstacle (arrays ``(..., 2)``)."""
-    dist2 = _dot(rel_pos, rel_pos)
-    r2 = combined**2
-    w = rel_vel - rel_pos / tau
-    w_len2 = _dot(w, w)
-    dotp = _dot(w, rel_pos)
-    on_cutoff = (dotp < 0.0) & (dotp * dotp > r2 * w_len2)
-    unit_w, w_len = _unit(w)
-    dir_cut = np.stack([unit_w[..., 1], -unit_w[..., 0]], axis=-1)
-    u_cut = (combined / tau - w_len)[..., None] * unit_w
-    leg = np.sqrt(np.maximum(dist2 - r2, 0.0))
-    rx, ry = rel_pos[..., 0], rel_pos[..., 1]
-    inv = 1.0 / np.where(dist2 > 0, dist2, 1.0)
-    left = np.stack([rx * leg - ry * combined, rx * combined + ry * leg], axis=-1) * inv[..., None]
-    right = -np.stack([rx * leg + ry * combined, -rx * combined + ry * leg], axis=-1) * inv[..., None]
-    dir_leg = np.where((_det(rel_pos, w) > 0.0)[..., None], left, right)
-    u_leg = _dot(rel_vel, dir_leg)[..., None] * dir_leg - rel_vel
-    # Already overlapping: leave the velocity obstacle of one time step.
-    unit_c, c_len = _unit(rel_vel - rel_pos / dt)
-    dir_col = np.stack([unit_c[..., 1], -unit_c[..., 0]], axis=-1)
-    u_col = (combined / dt - c_len)[..., None] * unit_c
-    colliding = (dist2 <= r2)[..., None]
-    direction = np.where(colliding, dir_col, np.where(on_cutoff[..., None], dir_cut, dir_leg))
-    u = np.where(colliding, u_col, np.where(on_cutoff[..., None], u_cut, u_leg))
-    return direction, u
-
-
-def _lp1(
-    points: np.ndarray,
-    dirs: np.ndarray,
-    valid: np.ndarray,
-    radius: np.ndarray,
-    opt: np.ndarray,
-    direction_opt: bool,
-) -> tuple[np.ndarray, np.ndarray]:
-    """RVO2's ``linearProgram1`` on the last line of ``points``/``dirs`` ``(A, i+1, 2)``, bounded by
-    the earlier lines where ``valid`` ``(A, i)``: ``(feasible (A,), result (A, 2))``."""
-    p, d = points[:, -1], dirs[:, -1]
-    dotp = _dot(p, d)
-    disc = dotp * dotp + radius * radius - _dot(p, p)
-    ok = disc >= 0.0
-    root = np.sqrt(np.maximum(disc, 0.0))
-    t_left, t_right = -dotp - root, -dotp + root
-    if points.shape[1] > 1:
-        pj, dj = points[:, :-1], dirs[:, :-1]
-        den = _det(d[:, None], dj)
-        num = _det(dj, p[:, None] - pj)
-        parallel = np.abs(den) <= RVO_EPSILON
-        ok &= ~np.any(valid & parallel & (num < 0.0), axis=1)
-        use = valid & ~parallel
-        t = num / np.where(parallel, 1.0, den)
-        t_right = np.minimum(t_right, np.min(np.where(use & (den >= 0.0), t, np.inf), axis=1))
-        t_left = np.maximum(t_left, np.max(np.where(use & (den < 0.0), t, -np.inf), axis=1))
-        ok &= t_left <= t_right
-    if direction_opt:
-        t = np.where(_dot(opt, d) > 0.0, t_right, t_left)
-    else:
-        t = _dot(d, opt - p)
-        t = np.where(t < t_left, t_left, np.where(t > t_right, t_right, t))
-    return ok, p + t[:, None] * d
-
-
-def _lp2(
-    points: np.ndarray,
-    dirs: np.ndarray,
-    valid: np.ndarray,
-    radius: np.ndarray,
-    opt: np.ndarray,
-    direction_opt: bool,
-) -> tuple[np.ndarray, np.ndarray]:
-    """RVO2's ``linearProgram2`` for ``A`` agents at once: the velocity in the disc of ``radius``
-    closest to ``opt`` (or farthest along it when ``direction_opt``) on the left of every valid
-    line. Returns ``(result (A, 2), fail (A,))``; ``fail`` is the line count where it succeeded,
-    else the line that made it infeasible (``result`` then satisfies the lines before it)."""
-    n_agents, n_lines = valid.shape
-    if direction_opt:
-        result = opt * radius[:, None]
-    else:
-        n2 = _dot(opt, opt)
-        over = n2 > radius * radius
-        result = np.where(
-            over[:, None], opt / np.sqrt(np.where(over, n2, 1.0))[:, None] * radius[:, None], opt
-        )
-    fail = np.full(n_agents, n_lines, dtype=np.int64)
-    for i in range(n_lines):
-        act = (fail == n_lines) & valid[:, i] & (_det(dirs[:, i], points[:, i] - result) > 0.0)
-        if not act.any():
-            continue
-        a = np.flatnonzero(act)
-        ok, new = _lp1(points[a, : i + 1], dirs[a, : i + 1], valid[a, :i], radius[a], opt[a], direction_opt)
-        result[a[ok]] = new[ok]
-        fail[a[~ok]] = i
-    return result, fail
-
-
-def _lp3(
-    points: np.ndarray,
-    dirs: np.ndarray,
-    valid: np.ndarray,
-    n_static: int,
-    begin: np.ndarray,
-    radius: np.ndarray,
-    result: np.ndarray,
-) -> np.ndarray:
-    """RVO2's ``linearProgram3``: where the lines from ``begin`` on leave nothing feasible, the
-    velocity that violates the agent lines least (static lines stay hard)."""
-    n_lines = valid.shape[1]
-    distance = np.zeros(len(result))
-    for i in range(n_lines):
-        act = (begin <= i) & valid[:, i] & (_det(dirs[:, i], points[:, i] - result) > distance)
-        if not act.any():
-            continue
-        a = np.flatnonzero(act)
-        pi, di = points[a, i], dirs[a, i]
-        pj, dj, vj = points[a, n_static:i], dirs[a, n_static:i], valid[a, n_static:i]
-        det = _det(di[:, None], dj)
-        parallel = np.abs(det) <= RVO_EPSILON
-        same = parallel & (_dot(di[:, None], dj) > 0.0)
-        cross = (
-            pi[:, None] + (_det(dj, pi[:, None] - pj) / np.where(parallel, 1.0, det))[..., None] * di[:, None]
-        )
-        pt = np.where(parallel[..., None], 0.5 * (pi[:, None] + pj), cross)
-        dr, _ = _unit(dj - di[:, None])
-        proj_p = np.concatenate([points[a, :n_static], pt], axis=1)
-        proj_d = np.concatenate([dirs[a, :n_static], dr], axis=1)
-        proj_v = np.concatenate([valid[a, :n_static], vj & ~same], axis=1)
-        opt = np.stack([-di[:, 1], di[:, 0]], axis=-1)
-        new, fail = _lp2(proj_p, proj_d, proj_v, radius[a], opt, True)
-        # Failure "should in principle not happen" (RVO2): float error; the result is kept.
-        kept = np.where((fail < proj_p.shape[1])[:, None], result[a], new)
-        result[a] = kept
-        distance[a] = _det(di, pi - kept)
-    return result
-
-
-def _as_agents(x, shape: tuple[int, ...], name: str) -> np.ndarray:
-    try:
-        return np.broadcast_to(np.asarray(x, dtype=np.float64), shape)
-    except ValueError:
-        raise ValueError(
-            f"{name}: expected a scalar or an array of shape {shape}, got {np.shape(x)}"
-        ) from None
-
-
-def orca_velocities(
-    pos,
-    vel,
-    pref_vel,
-    radius,
-    max_speed,
-    *,
-    dt: float,
-    tau: float = 2.0,
-    neighbor_dist: float = 5.0,
-    max_neighbors: int = 10,
-    cooperative=None,
-    static=None,
-    tau_static: float = 1.0,
-) -> np.ndarray:
-    """New velocities (m/s) of agents by ORCA, as RVO2's ``computeNewVelocity``, for all at once.
-
-    ``pos``, ``vel``, ``pref_vel``: ``(..., N, 2)`` positions (m), current and preferred
-    velocities (m/s); any leading dimensions are a batch of independent environments (each
-    environment's agents only see each other). ``radius`` (m) and ``max_speed`` (m/s): scalars
-    or ``(..., N)``. ``dt`` (s) is the step (ORCA's horizon for agents that already overlap),
-    ``tau`` (s) the time horizon for agents, ``neighbor_dist`` (m) and ``max_neighbors`` pick
-    the nearest neighbours as RVO2 does. ``cooperative`` (bool ``(..., N)``, default all): a
-    non-cooperative agent (the robot) keeps its ``vel`` and others take full responsibility
-    for avoiding it. ``static``: ``(points (..., N, S, 2), radii (..., N, S))``, per agent
-    ``S`` discs standing still (m) it must not run into within ``tau_static`` (s); a negative
-    radius or a non-finite point is no obstacle.
-    """
-    pos = np.asarray(pos, dtype=np.float64)
-    if pos.ndim < 2 or pos.shape[-1] != 2:
-        raise ValueError(f"pos: expected an array of shape (..., N, 2), got {pos.shape}")
-    if not (dt > 0 and tau > 0 and tau_static > 0 and neighbor_dist >= 0 and max_neighbors >= 0):
-        raise ValueError(
-            f"orca_velocities: expected dt > 0, tau > 0, tau_static > 0 (s), neighbor_dist >= 0 (m) and "
-            f"max_neighbors >= 0, got {dt!r}, {tau!r}, {tau_static!r}, {neighbor_dist!r}, {max_neighbors!r}"
-        )
-    batch, n = pos.shape[:-2], pos.shape[-2]
-    vel = _as_agents(vel, pos.shape, "vel").reshape(-1, n, 2)
-    pref = _as_agents(pref_vel, pos.shape, "pref_vel").reshape(-1, n, 2)
-    rad = _as_agents(radius, (*batch, n), "radius").reshape(-1, n)
-    vmax = _as_agents(max_speed, (*batch, n), "max_speed").reshape(-1, n)
-    coop = np.ones((*batch, n), bool) if cooperative is None else np.asarray(cooperative, bool)
-    coop = np.broadcast_to(coop, (*batch, n)).reshape(-1, n)
-    p = pos.reshape(-1, n, 2)
-    b = p.shape[0]
-    lines_p, lines_d, lines_v = [], [], []
-    n_static = 0
-    if static is not None:
-        sp, sr = static
-        sp = np.asarray(sp, dtype=np.float64)
-        if sp.ndim < 3 or sp.shape[:-2] != (*batch, n) or sp.shape[-1] != 2:
-            raise ValueError(f"static points: expected shape {(*batch, n, 'S', 2)}, got {sp.shape}")
-        n_static = sp.shape[-2]
-        sr = _as_agents(sr, sp.shape[:-1], "static radii").reshape(b, n, n_static)
-        sp = sp.reshape(b, n, n_static, 2)
-        present = (sr >= 0) & np.all(np.isfinite(sp), axis=-1)
-        rel = np.where(present[..., None], sp - p[:, :, None], 1e6)
-        d, u = _half_planes(
-            rel, np.broadcast_to(vel[:, :, None], rel.shape), rad[..., None] + sr, tau_static, dt
-        )
-        lines_p.append(vel[:, :, None] + u)
-        lines_d.append(d)
-        lines_v.append(present)
-    k = min(max_neighbors, n - 1)
-    if k > 0:
-        diff = p[:, None, :, :] - p[:, :, None, :]  # [b, i, j] = p_j - p_i
-        d2 = _dot(diff, diff)
-        d2[:, np.arange(n), np.arange(n)] = np.inf
-        d2[d2 >= neighbor_dist * neighbor_dist] = np.inf
-        near = (
-            np.argpartition(d2, k - 1, axis=-1)[..., :k]
-            if k < n - 1
-            else np.broadcast_to(np.arange(n), d2.shape)
-        )
-        near = np.take_along_axis(
-            near, np.argsort(np.take_along_axis(d2, near, -1), axis=-1, kind="stable"), -1
-        )
-        near = near[..., :k]
-        present = np.isfinite(np.take_along_axis(d2, near, -1))
-        bi = np.arange(b)[:, None, None]
-        rel_pos = p[bi, near] - p[:, :, None]
-        rel_vel = vel[:, :, None] - vel[bi, near]
-        d, u = _half_planes(rel_pos, rel_vel, rad[:, :, None] + rad[bi, near], tau, dt)
-        share = np.where(coop[bi, near], 0.5, 1.0)
-        lines_p.append(vel[:, :, None] + share[..., None] * u)
-        lines_d.append(d)
-        lines_v.append(present)
-    if not lines_p:
-        out = np.where((_dot(pref, pref) > vmax**2)[..., None], _unit(pref)[0] * vmax[..., None], pref)
-        return np.where(coop[..., None], out, vel).reshape(pos.shape)
-    pts = np.concatenate(lines_p, axis=2).reshape(b * n, -1, 2)
-    dirs = np.concatenate(lines_d, axis=2).reshape(b * n, -1, 2)
-    valid = np.concatenate(lines_v, axis=2).reshape(b * n, -1)
-    r_max, opt = vmax.reshape(-1), pref.reshape(-1, 2)
-    result, fail = _lp2(pts, dirs, valid, r_max, opt, False)
-    stuck = fail < valid.shape[1]
-    if stuck.any():
-        a = np.flatnonzero(stuck)
-        result[a] = _lp3(pts[a], dirs[a], valid[a], n_static, fail[a], r_max[a], result[a])
-    out = np.where(coop.reshape(-1)[:, None], result, vel.reshape(-1, 2))
-    return out.reshape(pos.shape)
 
 
 # --- people ------------------------------------------------------------------------------
@@ -609,12 +353,10 @@ class Crowd:
             cand = np.where(fine[:, None], out, cand)
         # Rare conflicts ORCA left (a person squeezed between the robot, others and a wall): each
         # conflicted person takes, of a few steps it could make, the one that overlaps least.
-        gap_old = self._gaps(old)
-        floor = np.minimum(np.min(gap_old, axis=1), 0.0)  # overlaps already there may stay
+        floor = self._worst_overlap(old)  # overlaps already there may stay
         for _ in range(2):
-            gap = self._gaps(cand)
             conflict = np.flatnonzero(
-                (np.min(gap, axis=1) < floor - OVERLAP_SLACK) | (depth(cand) > OVERLAP_SLACK)
+                (self._worst_overlap(cand) < floor - OVERLAP_SLACK) | (depth(cand) > OVERLAP_SLACK)
             )
             if not len(conflict):
                 break
@@ -637,9 +379,9 @@ class Crowd:
         pinned = depth(old) > OVERLAP_SLACK  # a step back would leave them inside the robot
         back = np.zeros(len(cand), dtype=bool)
         for _ in range(len(cand)):
-            gap = self._gaps(cand)
-            worse = (gap < -OVERLAP_SLACK) & (gap < gap_old - 1e-9)
-            i, j = np.nonzero(np.triu(worse, 1))
+            i, j, gap = self._overlaps(cand)
+            worse = (gap < -OVERLAP_SLACK) & (gap < self._gap(old, i, j) - 1e-9)
+            i, j = i[worse], j[worse]
             movers = np.unique(np.concatenate([i, j]))
             movers = movers[~back[movers] & ~pinned[movers]]
             if not len(movers):
@@ -648,11 +390,26 @@ class Crowd:
             cand[movers] = old[movers]
         return cand
 
-    def _gaps(self, xy: np.ndarray) -> np.ndarray:
-        """Pairwise gaps (m) between people's discs at ``xy``; ``inf`` on the diagonal."""
-        d = np.linalg.norm(xy[:, None] - xy[None], axis=-1) - (self.radius[:, None] + self.radius[None])
-        np.fill_diagonal(d, np.inf)
-        return d
+    def _gap(self, xy: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+        """Gaps (m) between the discs of people ``i`` and ``j`` at ``xy``."""
+        return np.linalg.norm(xy[i] - xy[j], axis=1) - (self.radius[i] + self.radius[j])
+
+    def _overlaps(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The pairs ``i < j`` of people whose discs overlap at ``xy`` and their gaps (m, < 0),
+        found by a KD-tree: only people within two of the largest radii can overlap."""
+        pairs = cKDTree(xy).query_pairs(2 * float(self.radius.max()), output_type="ndarray")
+        i, j = pairs[:, 0], pairs[:, 1]
+        gap = self._gap(xy, i, j)
+        over = gap < 0.0
+        return i[over], j[over], gap[over]
+
+    def _worst_overlap(self, xy: np.ndarray) -> np.ndarray:
+        """Per person the gap (m) to the person it overlaps most at ``xy``; 0 if none."""
+        worst = np.zeros(len(xy))
+        i, j, gap = self._overlaps(xy)
+        np.minimum.at(worst, i, gap)
+        np.minimum.at(worst, j, gap)
+        return worst
 
     def headings(self) -> np.ndarray:
         """Yaw (rad) each person faces: where it moves, or where it last moved when standing."""

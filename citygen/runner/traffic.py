@@ -411,6 +411,10 @@ class CityTraffic(Traffic):
         k = min(CANDIDATES, near.shape[1])
         cand = np.argpartition(near, k - 1, axis=1)[:, :k]
         present = np.isfinite(np.take_along_axis(near, cand, axis=1))
+        # Only present candidates can be hit: keep them (in their order) and as many columns
+        # as the vehicle with the most has.
+        first = np.argsort(~present, axis=1, kind="stable")[:, : max(1, int(present.sum(axis=1).max()))]
+        cand, present = np.take_along_axis(cand, first, 1), np.take_along_axis(present, first, 1)
         dx = win[:, :, None, 0] - cen[cand][:, None, :, 0]  # (M, W, K)
         dy = win[:, :, None, 1] - cen[cand][:, None, :, 1]
         hit = dx * dx + dy * dy < ((self.width[:, None] / 2 + rad[cand] + CLEARANCE) ** 2)[:, None]
