@@ -44,7 +44,8 @@ def _train(*args, timeout: float = 300):
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
-    """A tiny run killed after its first checkpoint, then resumed to 400 steps."""
+    """A tiny run stopped (SIGTERM, as ``kill`` or a scheduler does) after its first
+    checkpoint, then resumed to 400 steps."""
     folder = tmp_path_factory.mktemp("train")
     config = folder / "tiny.toml"
     config.write_text(TINY)
@@ -68,16 +69,29 @@ def run(tmp_path_factory):
             assert time.monotonic() < deadline, "no checkpoint within 300 s"
             time.sleep(0.2)
     finally:
-        proc.send_signal(signal.SIGKILL)
-        proc.communicate()
+        proc.send_signal(signal.SIGTERM)
+        try:
+            _, stopped = proc.communicate(timeout=120)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            _, stopped = proc.communicate()
     killed_at = latest_checkpoint(out)[0]
     resumed = _train("--steps", 400, "--config", config, "--out", out, "--seed", 3, "--resume")
-    return {"out": out, "killed_at": killed_at, "resumed": resumed, "config": config}
+    return {
+        "out": out,
+        "killed_at": killed_at,
+        "resumed": resumed,
+        "config": config,
+        "stopped": (proc.returncode, stopped),
+    }
 
 
 @pytest.mark.slow
 def test_an_interrupted_run_resumes_from_its_last_checkpoint(run):
     out, r = run["out"], run["resumed"]
+    code, stopped = run["stopped"]
+    # SIGTERM saved a checkpoint where the run was and said how to go on, in one line
+    assert code == 2 and stopped.count("\n") == 1 and f"--resume --out {out}" in stopped, stopped
     assert r.returncode == 0, r.stderr
     last = run["killed_at"]
     assert last < 400

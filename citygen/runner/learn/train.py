@@ -24,6 +24,7 @@ import collections
 import contextlib
 import csv
 import json
+import signal
 import sys
 import time
 from dataclasses import dataclass
@@ -236,6 +237,16 @@ def _check_resume(cfg: TrainConfig, out: Path) -> None:
             raise TrainError(f"--resume: {out} holds a run of {key} {saved.get(key)!r}, not {now!r}")
 
 
+def _interrupt(signum: int, frame: Any) -> None:
+    raise KeyboardInterrupt
+
+
+def _main_thread() -> bool:
+    import threading
+
+    return threading.current_thread() is threading.main_thread()
+
+
 def _start_from(model: Any, venv: Any, init: Path) -> None:
     """Load ``init``'s policy weights into ``model`` and its observation statistics into
     ``venv`` (``--init``); a one-line :class:`TrainError` when they do not fit."""
@@ -380,6 +391,9 @@ def train(
     tracker = _Tracker(start)
     show = sys.stderr.isatty() if progress is None else progress
     bar = _Bar(cfg.steps, start) if show else None
+    # ``kill``, a job scheduler's preemption and a background job (whose shell ignores
+    # Ctrl-C) stop a run with SIGTERM: save a checkpoint as Ctrl-C does.
+    previous = signal.signal(signal.SIGTERM, _interrupt) if _main_thread() else None
     try:
         if cfg.steps > start:
             model.learn(
@@ -404,6 +418,8 @@ def train(
     finally:
         if bar is not None:
             bar.stop()
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
     model.save(out / "model.zip")
     venv.save(str(out / "vecnormalize.pkl"))
     venv.close()
