@@ -152,6 +152,8 @@ def _worker(make: bytes, index: int, raw, spaces, n: int, step_infos: bool, same
                     break
             except Exception as exc:  # the parent re-raises it
                 conn.send_bytes(_ERROR + pickle.dumps((exc, traceback.format_exc())))
+    except (EOFError, BrokenPipeError):
+        pass  # the parent is gone (killed): nobody to report to, nothing to print
     except Exception as exc:
         conn.send_bytes(_ERROR + pickle.dumps((exc, traceback.format_exc())))
     except KeyboardInterrupt:
