@@ -98,13 +98,15 @@ def test_an_interrupted_run_resumes_from_its_last_checkpoint(run):
     assert f"resuming from {out / 'checkpoints' / f'model_{last}.zip'} ({last:,} steps)" in r.stdout
     from stable_baselines3 import PPO
 
-    assert PPO.load(out / "model.zip").num_timesteps == 400
+    # SIGTERM may land mid-rollout: the run then ends with the first rollout (2 x 50 steps) past 400
+    done = PPO.load(out / "model.zip").num_timesteps
+    assert 400 <= done < 500 and (done - last) % 100 == 0
     with open(out / "curve.csv", newline="") as f:
         steps = [int(row["steps"]) for row in csv.DictReader(f)]
-    assert steps == sorted(set(steps)) and steps[-1] == 400  # continued, no row twice
+    assert steps == sorted(set(steps)) and steps[-1] == done  # continued, no row twice
     assert (out / "curve.png").stat().st_size > 1000
     meta = json.loads((out / "policy.json").read_text())
-    assert meta["task"] == "nav-clear" and meta["robot"] == "wheeled" and meta["train"]["steps"] == 400
+    assert meta["task"] == "nav-clear" and meta["robot"] == "wheeled" and meta["train"]["steps"] == done
 
 
 @pytest.mark.slow
