@@ -53,7 +53,7 @@ def baseline(task: str, robot: str) -> Path:
 
 
 def _sb3_policy(path: Path) -> NumpyPolicy:
-    from citygen.runner.learn.train import require_train
+    from citygen.runner.learn.train import require_train, stats_of
 
     require_train()
     import pickle
@@ -63,7 +63,7 @@ def _sb3_policy(path: Path) -> NumpyPolicy:
     model = PPO.load(path, device="cpu")
     stats = None
     for candidate in (
-        path.with_name(path.stem.replace("model", "vecnormalize") + ".pkl"),
+        stats_of(path),
         path.with_name("vecnormalize.pkl"),
     ):
         if candidate.exists():

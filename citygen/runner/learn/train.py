@@ -64,12 +64,18 @@ class TrainResult:
     policy: Path
 
 
+def stats_of(model: Path) -> Path:
+    """The ``VecNormalize`` statistics saved with an SB3 model: ``model_<steps>.zip`` ->
+    ``vecnormalize_<steps>.pkl``, ``model.zip`` -> ``vecnormalize.pkl``."""
+    return model.with_name(model.stem.replace("model", "vecnormalize") + ".pkl")
+
+
 def latest_checkpoint(out: Path) -> tuple[int, Path, Path] | None:
     """``(steps, model.zip, vecnormalize.pkl)`` of the newest complete checkpoint in ``out``."""
     found = []
     for model in (out / "checkpoints").glob("model_*.zip"):
         steps = model.stem.removeprefix("model_")
-        stats = model.with_name(f"vecnormalize_{steps}.pkl")
+        stats = stats_of(model)
         if steps.isdigit() and stats.exists():
             found.append((int(steps), model, stats))
     return max(found) if found else None
@@ -253,7 +259,7 @@ def _start_from(model: Any, venv: Any, init: Path) -> None:
     import pickle
 
     zip_ = init / "model.zip" if init.is_dir() else init
-    stats = zip_.with_name(zip_.stem.replace("model", "vecnormalize") + ".pkl")
+    stats = stats_of(zip_)
     if not zip_.is_file():
         raise TrainError(f"--init: expected a run folder or model.zip saved by citygen train, got {init}")
     try:
