@@ -16,6 +16,7 @@ import time
 import numpy as np
 import pytest
 
+from citygen.runner.learn.export import clip_goal
 from citygen.runner.learn.policy import resolve_policy, shipped
 from citygen.runner.learn.train import latest_checkpoint
 from citygen.runner.policies import POLICIES
@@ -140,10 +141,39 @@ def test_numpy_policy_gives_the_actions_of_torch(run):
         obs, *_ = env.step(np.array([0.8, 0.3 * np.sin(k)], dtype=np.float32))
     stacked = {key: np.stack([o[key] for o in batch]) for key in policy.keys}
     assert isinstance(stats, VecNormalize)
-    torch_actions, _ = model.predict(stats.normalize_obs(stacked), deterministic=True)
+    # Training clipped far goals to the run's goal_range before normalising; so does the export.
+    assert policy.meta["goal_range"] == 5.0
+    assert np.linalg.norm(stacked["goal"], axis=1).max() > 5.0  # the test goal is further
+    clipped = clip_goal(stacked, 5.0)
+    torch_actions, _ = model.predict(stats.normalize_obs(clipped), deterministic=True)
     numpy_actions = policy.predict(stacked)
     assert np.abs(numpy_actions).max() > 1e-3  # a real network, not zeros
     np.testing.assert_allclose(numpy_actions, torch_actions, atol=1e-5)
+
+
+def test_clip_goal_shortens_far_goals_to_the_range_and_keeps_their_direction():
+    goals = np.array([[3.0, 4.0], [12.0, -5.0], [0.0, 0.0]], dtype=np.float32)
+    out = clip_goal({"goal": goals, "velocity": np.ones(3)}, 5.0)
+    np.testing.assert_allclose(out["goal"][0], [3.0, 4.0])  # at the range: unchanged
+    np.testing.assert_allclose(out["goal"][1], np.array([12.0, -5.0]) * 5.0 / 13.0, rtol=1e-6)
+    np.testing.assert_allclose(out["goal"][2], [0.0, 0.0])
+    np.testing.assert_allclose(clip_goal({"goal": goals[1]}, 5.0)["goal"], out["goal"][1])
+    assert clip_goal({"goal": goals}, None)["goal"] is goals
+    assert out["velocity"] is not None and "goal" in clip_goal({"goal": goals}, 5.0)
+
+
+def test_the_training_env_gives_the_policy_clipped_goals():
+    from citygen.runner.learn.config import TrainConfig
+    from citygen.runner.learn.vecenv import make_training_env
+
+    venv = make_training_env(TrainConfig(task="nav-clear", envs=2, processes=0, goal_range=2.0))
+    try:
+        obs = venv.reset()
+        assert np.linalg.norm(obs["goal"], axis=1).max() == pytest.approx(2.0, abs=1e-5)
+        obs, _, _, _ = venv.step(np.zeros((2, 2), dtype=np.float32))
+        assert np.linalg.norm(obs["goal"], axis=1).max() <= 2.0 + 1e-5
+    finally:
+        venv.close()
 
 
 def test_the_map_encoder_exports_to_numpy_exactly():

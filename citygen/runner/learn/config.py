@@ -71,6 +71,11 @@ class TrainConfig(BaseModel):
     # PPO (paper defaults)
     n_steps: PositiveInt = Field(200, description="Rollout steps per sub-environment (the horizon).")
     learning_rate: Annotated[float, Field(gt=0, le=1)] = 4e-4
+    lr_schedule: Literal["constant", "linear"] = Field(
+        "constant",
+        description="constant: learning_rate throughout (the paper); linear: from learning_rate "
+        "down to 0 at `steps` (a long fine-tuning run's updates shrink instead of collapsing it).",
+    )
     gamma: Annotated[float, Field(ge=0, le=1)] = 0.99
     gae_lambda: Annotated[float, Field(ge=0, le=1)] = 0.95
     clip_range: Annotated[float, Field(gt=0, le=1)] = 0.2
@@ -96,6 +101,12 @@ class TrainConfig(BaseModel):
         None,
         description="Observation keys the policy sees; default goal, velocity and local_map for "
         "navigation, the paper's proprioception and height map for locomotion.",
+    )
+    goal_range: Annotated[float, Field(gt=0)] | None = Field(
+        5.0,
+        description="Goal vectors longer than this (m) reach the policy scaled to this length, "
+        "in training and in the exported policy: a far test goal looks like a training one "
+        "(Urban-Nav training goals are 5-9 m away, test goals 7.5-12.5 m). None: the raw goal.",
     )
     progress: Annotated[float, Field(ge=0)] = Field(
         1.0,

@@ -14,13 +14,15 @@ An exported policy file holds (``np.load(path, allow_pickle=False)`` reads it):
   ``(out, in)`` weights and ``(out,)`` biases; ``log_std`` for reference;
 - for each key the CNN encodes (:mod:`citygen.runner.learn.nets`; listed in the meta's
   ``encoders`` with each layer's ``strides``): ``enc/<key>/conv<i>/w`` ``(out, in, k, k)``
-  and ``.../b``, then its linear layer ``enc/<key>/fc/w`` and ``.../b`` (ReLU after each).
+  and ``.../b``, then its linear layer ``enc/<key>/fc/w`` and ``.../b`` (ReLU after each);
+- the meta's ``goal_range`` (metres, or absent): goal vectors longer than it reach the network
+  scaled to that length (:func:`clip_goal`, as in training).
 
 :meth:`NumpyPolicy.predict` computes what SB3's ``model.predict(obs, deterministic=True)``
-computes for the same observation (after ``VecNormalize``): normalise and clip each key that
-was normalised, encode the map keys with their CNN and flatten the others, concatenate in
-``keys`` order, the hidden layers with their activation, the action layer's mean, clipped
-to the action bounds.
+computes for the same observation (after ``VecNormalize``): clip the goal's length, normalise
+and clip each key that was normalised, encode the map keys with their CNN and flatten the
+others, concatenate in ``keys`` order, the hidden layers with their activation, the action
+layer's mean, clipped to the action bounds.
 """
 
 from __future__ import annotations
@@ -51,6 +53,19 @@ def conv2d(x: np.ndarray, w: np.ndarray, b: np.ndarray, stride: int) -> np.ndarr
     windows = np.lib.stride_tricks.sliding_window_view(x, (k, k), axis=(2, 3))[:, :, ::stride, ::stride]
     out = np.tensordot(windows, w, axes=([1, 4, 5], [1, 2, 3]))  # (batch, H', W', out)
     return out.transpose(0, 3, 1, 2) + b[None, :, None, None]
+
+
+def clip_goal(obs: dict[str, Any], goal_range: float | None) -> dict[str, Any]:
+    """``obs`` with its ``goal`` vector (one, or a batch along the first axis) shortened to at
+    most ``goal_range`` metres, its direction kept: a policy sees a far goal as one at that
+    range straight ahead of it, a distance it met in training (an Urban-Nav test goal is
+    7.5-12.5 m away, a training goal 5-9 m). ``None``: ``obs`` unchanged."""
+    if not goal_range or "goal" not in obs:
+        return obs
+    goal = np.asarray(obs["goal"], dtype=np.float32)
+    norm = np.linalg.norm(goal, axis=-1, keepdims=True)
+    scale = np.minimum(1.0, goal_range / np.maximum(norm, 1e-9)).astype(np.float32)
+    return {**obs, "goal": goal * scale}
 
 
 class NumpyPolicy:
@@ -92,6 +107,7 @@ class NumpyPolicy:
         """The network's input: a ``(batch, n)`` float32 array (``obs`` one observation or a batch)."""
         parts = []
         clip = float(self.meta["clip_obs"])
+        obs = clip_goal(obs, self.meta.get("goal_range"))
         for k in self.keys:
             x = np.asarray(obs[k], dtype=np.float32)
             x = x.reshape(-1, *self.shapes[k])
@@ -131,11 +147,13 @@ def policy_arrays(
     clip_obs: float = 10.0,
     epsilon: float = 1e-8,
     activation: str = "tanh",
+    goal_range: float | None = None,
     train: dict[str, Any] | None = None,
 ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """The metadata and arrays of an SB3 PPO ``model`` with an MLP actor (a
     ``MultiInputPolicy`` over Box keys, whose feature extractor flattens and concatenates
-    them) and the ``VecNormalize`` statistics ``obs_rms`` (per key, or ``None``)."""
+    them) and the ``VecNormalize`` statistics ``obs_rms`` (per key, or ``None``);
+    ``goal_range`` as :attr:`~citygen.runner.learn.config.TrainConfig.goal_range`."""
     import torch
 
     policy = model.policy
@@ -177,6 +195,7 @@ def policy_arrays(
         "action_high": np.asarray(act.high, dtype=float).ravel().tolist(),
         "activation": activation,
         "encoders": encoders,
+        "goal_range": goal_range,
         "clip_obs": float(clip_obs),
         "epsilon": float(epsilon),
         "train": train or {},

@@ -82,6 +82,8 @@ def _sb3_policy(path: Path) -> NumpyPolicy:
         robot=run.get("robot_name", ""),
         clip_obs=10.0 if stats is None else float(stats.clip_obs),
         epsilon=1e-8 if stats is None else float(stats.epsilon),
+        activation=run.get("activation", "tanh"),
+        goal_range=run.get("goal_range"),
     )
     return NumpyPolicy(meta, arrays)
 

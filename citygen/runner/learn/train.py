@@ -23,6 +23,7 @@ from __future__ import annotations
 import collections
 import contextlib
 import csv
+import functools
 import json
 import signal
 import sys
@@ -280,6 +281,18 @@ def _start_from(model: Any, venv: Any, init: Path) -> None:
         venv.ret_rms = saved.ret_rms
 
 
+def _schedule(cfg: TrainConfig) -> Any:
+    """SB3's learning rate: a number, or a function of the remaining progress (1 -> 0 over
+    the run's ``steps``, counted from step 0 also when resuming)."""
+    if cfg.lr_schedule == "constant":
+        return cfg.learning_rate
+    return functools.partial(_linear, cfg.learning_rate)
+
+
+def _linear(lr: float, remaining: float) -> float:
+    return lr * max(remaining, 0.0)
+
+
 def train(
     cfg: TrainConfig,
     out: str | Path,
@@ -355,7 +368,7 @@ def train(
             n_steps=cfg.n_steps,
             batch_size=cfg.batch_size,
             n_epochs=cfg.n_epochs,
-            learning_rate=cfg.learning_rate,
+            learning_rate=_schedule(cfg),
             gamma=cfg.gamma,
             gae_lambda=cfg.gae_lambda,
             clip_range=cfg.clip_range,
@@ -444,6 +457,7 @@ def train(
         clip_obs=venv.clip_obs,
         epsilon=venv.epsilon,
         activation=cfg.activation,
+        goal_range=cfg.goal_range,
         train=train_notes,
     )
     policy = write_policy(out / "policy.npz", meta, arrays)

@@ -8,7 +8,8 @@
   synchronous sampling of Isaac Lab: all scenes of a batch identical; an episode that runs
   across a rollout boundary finishes in its old scene).
 - :class:`Sb3VecEnv` adapts a Gymnasium ``VectorEnv`` in ``SAME_STEP`` autoreset mode to
-  SB3: dict observations restricted to the policy's keys, ``terminal_observation``,
+  SB3: dict observations restricted to the policy's keys (the goal's length clipped to
+  ``goal_range``, as the exported policy does), ``terminal_observation``,
   ``TimeLimit.truncated`` and ``is_success`` in the per-environment infos.
 - :func:`make_training_env` builds both from a :class:`~citygen.runner.learn.config.TrainConfig`.
 """
@@ -24,6 +25,7 @@ import numpy as np
 from stable_baselines3.common.vec_env import VecEnv
 
 from citygen.runner.learn.config import TrainConfig
+from citygen.runner.learn.export import clip_goal
 
 
 class SceneSchedule(gymnasium.Wrapper):
@@ -109,7 +111,7 @@ def _final(infos: dict[str, Any], key: str, i: int) -> Any:
 class Sb3VecEnv(VecEnv):
     """A Gymnasium ``VectorEnv`` (autoreset ``SAME_STEP``) as an SB3 ``VecEnv``."""
 
-    def __init__(self, venv: Any, keys: tuple[str, ...], seed: int = 0):
+    def __init__(self, venv: Any, keys: tuple[str, ...], seed: int = 0, goal_range: float | None = None):
         mode = venv.metadata.get("autoreset_mode")
         if mode is not None and getattr(mode, "value", mode) != "SameStep":
             raise ValueError(f"vector env: expected autoreset_mode SAME_STEP, got {mode}")
@@ -120,9 +122,10 @@ class Sb3VecEnv(VecEnv):
         self.keys = tuple(obs_space.spaces)
         self._seed = seed
         self._actions = None
+        self.goal_range = goal_range
 
     def _obs(self, obs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        return {k: np.asarray(obs[k]) for k in self.keys}
+        return clip_goal({k: np.asarray(obs[k]) for k in self.keys}, self.goal_range)
 
     def reset(self):
         obs, infos = self.venv.reset(seed=self._seed)
@@ -143,7 +146,7 @@ class Sb3VecEnv(VecEnv):
                 continue
             final, final_obs = _final(infos, "final_info", i) or {}, _final(infos, "final_obs", i)
             info = {
-                "terminal_observation": {k: np.asarray(final_obs[k]) for k in self.keys},
+                "terminal_observation": self._obs(final_obs),
                 "TimeLimit.truncated": bool(truncated[i] and not terminated[i]),
                 "is_success": bool(final.get("is_success", False)),
             }
@@ -202,4 +205,4 @@ def make_training_env(cfg: TrainConfig) -> Sb3VecEnv:
     processes = cfg.processes if cfg.processes is not None else int((os.cpu_count() or 1) > 1)
     # citygen's vector env: observations through shared memory, nothing pickled per step.
     venv = VectorEnv(fns, processes=bool(processes and cfg.envs > 1), autoreset_mode=AutoresetMode.SAME_STEP)
-    return Sb3VecEnv(venv, cfg.obs_keys, seed=cfg.seed)
+    return Sb3VecEnv(venv, cfg.obs_keys, seed=cfg.seed, goal_range=cfg.goal_range)
