@@ -392,6 +392,47 @@ def test_progress_shaping_pays_for_geodesic_progress_and_only_in_training():
         assert total - base == pytest.approx(2.0 * gained, rel=1e-6, abs=1e-6)
 
 
+def test_driving_backwards_costs_what_it_moves_so_reversing_to_the_goal_earns_nothing():
+    """The shaping's ``reverse`` term: reversing straight at the goal (the goal behind the
+    robot) gains the geodesic progress and gives the same metres back; driving forwards
+    keeps it."""
+    from citygen.runner.bench import make_env
+    from citygen.runner.learn.config import TrainConfig
+    from citygen.runner.learn.shaping import ProgressReward
+
+    assert TrainConfig().reverse == 1.0
+
+    def drive(env, forwards: bool) -> tuple[float, float, float]:
+        obs, _ = env.reset(seed=3, options={"index": 0})
+        u = env.unwrapped
+        start = u.prepared.field(u._goal(), u.tolerance).at(*u.handle.pose(u.data)[:2])
+        total = 0.0
+        for _ in range(40):
+            g = obs["goal"] if forwards else -obs["goal"]  # reversing: point the tail at the goal
+            heading = float(np.arctan2(g[1], g[0]))
+            v = 0.8 if abs(heading) < 0.5 else 0.0
+            obs, r, term, trunc, _ = env.step(np.array([v if forwards else -v, np.clip(heading, -1, 1)]))
+            total += r
+            if term or trunc:
+                break
+        end = u.prepared.field(u._goal(), u.tolerance).at(*u.handle.pose(u.data)[:2])
+        return total, start - end
+
+    for forwards in (True, False):
+        plain = make_env("nav-clear", split="urban-nav-1-train", robot="wheeled")
+        shaped = ProgressReward(
+            make_env("nav-clear", split="urban-nav-1-train", robot="wheeled"), 1.0, 0.99, 1.0
+        )
+        base, gained = drive(plain, forwards)
+        total, _ = drive(shaped, forwards)
+        assert gained > 1.0  # both ways get closer to the goal
+        extra = total - base
+        if forwards:
+            assert extra == pytest.approx(gained, abs=0.05)
+        else:
+            assert abs(extra) < 0.2 * gained  # progress in reverse is taken back
+
+
 def test_a_success_earns_holding_the_goal_so_hovering_never_pays_more():
     """Reaching the goal ends the episode; the shaping pays the discounted tracking reward of
     standing on the goal until the horizon, so finishing sooner is worth more than hovering

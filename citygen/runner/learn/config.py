@@ -113,6 +113,11 @@ class TrainConfig(BaseModel):
         description="Training-only shaping: reward per metre of progress along the walkable geodesic "
         "to the goal (0: the paper's navigation reward alone; see citygen.runner.learn.shaping).",
     )
+    reverse: Annotated[float, Field(ge=0)] = Field(
+        1.0,
+        description="Training-only shaping: reward taken per metre the robot moves backwards (at "
+        "1.0 progress in reverse earns nothing, so policies drive forwards as their sensors face).",
+    )
     normalize: bool = Field(True, description="Running mean/std of observations (exported) and rewards.")
     norm_epsilon: Annotated[float, Field(gt=0)] = Field(
         1e-2,

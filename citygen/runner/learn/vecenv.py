@@ -65,7 +65,7 @@ class SceneSchedule(gymnasium.Wrapper):
 
 def _sub_env(
     task: str, split: str, robot: str, scenes: int | None, sampling: str, seed: int, rank: int, period: int,
-    progress: float = 0.0, gamma: float = 0.99,
+    progress: float = 0.0, gamma: float = 0.99, reverse: float = 0.0,
 ) -> gymnasium.Env:  # fmt: skip
     import multiprocessing
     import signal
@@ -77,10 +77,10 @@ def _sub_env(
         # and closes the workers), not a traceback in every worker.
         signal.signal(signal.SIGINT, signal.SIG_IGN)
     env = make_env(task, split=split, robot=robot)
-    if progress and task.startswith("nav"):
+    if (progress or reverse) and task.startswith("nav"):
         from citygen.runner.learn.shaping import ProgressReward
 
-        env = ProgressReward(env, progress, gamma)
+        env = ProgressReward(env, progress, gamma, reverse)
     return SceneSchedule(env, scenes=scenes, sampling=sampling, seed=seed, rank=rank, period=period)
 
 
@@ -199,6 +199,7 @@ def make_training_env(cfg: TrainConfig) -> Sb3VecEnv:
             cfg.n_steps,
             cfg.progress,
             cfg.gamma,
+            cfg.reverse,
         )
         for rank in range(cfg.envs)
     ]
