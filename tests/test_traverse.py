@@ -91,14 +91,16 @@ def test_traverse_metrics_time_is_the_runs_duration():
     assert np.isfinite(traverse_metrics(ep)["speed"])
 
 
-def test_the_ai_sub_goal_runs_ahead_along_the_route():
+def test_the_ai_sub_goal_runs_ahead_along_the_route_up_to_the_next_waypoint():
     from citygen.runner.policies import carrot
 
     route = [(0.0, 0.0), (10.0, 0.0), (10.0, 10.0)]
     assert np.allclose(carrot(route, 1, (2.0, 0.5), 6.0), (8.0, 0.0))  # on the first leg
-    assert np.allclose(carrot(route, 1, (8.0, -0.3), 6.0), (10.0, 4.0))  # round the corner
+    # near the corner: the waypoint itself (it counts only within its tolerance), not past it
+    assert np.allclose(carrot(route, 1, (8.0, -0.3), 6.0), (10.0, 0.0))
+    assert np.allclose(carrot(route, 2, (10.0, 1.0), 6.0), (10.0, 7.0))  # the next leg
     assert np.allclose(carrot(route, 2, (10.0, 8.0), 6.0), (10.0, 10.0))  # the route's end
-    assert np.allclose(carrot(route, 0, (-3.0, 0.0), 6.0), (6.0, 0.0))  # before the start
+    assert np.allclose(carrot(route, 0, (-3.0, 0.0), 6.0), (0.0, 0.0))  # the first waypoint
 
 
 def test_the_ai_drives_the_robots_shipped_learned_navigator_else_the_planner(monkeypatch, tmp_path):

@@ -168,8 +168,8 @@ class ScriptedOracle:
         return self._policy.act(obs)
 
 
-#: Metres ahead along the route of the sub-goal a learned navigator steers to (its training
-#: goals lie 5-9 m away; the traverse's waypoints up to 23 m apart).
+#: Metres ahead along the route of the sub-goal a learned navigator steers to, at most up to
+#: the next waypoint (its training goals lie 5-9 m away; the traverse's waypoints up to 23 m apart).
 CARROT = 6.0
 #: The shipped learned baselines a traverse's AI drives with, in order of preference.
 AI_TASKS = ("nav-dynamic", "nav-static")
@@ -178,23 +178,18 @@ AI_TASKS = ("nav-dynamic", "nav-static")
 def carrot(
     route: list[tuple[float, float]], waypoint: int, xy: tuple[float, float], ahead: float
 ) -> np.ndarray:
-    """The point ``ahead`` m along ``route`` past the robot's projection on the leg that
-    ends at ``route[waypoint]`` (the route's end when it runs out)."""
+    """The point ``ahead`` m along the leg that ends at ``route[waypoint]`` past the robot's
+    projection on it, never beyond that waypoint: the traverse counts a waypoint only within
+    its tolerance (0.5 m), so a sub-goal cutting the corner would pass it by."""
     pts = np.asarray(route, dtype=np.float64)
     a = pts[max(waypoint - 1, 0)]
-    b = pts[waypoint]
+    b = pts[min(waypoint, len(pts) - 1)]
     leg = b - a
     n = float(leg @ leg)
     t = 0.0 if n == 0 else float(np.clip((np.asarray(xy) - a) @ leg / n, 0.0, 1.0))
-    here, left, k = a + t * leg, ahead, waypoint
-    while k < len(pts):
-        step = float(np.hypot(*(pts[k] - here)))
-        if step >= left:
-            return here + (pts[k] - here) * (left / step)
-        left -= step
-        here = pts[k]
-        k += 1
-    return pts[-1].copy()
+    here = a + t * leg
+    step = float(np.hypot(*(b - here)))
+    return here + (b - here) * (ahead / step) if step > ahead else b.copy()
 
 
 class LearnedNavigator:
