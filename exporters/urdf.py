@@ -518,38 +518,26 @@ def _auto_lod(model: Scene, pieces: list[tiles.Piece]) -> tuple[float | None, np
     """The terrain's level of detail when none is asked for: the zones' draped surfaces'
     cell size (m; None: the default), and each terrain tile's cells along its side (None: the
     default for every tile). Where the default rough meshes exceed ``lod.BUDGETS["urdf"]``
-    triangles, rougher tiles get finer cells (:func:`~citygen.exporters.lod.allocate`)
-    within that budget a file and ``lod.TILED_BUDGETS["urdf"]`` in all, said in one warning."""
+    triangles in a file or ``lod.TILED_BUDGETS["urdf"]`` in all, rougher tiles get finer
+    cells (:func:`~citygen.exporters.lod.fit`), said in one warning."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ExportWarning)
         visual = fit_terrain(model, AUTO, "urdf", None)
     t = model.terrain
-    if visual is None or t is None:
-        return None, None
-    rough = np.array([isinstance(tile, RoughTile) for tile in t.tiles])
-    amplitude = np.array([getattr(tile, "amplitude", 0.0) for tile in t.tiles])
-    scale = np.array([getattr(tile, "scale", 1.0) for tile in t.tiles])
-    most = np.array([rough_cells(x, t.tile_size, None) if isinstance(x, RoughTile) else 0 for x in t.tiles])
-    cells = np.zeros(len(t.tiles), dtype=np.int64)
+    if t is None:
+        return visual, None
+    default = np.array(
+        [rough_cells(x, t.tile_size, None) if isinstance(x, RoughTile) else 0 for x in t.tiles]
+    )
     per_file = lod.BUDGETS["urdf"]
     total = per_file if len(pieces) == 1 else lod.TILED_BUDGETS["urdf"]
-    cells[rough] = lod.allocate(amplitude[rough], scale[rough], t.tile_size, total, most[rough])
-    for piece in pieces:
-        ids = piece.terrain_tiles[rough[piece.terrain_tiles]]
-        if int((2 * cells[ids] ** 2 + 12 * cells[ids]).sum()) > per_file:
-            cells[ids] = np.minimum(
-                cells[ids], lod.allocate(amplitude[ids], scale[ids], t.tile_size, per_file, most[ids])
-            )
-    index = {id(tile): k for k, tile in enumerate(t.tiles)}
-    error = lod.max_error(model, lambda x: int(cells[index[id(x)]]) if isinstance(x, RoughTile) else None)
-    fine, coarse = t.tile_size / cells[rough].max(), t.tile_size / cells[rough].min()
+    groups = [p.terrain_tiles for p in pieces]
+    cells = lod.fit(model, default, total, groups=groups, group_budget=per_file)
+    if cells is None:
+        return visual, None
     budget = f"{total:,} triangles" + (f" ({per_file:,} a tile)" if len(pieces) > 1 else "")
     option = "resolution= (citygen export --terrain-resolution)"
-    message = lod.describe("URDF", "rough tiles", coarse, error, budget, option)
-    message = message.replace(
-        f"every {coarse:.3g} m", f"every {fine:.3g} to {coarse:.3g} m, finer where rougher"
-    )
-    warnings.warn(ExportWarning(message), stacklevel=3)
+    warnings.warn(ExportWarning(lod.warning("URDF", model, cells, budget, option)), stacklevel=3)
     return visual, cells
 
 
