@@ -42,8 +42,8 @@ BUDGETS = MappingProxyType(
     }
 )
 #: Terrain triangles a format cut into tiles (:mod:`citygen.exporters.tiles`) holds in all its
-#: files together, each file staying within :data:`BUDGETS`: about 250 MB of binary STL (50
-#: bytes a triangle), urban-tra-city's rough ground within about 10 cm of ``height_at``.
+#: files together, each file staying within :data:`BUDGETS`: about 170 MB of URDF's OBJ
+#: meshes (34 bytes a triangle), urban-tra-city's rough ground within about 10 cm of ``height_at``.
 TILED_BUDGETS = MappingProxyType({"urdf": 5_000_000})
 #: The error model :func:`allocate` uses: a rough tile of amplitude ``A`` whose noise lattice
 #: (spacing ``scale / 2``) is sampled every ``h`` metres is off by about ``A * f(2 h / scale)``,
@@ -53,8 +53,8 @@ TILED_BUDGETS = MappingProxyType({"urdf": 5_000_000})
 CURVATURE, SATURATION = 3.0, 1.95
 #: Fewest cells along a rough tile's side :func:`allocate` gives.
 MIN_CELLS = 4
-#: Most terrain tiles :func:`max_error` samples to measure the error (evenly spread), and
-#: points along a cell's side it measures at.
+#: Most terrain tiles :func:`max_error` samples to measure the error (half where the model
+#: expects it largest, half evenly spread), and points along a cell's side it measures at.
 ERROR_TILES, ERROR_POINTS = 200, 4
 
 
