@@ -19,7 +19,8 @@
    <= 5 minutes), and per format the wall time between its first and last line of output
    and the bytes it wrote (the URDF: its tiles, index and meshes), with the largest error
    of each format's sampled ground against ``height_at`` as its warning line gives it.
-   Baseline: the same export's MJCF alone (the whole run over it).
+   Then each format alone (``--format F``, a process each): its CPU seconds, the figure
+   to trust on a loaded machine. Baseline: the same export's MJCF (the whole run over it).
 
 Run: ``python benchmarks/bench_export.py`` (``--all-formats``: part 4 only). Last line: JSON
 figures.
@@ -315,6 +316,14 @@ def time_all_formats() -> dict:
                 fmt = text.split("$.terrain: ")[1].split(" ")[0].lower()
                 error_cm.setdefault(fmt, float(text.split("(up to ")[1].split(" cm")[0]))
         errors = [text for _, stream, text in lines if stream == "err" and ": error: " in text]
+        # Each format alone, in a process of its own: its CPU time is its own (the machine's
+        # load stretches wall times, not CPU times).
+        for fmt in FIRST_FILE:
+            _, alone_code, alone_wall, alone_cpu = _export_lines(
+                [str(scene), "--format", fmt, "--out", str(Path(tmp) / fmt)]
+            )
+            f = per.setdefault(fmt, {"bytes": 0, "files": 0, "start": 0.0, "end": 0.0})
+            f.update(alone_cpu_s=alone_cpu, alone_wall_s=alone_wall, alone_exit=alone_code)
     for fmt, f in per.items():
         f["wall_s"] = f["end"] - f["start"]
         if fmt in error_cm:
@@ -323,12 +332,14 @@ def time_all_formats() -> dict:
 
 
 def print_all_formats(r: dict) -> None:
-    print(f"  {'format':10}{'wall s':>9}{'MB':>10}{'files':>7}{'error cm':>10}")
+    head = f"{'format':10}{'wall s':>9}{'MB':>10}{'files':>7}{'error cm':>10}"
+    print(f"  {head}{'alone: CPU s':>14}{'wall s':>9}")
     for fmt in FIRST_FILE:
         f = r["formats"].get(fmt, {})
         error = f"{f['error_cm']:.1f}" if "error_cm" in f else "-"
         size, files = f.get("bytes", 0) / 1e6, f.get("files", 0)
-        print(f"  {fmt:10}{f.get('wall_s', math.nan):>9.1f}{size:>10.1f}{files:>7}{error:>10}")
+        alone = f"{f.get('alone_cpu_s', math.nan):>14.1f}{f.get('alone_wall_s', math.nan):>9.1f}"
+        print(f"  {fmt:10}{f.get('wall_s', math.nan):>9.1f}{size:>10.1f}{files:>7}{error:>10}{alone}")
     print(
         f"  whole run: exit {r['code']}, {r['wall_s']:.1f} s wall, {r['cpu_s']:.1f} s CPU (target <= 300 s); "
         f"{len(r['errors'])} error line(s)"
@@ -350,6 +361,8 @@ def all_formats_figures(r: dict) -> dict:
         out[f"tra_city_{fmt}_mb"] = round(f.get("bytes", 0) / 1e6, 1)
         if "error_cm" in f:
             out[f"tra_city_{fmt}_error_cm"] = f["error_cm"]
+        if "alone_cpu_s" in f:
+            out[f"tra_city_{fmt}_alone_cpu_s"] = round(f["alone_cpu_s"], 1)
     return out
 
 

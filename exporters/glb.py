@@ -177,10 +177,8 @@ def fit_terrain(
             return res
         room = MAX_TERRAIN_TRIANGLES - 200 * others
     else:
-        # What the other tiles cost, closer than the hard limit's 200 each: a flat tile's box,
-        # a stair's boxes, a slope's (pyramid) faces.
-        fixed = sum(12 * (x.step_count + 1) if isinstance(x, StairTile) else 48 if isinstance(x, SlopeTile)
-                    else 12 for x in t.tiles if not isinstance(x, RoughTile))  # fmt: skip
+        # What the other tiles cost, closer than the hard limit's 200 each.
+        fixed = _fixed_triangles(t)
         triangles = int((2 * cells**2 + 12 * cells).sum()) + fixed
         if triangles <= lod.BUDGETS[fmt]:
             return res
@@ -201,6 +199,35 @@ def fit_terrain(
     message = lod.describe(fmt.upper(), "rough tiles", spacing, error, f"{limit:,} triangles", option)
     warnings.warn(ExportWarning(message), stacklevel=3)
     return spacing
+
+
+def _fixed_triangles(t) -> int:
+    """What the terrain's tiles that are not rough cost in a mesh: a flat tile's box, a
+    stair's boxes, a slope's (pyramid) faces."""
+    return sum(12 * (x.step_count + 1) if isinstance(x, StairTile) else 48 if isinstance(x, SlopeTile)
+               else 12 for x in t.tiles if not isinstance(x, RoughTile))  # fmt: skip
+
+
+def auto_terrain(scene: Scene, fmt: str, default: float | None) -> float | np.ndarray | None:
+    """The cell size (m) of rough tiles' meshes when none is asked for: ``default`` where
+    the terrain's mesh fits ``lod.BUDGETS[fmt]`` triangles, else each tile's (an array
+    indexed like the terrain's tiles, NaN where not rough) as :func:`lod.fit` allocates
+    them, rougher tiles finer (up to tile_mesh's own sampling), with one
+    :class:`ExportWarning` giving the error against ``height_at``."""
+    t = scene.terrain
+    if t is None:
+        return default
+    usual, most = (
+        np.array([rough_cells(x, t.tile_size, res) if isinstance(x, RoughTile) else 0 for x in t.tiles])
+        for res in (default, None)
+    )
+    cells = lod.fit(scene, usual, lod.BUDGETS[fmt], most=most, fixed=_fixed_triangles(t))
+    if cells is None:
+        return default
+    option = "resolution= (citygen export --terrain-resolution)"
+    message = lod.warning(fmt.upper(), scene, cells, f"{lod.BUDGETS[fmt]:,} triangles", option)
+    warnings.warn(ExportWarning(message), stacklevel=3)
+    return np.where(cells > 0, t.tile_size / np.maximum(cells, 1), np.nan)
 
 
 def scene_dir_of(scene: Scene | str | Path, options: dict[str, Any]) -> tuple[Scene, Path | None]:
@@ -565,9 +592,9 @@ def build(
     ``scene_dir`` is the folder mesh placements are relative to (default: the scene
     file's folder). ``resolution`` (m) is the cell size of rough terrain tiles' meshes
     (default :data:`AUTO`: :data:`RESOLUTION`, coarser where the terrain would exceed
-    ``lod.BUDGETS[fmt]`` triangles; None for :func:`~citygen.geometry.terrain.tile_mesh`'s,
-    which resolves every bump). Agents and the task's markers stand on the ground
-    (:func:`height_at`).
+    ``lod.BUDGETS[fmt]`` triangles, rougher tiles finer: :func:`auto_terrain`; None for
+    :func:`~citygen.geometry.terrain.tile_mesh`'s, which resolves every bump). Agents and
+    the task's markers stand on the ground (:func:`height_at`).
     """
     model, folder = scene_dir_of(scene, {"scene_dir": scene_dir})
     resolution = resolution_option(resolution, fmt)
@@ -577,7 +604,10 @@ def build(
     polys = zone_polygons(model)
     tm = None
     if model.terrain is not None:
-        resolution = fit_terrain(model, resolution, fmt, RESOLUTION)
+        if resolution == AUTO:
+            resolution = auto_terrain(model, fmt, RESOLUTION)
+        else:
+            resolution = fit_terrain(model, resolution, fmt, RESOLUTION)
         tm = terrain_mesh(model, resolution=resolution)
         solid = terrain_solid(model, polys, mesh=tm)
         g.add("ground/terrain", "terrain", lambda: solid, np.eye(4))

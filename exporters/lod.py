@@ -3,9 +3,10 @@
 Every consumer has limits: MuJoCo's heightfields cost memory and compile time per sample,
 PyBullet and browsers per triangle, an occupancy map per cell. An exporter asked for no
 resolution (``None``, the default) keeps its usual one where the scene fits the format's
-budget (:data:`BUDGETS`) and otherwise picks the finest uniform spacing that fits, saying
-so in one :class:`~citygen.exporters.ExportWarning` that also gives the largest error of the
-sampled ground against :func:`~citygen.geometry.terrain.height_at` at that spacing. An
+budget (:data:`BUDGETS`) and otherwise samples each rough tile as finely as its roughness
+needs within the budget (:func:`fit`, one code path for MJCF, USD, URDF, GLB and HTML),
+saying so in one :class:`~citygen.exporters.ExportWarning` that also gives the largest
+error of the sampled ground against :func:`~citygen.geometry.terrain.height_at`. An
 explicit resolution is honoured up to the format's hard limit, beyond which it is an
 :class:`~citygen.errors.ExportError` naming the finest resolution that fits.
 
@@ -20,7 +21,7 @@ named split, so a denser city gets a coarser sampling, not a failure.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from types import MappingProxyType
 
 import numpy as np
@@ -41,17 +42,19 @@ BUDGETS = MappingProxyType(
     }
 )
 #: Terrain triangles a format cut into tiles (:mod:`citygen.exporters.tiles`) holds in all its
-#: files together, each file staying within :data:`BUDGETS`: about 400 MB of URDF meshes.
-TILED_BUDGETS = MappingProxyType({"urdf": 8_000_000})
+#: files together, each file staying within :data:`BUDGETS`: about 170 MB of URDF's OBJ
+#: meshes (34 bytes a triangle), urban-tra-city's rough ground within about 10 cm of ``height_at``.
+TILED_BUDGETS = MappingProxyType({"urdf": 5_000_000})
 #: The error model :func:`allocate` uses: a rough tile of amplitude ``A`` whose noise lattice
-#: (spacing ``scale / 2``) is sampled every ``h`` metres is off by about
-#: ``A * min(SATURATION, CURVATURE * (2 h / scale) ** 2)`` (fitted, slightly above, to
-#: :func:`max_error` on urban-tra-city's rough tiles).
-CURVATURE, SATURATION = 2.6, 1.85
+#: (spacing ``scale / 2``) is sampled every ``h`` metres is off by about ``A * f(2 h / scale)``,
+#: ``f(x) = SATURATION * (1 - exp(-CURVATURE * x**2 / SATURATION))``: ``CURVATURE * x**2``
+#: for fine sampling, ``SATURATION`` (peak to trough) once cells span the lattice (fitted,
+#: slightly above, to :func:`max_error` on urban-tra-city's rough tiles at 4 to 192 cells).
+CURVATURE, SATURATION = 3.0, 1.95
 #: Fewest cells along a rough tile's side :func:`allocate` gives.
 MIN_CELLS = 4
-#: Most terrain tiles :func:`max_error` samples to measure the error (evenly spread), and
-#: points along a cell's side it measures at.
+#: Most terrain tiles :func:`max_error` samples to measure the error (half where the model
+#: expects it largest, half evenly spread), and points along a cell's side it measures at.
 ERROR_TILES, ERROR_POINTS = 200, 4
 
 
@@ -70,13 +73,21 @@ def cells_within(budget: int, tiles: int, cost: Callable[[int], int]) -> int:
     return lo
 
 
+def triangles(cells: np.ndarray) -> np.ndarray:
+    """Triangles of a closed rough tile's mesh of ``cells`` cells a side: its surface
+    (``2 c**2``) and its walls and floor (``12 c``)."""
+    return 2 * cells**2 + 12 * cells
+
+
 def allocate(
-    amplitude: np.ndarray, scale: np.ndarray, tile_size: float, budget: int, most: np.ndarray
-) -> np.ndarray:
+    amplitude: np.ndarray, scale: np.ndarray, tile_size: float, budget: int, most: np.ndarray,
+    cost: Callable[[np.ndarray], np.ndarray] = triangles,
+) -> np.ndarray:  # fmt: skip
     """Cells along each rough tile's side (``amplitude``, ``scale``: per tile, m), at most
-    ``most`` each and :data:`MIN_CELLS` at least, such that their meshes hold at most
-    ``budget`` triangles (``2 c**2 + 12 c`` a tile) and the largest expected error (the
-    model of :data:`CURVATURE`) is as small as that allows: rougher tiles get finer cells.
+    ``most`` each and :data:`MIN_CELLS` at least, such that they ``cost`` (per tile, of its
+    cells: by default :func:`triangles`) at most ``budget`` in all and the largest expected
+    error (the model of :data:`CURVATURE`) is as small as that allows: rougher tiles get
+    finer cells.
 
     >>> allocate(np.array([0.1, 0.01]), np.array([0.5, 0.5]), 10.0, 20_000, np.array([256, 256])).tolist()
     [96, 4]
@@ -86,41 +97,115 @@ def allocate(
         return np.zeros(0, dtype=np.int64)
 
     def cells(error: float) -> np.ndarray:
-        ratio = error / np.maximum(a, 1e-12)
-        h = np.sqrt(np.clip(ratio, 1e-12, None) / CURVATURE) * scale / 2.0
-        c = np.where(ratio >= SATURATION, MIN_CELLS, np.ceil(tile_size / h - 1e-9).clip(max=1 << 20))
+        ratio = np.clip(error / np.maximum(a, 1e-12), 1e-12, SATURATION * (1 - 1e-12))
+        h = np.sqrt(-np.log1p(-ratio / SATURATION) * SATURATION / CURVATURE) * scale / 2.0
+        c = np.where(error >= SATURATION * a, MIN_CELLS, np.ceil(tile_size / h - 1e-9).clip(max=1 << 20))
         return np.minimum(np.maximum(c, MIN_CELLS), most).astype(np.int64)
 
-    def triangles(c: np.ndarray) -> int:
-        return int((2 * c**2 + 12 * c).sum())
+    def total(c: np.ndarray) -> int:
+        return int(cost(c).sum())
 
     lo, hi = 0.0, float(SATURATION * a.max()) + 1e-9
-    if triangles(cells(lo)) <= budget:
+    if total(cells(lo)) <= budget:
         return cells(lo)
     for _ in range(60):  # hi always fits (or is the coarsest there is)
         mid = (lo + hi) / 2
-        lo, hi = (lo, mid) if triangles(cells(mid)) <= budget else (mid, hi)
+        lo, hi = (lo, mid) if total(cells(mid)) <= budget else (mid, hi)
     return cells(hi)
 
 
-def max_error(scene: Scene, cells: Callable[[object], int | None]) -> float:
+def fit(
+    scene: Scene, default: np.ndarray, budget: int, *, most: np.ndarray | None = None, fixed: int = 0,
+    cost: Callable[[np.ndarray], np.ndarray] = triangles, share: np.ndarray | None = None,
+    groups: Sequence[np.ndarray] = (), group_budget: int = 0,
+) -> np.ndarray | None:  # fmt: skip
+    """The automatic level of detail every mesh and heightfield format shares: None where
+    the rough tiles at their ``default`` cells (per terrain tile, indexed like
+    ``scene.terrain.tiles``; 0 for a tile that is not rough) ``cost`` with ``fixed`` (what
+    the other tiles cost) at most ``budget``, else each tile's cells (0 where not rough)
+    from :func:`allocate`: rougher tiles finer, up to ``most`` (per tile; default
+    ``default``), within ``budget - fixed``.
+
+    ``share`` (per tile): tiles with the same value share one mesh or heightfield, which
+    costs once. ``groups``: tile indices of the files a tiled export writes, each kept
+    within ``group_budget`` too (its tiles made coarser where it would not be)."""
+    t = scene.terrain
+    default = np.asarray(default, dtype=np.int64)
+    most = default if most is None else np.maximum(np.asarray(most, dtype=np.int64), default)
+    ids = np.flatnonzero(default > 0)
+    if t is None or not ids.size:
+        return None
+    keys = ids if share is None else np.asarray(share)[ids]
+    _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+    reps = ids[first]
+
+    def over(cells: np.ndarray) -> list[np.ndarray]:
+        return [g for g in groups if int(cost(cells[g[cells[g] > 0]]).sum()) > group_budget]
+
+    if int(cost(default[reps]).sum()) + fixed <= budget and not over(default):
+        return None
+    amplitude = np.array([t.tiles[k].amplitude for k in reps.tolist()])
+    scale = np.array([t.tiles[k].scale for k in reps.tolist()])
+    room = max(budget - fixed, int(cost(np.full(len(reps), MIN_CELLS)).sum()))
+    cells = np.zeros(len(t.tiles), dtype=np.int64)
+    cells[ids] = allocate(amplitude, scale, t.tile_size, room, most[reps], cost)[inverse]
+    for g in over(cells):
+        g = g[cells[g] > 0]
+        a = np.array([t.tiles[k].amplitude for k in g.tolist()])
+        sc = np.array([t.tiles[k].scale for k in g.tolist()])
+        cells[g] = np.minimum(cells[g], allocate(a, sc, t.tile_size, group_budget, most[g], cost))
+    return cells
+
+
+def warning(
+    fmt: str, scene: Scene, cells: np.ndarray, budget: str, option: str, what: str = "rough tiles"
+) -> str:
+    """The one warning line of :func:`fit`'s choice ``cells`` (per tile; 0 where the tile is
+    exact), with the largest error of the ground it samples (:func:`max_error`)."""
+    t = scene.terrain
+    rough = np.array([isinstance(x, RoughTile) for x in t.tiles]) & (cells > 0)
+    rough = rough if rough.any() else cells > 0
+    fine, coarse = t.tile_size / cells[rough].max(), t.tile_size / cells[rough].min()
+    error = max_error(scene, cells)
+    message = describe(fmt, what, coarse, error, budget, option)
+    if f"{fine:.3g}" != f"{coarse:.3g}":
+        finer = f"every {fine:.3g} to {coarse:.3g} m, finer where rougher"
+        message = message.replace(f"every {coarse:.3g} m", finer)
+    return message
+
+
+def predicted_error(tile: object, tile_size: float, cells: int) -> float:
+    """The error :func:`allocate`'s model expects of a rough tile sampled ``cells`` a side."""
+    h = tile_size / max(cells, 1)
+    x = 2.0 * h / tile.scale
+    return float(tile.amplitude * SATURATION * -math.expm1(-CURVATURE * x * x / SATURATION))
+
+
+def max_error(scene: Scene, cells: Callable[[object], int | None] | np.ndarray) -> float:
     """The largest distance (m) between :func:`height_at` and the ground sampled
     ``cells(tile)`` times along each tile's side and cut into triangles (along either
-    diagonal, whichever is worse), over rough and slope tiles (at most :data:`ERROR_TILES`
-    of them, evenly spread), measured at :data:`ERROR_POINTS` points a cell side and at
-    least every 5 cm; ``cells(tile)`` None leaves a tile out (its geometry is exact)."""
+    diagonal, whichever is worse), over rough and slope tiles, measured at
+    :data:`ERROR_POINTS` points a cell side and at least every 5 cm; ``cells(tile)`` None
+    leaves a tile out (its geometry is exact). ``cells`` may instead be an array (per
+    terrain tile; 0 leaves a tile out). Of more than :data:`ERROR_TILES` tiles, it measures
+    the half whose error :func:`allocate`'s model expects largest and the rest evenly spread."""
     t = scene.terrain
     if t is None:
         return 0.0
     s = t.tile_size
-    shaped = [tile for tile in t.tiles if isinstance(tile, RoughTile | SlopeTile)]
+    kinds = RoughTile | SlopeTile
+    if isinstance(cells, np.ndarray):
+        pairs = zip(t.tiles, cells.tolist(), strict=True)
+        shaped = [(x, int(c)) for x, c in pairs if isinstance(x, kinds) and c]
+    else:
+        shaped = [(x, c) for x in t.tiles if isinstance(x, kinds) and (c := cells(x))]
     if len(shaped) > ERROR_TILES:
-        shaped = [shaped[i] for i in np.linspace(0, len(shaped) - 1, ERROR_TILES).astype(int).tolist()]
+        expected = [predicted_error(x, s, c) if isinstance(x, RoughTile) else 0.0 for x, c in shaped]
+        worst_first = np.argsort(expected, kind="stable")[::-1][: ERROR_TILES // 2]
+        spread = np.linspace(0, len(shaped) - 1, ERROR_TILES - len(worst_first)).astype(int)
+        shaped = [shaped[i] for i in np.unique(np.r_[worst_first, spread]).tolist()]
     worst = 0.0
-    for tile in shaped:
-        c = cells(tile)
-        if c is None:
-            continue
+    for tile, c in shaped:
         g = np.linspace(0.0, s, c + 1)
         z = tile_grid(tile, s, g, g)  # rows along +y
         n = max(ERROR_POINTS * c, math.ceil(s / 0.05))

@@ -647,9 +647,11 @@ def _geometry_key(tile: SlopeTile | RoughTile) -> tuple:
 
 def _hfield_plan(b: _Builder, shaped: list[int]) -> dict[int, int]:
     """Cells along a side of each slope and rough tile's heightfield (tile index -> cells):
-    by ``resolution``, or when none was given, :data:`DEFAULT_RESOLUTION` coarsened where
-    the scene's heightfields would exceed :data:`~citygen.exporters.lod.BUDGETS` (with one
-    warning); an explicit resolution beyond :data:`MAX_HFIELD_SAMPLES` is an ExportError."""
+    by ``resolution``, or when none was given, :data:`DEFAULT_RESOLUTION`, where the scene's
+    heightfields would exceed :data:`~citygen.exporters.lod.BUDGETS` samples made coarser
+    (rough tiles by :func:`~citygen.exporters.lod.fit`, rougher tiles finer; slopes uniformly
+    if they alone would take more than half), with one warning; an explicit resolution
+    beyond :data:`MAX_HFIELD_SAMPLES` is an ExportError."""
     terrain = b.scene.terrain
     s = terrain.tile_size
     tiles = {k: terrain.tiles[k] for k in shaped if not isinstance(terrain.tiles[k], StairTile)}
@@ -663,21 +665,43 @@ def _hfield_plan(b: _Builder, shaped: list[int]) -> dict[int, int]:
     limit = MAX_HFIELD_SAMPLES if b.resolution is not None else lod.BUDGETS["mjcf"]
     if samples(cells) <= limit:
         return cells
-    unique = len({_geometry_key(t) for t in tiles.values()})
-    cap = lod.cells_within(limit, unique, lambda c: (c + 1) ** 2)
     if b.resolution is not None:
+        unique = len({_geometry_key(t) for t in tiles.values()})
+        cap = lod.cells_within(limit, unique, lambda c: (c + 1) ** 2)
         raise ExportError(
             f"mjcf export: the terrain's heightfields need {samples(cells):,} samples at resolution="
             f"{b.resolution:g} m, more than {MAX_HFIELD_SAMPLES:,}; pass a coarser resolution, e.g. "
             f"resolution={4 * s / cap:.3g} (m)"
         )
-    cap = max(cap - cap % 3, 3)  # a multiple of 3: shaped slopes keep their platform's edges
-    plan = {k: min(c, cap) for k, c in cells.items()}
-    error = lod.max_error(b.scene, lambda t: min(_hfield_cells(t, s, res), cap))
+    plan = dict(cells)
+    slopes = {k: c for k, c in cells.items() if isinstance(tiles[k], SlopeTile)}
+    if samples(slopes) > limit // 2:
+        unique = len({_geometry_key(tiles[k]) for k in slopes})
+        cap = lod.cells_within(limit // 2, unique, lambda c: (c + 1) ** 2)
+        cap = max(cap - cap % 3, 3)  # a multiple of 3: shaped slopes keep their platform's edges
+        plan.update({k: min(c, cap) for k, c in slopes.items()})
+    default = np.zeros(len(terrain.tiles), dtype=np.int64)
+    share = np.arange(len(terrain.tiles))
+    keys: dict[tuple, int] = {}
+    for k, t in tiles.items():
+        if isinstance(t, RoughTile):
+            default[k] = cells[k]
+            share[k] = keys.setdefault(_geometry_key(t), k)
+    most = np.zeros_like(default)
+    most[default > 0] = MAX_HFIELD_SIDE - 1
+    fixed = samples({k: c for k, c in plan.items() if isinstance(tiles[k], SlopeTile)})
+    chosen = lod.fit(
+        b.scene, default, limit, most=most, fixed=fixed, cost=lambda c: (c + 1) ** 2, share=share
+    )
+    if chosen is None:  # the slopes' coarsening was enough
+        chosen = default
+    plan.update({k: int(chosen[k]) for k in tiles if isinstance(tiles[k], RoughTile)})
+    table = np.zeros(len(terrain.tiles), dtype=np.int64)
+    table[list(plan)] = list(plan.values())
     b.warnings.append(
-        lod.describe(
-            "MJCF", "heightfields", s / cap, error, f"{limit:,} heightfield samples",
-            "resolution= (citygen export --terrain-resolution)",
+        lod.warning(
+            "MJCF", b.scene, table, f"{limit:,} heightfield samples",
+            "resolution= (citygen export --terrain-resolution)", what="heightfields",
         )
     )  # fmt: skip
     return plan

@@ -600,11 +600,6 @@ def _triangulate(pieces: Sequence[tuple[float, Any]]) -> tuple[np.ndarray, np.nd
     return np.concatenate(verts), np.concatenate(faces), np.concatenate(face_owner)
 
 
-def _capped(s: float, cap: int):
-    """Cells of a tile's mesh once rough tiles are capped at ``cap`` (None: exact geometry)."""
-    return lambda t: min(_rough_cells([t], s, None)[0], cap) if isinstance(t, RoughTile) else None
-
-
 def _rough_cells(tiles: Sequence[RoughTile], s: float, resolution: float | None) -> list[int]:
     """Cells along each rough tile's side: the sampling :func:`tile_mesh` uses (same rule)."""
     if resolution is not None:
@@ -765,15 +760,17 @@ def _terrain_parts(
     rough = [k for k in ids.tolist() if isinstance(terrain.tiles[k], RoughTile)]
     cells = dict(zip(rough, _rough_cells([terrain.tiles[k] for k in rough], s, resolution), strict=True))
     triangles = sum(2 * c * c for c in cells.values())
-    if resolution is None and triangles > DEFAULT_TERRAIN_TRIANGLES:
-        cap = max(1, math.isqrt(DEFAULT_TERRAIN_TRIANGLES // (2 * len(rough))))
-        cells = {k: min(c, cap) for k, c in cells.items()}
-        error = lod.max_error(scene, _capped(s, cap))
+    default = np.zeros(n, dtype=np.int64)
+    default[rough] = list(cells.values())
+    chosen = None
+    if resolution is None:
+        chosen = lod.fit(scene, default, DEFAULT_TERRAIN_TRIANGLES, cost=lambda c: 2 * c * c)
+    if chosen is not None:
+        cells = {k: int(chosen[k]) for k in rough}
         budget = f"{DEFAULT_TERRAIN_TRIANGLES:,} triangles"
         option = "terrain_resolution= (citygen export --terrain-resolution)"
-        warnings.warn(
-            ExportWarning(lod.describe("USD", "rough tiles", s / cap, error, budget, option)), stacklevel=4
-        )
+        message = lod.warning("USD", scene, chosen, budget, option)
+        warnings.warn(ExportWarning(message), stacklevel=4)
     elif triangles > MAX_TERRAIN_TRIANGLES:
         raise ExportError(
             f"terrain: {len(rough)} rough tiles make {triangles} triangles at this resolution, more than "

@@ -619,9 +619,11 @@ def _geometry_key(tile: AnyTile) -> tuple:
 
 
 def terrain_mesh(
-    scene_or_terrain: Scene | Terrain, *, floor: float = -1.0, resolution: float | None = None
+    scene_or_terrain: Scene | Terrain, *, floor: float = -1.0, resolution: float | np.ndarray | None = None
 ) -> trimesh.Trimesh:
-    """Every tile's solid (:func:`tile_mesh`) placed in the world, in one mesh.
+    """Every tile's solid (:func:`tile_mesh`) placed in the world, in one mesh; ``resolution``
+    is one cell size (m) for every rough tile or an array of each tile's (indexed like the
+    terrain's tiles; NaN for tile_mesh's default).
 
     Each tile stays a closed body (walls between tiles are kept, so the whole is watertight
     and ``mesh.split()`` gives the tiles back); tiles with the same geometry are built once.
@@ -637,13 +639,16 @@ def terrain_mesh(
     _table(terrain)  # checks the tile count
     s = terrain.tile_size
     bottom = _bottom(min(_lowest(t, s) for t in terrain.tiles), floor)
+    each = np.asarray(np.nan if resolution is None else resolution, dtype=np.float64)
+    each = np.broadcast_to(each, len(terrain.tiles))
     groups: dict[tuple, list[int]] = {}
     for k, tile in enumerate(terrain.tiles):
-        groups.setdefault(_geometry_key(tile), []).append(k)
+        res = None if math.isnan(each[k]) else float(each[k])
+        groups.setdefault((_geometry_key(tile), res), []).append(k)
     all_verts, all_faces, face_tile = [], [], []
     count = 0
-    for members in groups.values():  # insertion order: deterministic
-        verts, faces = _tile_arrays(terrain.tiles[members[0]], s, bottom, resolution)
+    for (_, res), members in groups.items():  # insertion order: deterministic
+        verts, faces = _tile_arrays(terrain.tiles[members[0]], s, bottom, res)
         ids = np.asarray(members)
         ox, oy = terrain.origin
         shift = np.c_[ox + (ids % terrain.cols) * s, oy + (ids // terrain.cols) * s, np.zeros(ids.size)]
