@@ -186,7 +186,10 @@ def blocked_cells(terrain: Terrain | None, mobility: Mobility, xs: np.ndarray, y
     tile grid)."""
     out = np.zeros((len(ys), len(xs)), dtype=bool)
     # A rim at least one and a half cells deep: no path between cell centres steps over it.
-    pitch = max(float(np.max(np.diff(xs), initial=0.0)), float(np.max(np.diff(ys), initial=0.0)))
+    pitch = max(
+        float(np.median(np.diff(xs))) if len(xs) > 1 else 0.0,
+        float(np.median(np.diff(ys))) if len(ys) > 1 else 0.0,
+    )
     features = [*blocked_features(terrain, mobility), *landing_rims(terrain, mobility, max(RIM, 1.5 * pitch))]
     if features:
         out |= feature_mask(features, np.asarray(xs, dtype=np.float64), np.asarray(ys, dtype=np.float64))
