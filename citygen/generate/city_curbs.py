@@ -56,23 +56,18 @@ def curb_features(zones: Sequence[Zone], rng: np.random.Generator) -> tuple[list
     """The city's curb ramps, then its sidewalk slabs (see the module docstring), and the
     ramps' rectangles. Each feature stands at street level (``height`` 0)."""
     polys = [Polygon(z.polygon, z.holes) for z in zones]
-    side = shapely.union_all(
-        [p for p, z in zip(polys, zones, strict=True) if z.kind in ("sidewalk", "curb")], grid_size=1e-3
-    )
-    sidewalks = shapely.union_all(
-        [p for p, z in zip(polys, zones, strict=True) if z.kind == "sidewalk"], grid_size=1e-3
-    )
-    walks = shapely.union_all(
-        [p for p, z in zip(polys, zones, strict=True) if z.kind == "crosswalk"], grid_size=1e-3
-    )
+    side = _union([p for p, z in zip(polys, zones, strict=True) if z.kind in ("sidewalk", "curb")])
+    walks = _union([p for p, z in zip(polys, zones, strict=True) if z.kind == "crosswalk"])
     # Curbs around a roundabout's island or a median with no sidewalk stay low.
-    shapely.prepare(sidewalks)
-    side = shapely.union_all([p for p in shapely.get_parts(side) if sidewalks.intersects(p)])
+    sidewalks = shapely.STRtree([p for p, z in zip(polys, zones, strict=True) if z.kind == "sidewalk"])
+    parts = shapely.get_parts(side)
+    side = shapely.multipolygons([p for p in parts if len(sidewalks.query(p, predicate="intersects"))])
     shapely.prepare(side)
     height = quantize(uniform(rng, CURB))
     length = math.ceil(height / RAMP_GRADE * 1e4) / 1e4
     ramps: list[RampFeature] = []
     shapes: list[Polygon] = []
+    near: dict[tuple[int, int], list[Polygon]] = {}  # the ramps by 10 m squares
     for walk in shapely.get_parts(walks):
         for centre, yaw, width in _ends(walk, side):
             c, s = math.cos(yaw), math.sin(yaw)
@@ -93,10 +88,18 @@ def curb_features(zones: Sequence[Zone], rng: np.random.Generator) -> tuple[list
             )
             if not side.contains(reach.buffer(-0.02, join_style="mitre")):
                 continue  # no room in the sidewalk: this end keeps its curb
-            if any(shape.intersects(other) for other in shapes):
+            x0, y0, x1, y1 = shape.bounds
+            keys = [
+                (i, j)
+                for i in range(int(x0 // 10), int(x1 // 10) + 1)
+                for j in range(int(y0 // 10), int(y1 // 10) + 1)
+            ]
+            if any(shape.intersects(other) for key in keys for other in near.get(key, ())):
                 continue
             ramps.append(ramp)
             shapes.append(shape)
+            for key in keys:
+                near.setdefault(key, []).append(shape)
     # The slabs overlap a ramp's sides and top by 5 mm (no crack at street level between
     # them); the hole reaches past its foot into the crosswalk (no sliver of slab there).
     holes = [
@@ -124,6 +127,15 @@ def curb_features(zones: Sequence[Zone], rng: np.random.Generator) -> tuple[list
         )  # fmt: skip
         slabs.append(slab)
     return [*ramps, *slabs], shapes
+
+
+def _union(polys: list[Polygon]) -> BaseGeometry:
+    """The union of zones: they tile the scene, so a coverage union joins them (far quicker
+    than a union), unless two meet without sharing their vertices."""
+    try:
+        return shapely.coverage_union_all(polys)
+    except shapely.errors.GEOSException:
+        return shapely.union_all(polys, grid_size=1e-3)
 
 
 def _ends(walk: Polygon, side: BaseGeometry) -> list[tuple[tuple[float, float], float, float]]:
@@ -169,13 +181,23 @@ def _edges(part: Polygon) -> np.ndarray:
     return np.concatenate(segs)
 
 
-def _spans(edges: np.ndarray, y: float) -> list[tuple[float, float]]:
-    """The intervals of x inside the polygon of ``edges`` on the line at ``y``."""
+def _spans_at(edges: np.ndarray, ys: np.ndarray) -> list[list[tuple[float, float]]]:
+    """For each ``y`` of ``ys``, the intervals of x inside the polygon of ``edges`` on the
+    line at that height."""
     y0, y1 = edges[:, 1], edges[:, 3]
-    hit = ((y0 <= y) & (y < y1)) | ((y1 <= y) & (y < y0))
-    e = edges[hit]
-    x = np.sort(e[:, 0] + (y - e[:, 1]) * (e[:, 2] - e[:, 0]) / (e[:, 3] - e[:, 1]))
-    return [(float(x[k]), float(x[k + 1])) for k in range(0, len(x) - 1, 2)]
+    out: list[list[tuple[float, float]]] = []
+    for chunk in range(0, len(ys), 256):
+        y = ys[chunk : chunk + 256, None]
+        r, e = np.nonzero(((y0 <= y) & (y < y1)) | ((y1 <= y) & (y < y0)))
+        yr = ys[chunk + r]
+        x = edges[e, 0] + (yr - edges[e, 1]) * (edges[e, 2] - edges[e, 0]) / (edges[e, 3] - edges[e, 1])
+        order = np.lexsort((x, r))
+        r, x = r[order], x[order]
+        bounds = np.searchsorted(r, np.arange(len(y) + 1))
+        for k in range(len(y)):
+            row = x[bounds[k] : bounds[k + 1]].tolist()
+            out.append(list(zip(row[0::2], row[1::2], strict=False)))
+    return out
 
 
 def _meet(a: list[tuple[float, float]], b: list[tuple[float, float]]) -> list[tuple[float, float]]:
@@ -211,9 +233,9 @@ def _part_rectangles(part: Polygon) -> list[tuple[float, float, float, float]]:
     open_: list[list[float]] = []  # [x0, x1, bottom]
     out = []
     eps = 1e-7
-    for lo, hi in slabs:
-        spans = _meet(_spans(edges, lo + eps), _spans(edges, hi - eps))
-        spans = _meet(spans, _spans(edges, (lo + hi) / 2))
+    lines = _spans_at(edges, np.array([[lo + eps, (lo + hi) / 2, hi - eps] for lo, hi in slabs]).ravel())
+    for k, (lo, _) in enumerate(slabs):
+        spans = _meet(_meet(lines[3 * k], lines[3 * k + 2]), lines[3 * k + 1])
         still = []
         for a, b in spans:
             if b - a < THINNEST:

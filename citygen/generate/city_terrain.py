@@ -140,7 +140,7 @@ def city_features(
         features = [
             f.model_copy(update={"height": quantize(float(z))}) for f, z in zip(features, ground, strict=True)
         ]
-    features = [type(f).model_validate(f.model_dump()) for f in [*curbs, *features]]
+    features = [*curbs, *(type(f).model_validate(f.model_dump()) for f in features)]
     return terrain.model_copy(update={"features": tuple(features)})
 
 
