@@ -121,3 +121,20 @@ def test_rectangles_cover_a_rounded_corner_to_within_the_slivers():
     # A straight side along y is one slab.
     assert any(r.buffer(1e-3).contains(shapely.box(0.0, 6.0, 3.0, 24.0)) for r in rects)
     assert len(rects) <= 80
+
+
+@pytest.mark.slow
+def test_the_runner_finds_the_traverse_one_piece_of_free_ground_for_the_quadruped():
+    """The runner's free cells (walkable, no step higher than the robot's, inflated by its
+    radius) hold every metre of the route, in one connected piece."""
+    from citygen.exporters.occupancy import occupancy
+    from citygen.runner.robots.registry import load_robot
+    from citygen.runner.scenes import free_cells
+
+    scene = small_city(1)
+    occ = occupancy(scene, 0.2)
+    labels, _ = raster.components(free_cells(occ, load_robot("quadruped"), scene.terrain))
+    route = LineString([scene.task.start.position, *scene.task.route])
+    pts = shapely.get_coordinates(shapely.line_interpolate_point(route, np.arange(0.0, route.length, 1.0)))
+    on = {int(labels[occ.cell(x, y)]) for x, y in pts}
+    assert len(on) == 1 and 0 not in on
