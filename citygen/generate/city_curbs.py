@@ -44,8 +44,10 @@ RAMP_GRADE = 1.0 / 12.0
 TOP = 0.9
 #: Deepest sliver (m) a slab leaves along a slanting or curved part of the outline.
 SLAB = 0.5
+#: Closest (m) two slab boundaries are (a feature is at least 5 cm deep).
+BREAK = 0.06
 #: Slabs one above the other whose sides differ by at most this (m) are one slab.
-MERGE = 0.003
+MERGE = 0.02
 #: Longest side (m) of a slab (a feature's sides are at most 100 m).
 LONGEST = 100.0
 #: Thinnest slab (m) kept: thinner slivers stay at street level.
@@ -219,9 +221,21 @@ def _part_rectangles(part: Polygon) -> list[tuple[float, float, float, float]]:
     edge crossing the slab slants so that no sliver it leaves is deeper than :data:`SLAB`;
     slabs one above the other of the same width are one."""
     edges = _edges(part)
-    ys = np.unique(np.round(edges[:, [1, 3]].ravel(), 6))
+    # Slab boundaries at the vertices' heights, those within BREAK of the one below dropped
+    # (a slab's outline is then read just above its dropped vertices: what lies below them
+    # is at most BREAK deep).
+    heights = np.unique(np.round(edges[:, [1, 3]].ravel(), 6)).tolist()
+    ys, floor = heights[:1], {}
+    for y in heights[1:]:
+        if y - ys[-1] >= BREAK:
+            ys.append(y)
+        else:
+            floor[ys[-1]] = y
+    if ys[-1] != heights[-1]:
+        ys[-1] = heights[-1]
     y0, y1 = edges[:, 1], edges[:, 3]
     slabs: list[tuple[float, float]] = []
+    bottoms: list[float] = []  # where each slab's outline is read from
     for lo, hi in itertools.pairwise(ys):
         mid = (lo + hi) / 2
         e = edges[((y0 <= mid) & (mid < y1)) | ((y1 <= mid) & (mid < y0))]
@@ -230,17 +244,23 @@ def _part_rectangles(part: Polygon) -> list[tuple[float, float, float, float]]:
         depth = float((dx * dy / np.hypot(dx, dy)).max()) if len(e) and dy > 0 else 0.0
         n = max(1, math.ceil(depth / SLAB - 1e-9))
         slabs += [(lo + dy * k / n, lo + dy * (k + 1) / n) for k in range(n)]
+        bottoms += [min(floor.get(lo, lo), lo + dy / n / 2)] + [lo + dy * k / n for k in range(1, n)]
     open_: list[list[float]] = []  # [x0, x1, bottom]
     out = []
     eps = 1e-7
-    lines = _spans_at(edges, np.array([[lo + eps, (lo + hi) / 2, hi - eps] for lo, hi in slabs]).ravel())
+    lines = _spans_at(
+        edges,
+        np.array(
+            [[b + eps, (b + hi) / 2, hi - eps] for b, (_, hi) in zip(bottoms, slabs, strict=True)]
+        ).ravel(),
+    )
     for k, (lo, _) in enumerate(slabs):
         spans = _meet(_meet(lines[3 * k], lines[3 * k + 2]), lines[3 * k + 1])
         still = []
         for a, b in spans:
             if b - a < THINNEST:
                 continue
-            # A slab as wide as one begun below (within a few millimetres) continues it.
+            # A slab as wide as one begun below (within MERGE) continues it.
             match = next((r for r in open_ if abs(r[0] - a) <= MERGE and abs(r[1] - b) <= MERGE), None)
             if match is None:
                 still.append([a, b, lo])
