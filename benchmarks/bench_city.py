@@ -16,8 +16,12 @@ fresh process (so its peak memory is its own, ``ru_maxrss``), two at a time. Per
   city has it); ``rough_tiles``: tiles of rough paving;
 - ``furniture_per_km``: objects other than buildings per km of sidewalk (the sidewalk
   zones' area over their mean width, taken as the sum of the clear strips' lengths: area / width);
-- ``route_features``: features within 5 m of the traverse route (it passes them; it never
-  crosses one), ``route_rough_m``: metres of the route on rough paving;
+- ``curb_ramps``: 1:12 curb ramps at the crosswalks' ends (the sidewalks stand a curb above
+  the street on slabs of terrain features, not counted here);
+- ``route_features``: features the traverse route passes within 2 m (curb ramps, which it
+  runs over from a sidewalk to a crosswalk and back, front steps and terraces beside it; not
+  the sidewalks' slabs it runs on), ``route_ramps``: the curb ramps among them,
+  ``route_rough_m``: metres of the route on rough paving not hidden under a sidewalk's slab;
 - ``problems``: what ``citygen validate`` finds;
 - ``generate_s`` (wall), ``cpu_s`` and ``peak_mib`` of the generating process.
 
@@ -69,10 +73,17 @@ def figures(scene) -> dict:
     near = sum(bool(shapely.dwithin(sidewalk, b, 12.0)) for b in buildings)
     route = [scene.task.start.position, *scene.task.route] if scene.task is not None else []
     from citygen.geometry.features import feature_polygon
+    from citygen.geometry.terrain import height_at
 
     features = scene.terrain.features or () if scene.terrain is not None else ()
     line = shapely.LineString(route) if len(route) >= 2 else None
-    near_route = sum(bool(line is not None and feature_polygon(f).distance(line) < 5.0) for f in features)
+    passed = [
+        f
+        for f in features
+        if not (f.id.startswith("curb-") and f.kind == "landing")
+        and line is not None
+        and feature_polygon(f).distance(line) < 2.0
+    ]
     rough_m = 0.0
     if line is not None and scene.terrain is not None:
         t = scene.terrain
@@ -80,7 +91,10 @@ def figures(scene) -> dict:
         pts = shapely.get_coordinates(shapely.line_interpolate_point(line, d))
         col = np.clip(((pts[:, 0] - t.origin[0]) // t.tile_size).astype(int), 0, t.cols - 1)
         row = np.clip(((pts[:, 1] - t.origin[1]) // t.tile_size).astype(int), 0, t.rows - 1)
-        rough_m = float(sum(t.tiles[r * t.cols + c].kind == "rough" for r, c in zip(row, col, strict=True)))
+        rough = np.array([t.tiles[r * t.cols + c].kind == "rough" for r, c in zip(row, col, strict=True)])
+        # Rough where the ground is the tile's, not a feature's over it.
+        bare = height_at(t.model_copy(update={"features": None}), pts[:, 0], pts[:, 1])
+        rough_m = float((rough & (height_at(t, pts[:, 0], pts[:, 1]) == bare)).sum())
     clear = [Polygon(z.polygon, z.holes) for z in scene.zones if z.kind == "sidewalk" and z.strip == "clear"]
     # A clear strip's length along its street: half its perimeter (it is long and narrow).
     sidewalk_km = sum(p.exterior.length / 2 for p in clear) / 1000.0
@@ -90,12 +104,14 @@ def figures(scene) -> dict:
         "terraces": sum(
             f.id.startswith("terrace-") and f.kind == "landing" and "top" not in f.id for f in features
         ),
-        "ramps": sum(f.kind == "ramp" for f in features),
+        "ramps": sum(f.kind == "ramp" and not f.id.startswith("curb-") for f in features),
+        "curb_ramps": sum(f.id.startswith("curb-ramp-") for f in features),
         "rough_tiles": sum(t.kind == "rough" for t in scene.terrain.tiles)
         if scene.terrain is not None
         else 0,
         "furniture_per_km": round(furniture / max(sidewalk_km, 1e-9), 1),
-        "route_features": near_route,
+        "route_features": len(passed),
+        "route_ramps": sum(f.id.startswith("curb-ramp-") for f in passed),
         "route_rough_m": round(rough_m, 1),
         "connected": bool(scene.blocks) and nx.is_connected(road_graph(scene.blocks)),
         "city_blocks": len(blocks),
@@ -170,9 +186,11 @@ def main() -> None:
         "front_steps",
         "terraces",
         "ramps",
+        "curb_ramps",
         "rough_tiles",
         "furniture_per_km",
         "route_features",
+        "route_ramps",
         "route_rough_m",
         "problems",
         "generate_s",
@@ -193,7 +211,9 @@ def main() -> None:
         "city_front_steps_min": min(r["front_steps"] for r in rows),
         "city_terraces_min": min(r["terraces"] for r in rows),
         "city_furniture_per_km_min": min(r["furniture_per_km"] for r in rows),
+        "city_curb_ramps_min": min(r["curb_ramps"] for r in rows),
         "city_route_features_min": min(r["route_features"] for r in rows),
+        "city_route_ramps_min": min(r["route_ramps"] for r in rows),
         "city_problems_max": max(r["problems"] for r in rows),
         "city_generate_s_max": max(r["generate_s"] for r in rows),
         "city_cpu_s_max": max(r["cpu_s"] for r in rows),

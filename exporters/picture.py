@@ -339,7 +339,9 @@ def _draw_features(ax: Axes, t: Any, legend: _Legend) -> None:
     front steps stay visible on a city-wide map."""
     features = t.features or ()
     for kind, (colour, label) in FEATURE_STYLE.items():
-        rects = [np.asarray(feature_polygon(f).exterior.coords) for f in features if f.kind == kind]
+        # A landing no higher than a curb is a raised sidewalk: its zone's colour shows it.
+        shown = [f for f in features if f.kind == kind and (kind != "landing" or f.rise > 0.2)]
+        rects = [np.asarray(feature_polygon(f).exterior.coords) for f in shown]
         if not rects:
             continue
         ax.add_collection(

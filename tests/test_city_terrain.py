@@ -37,7 +37,7 @@ def test_a_city_has_front_steps_and_plaza_terraces(seed):
     if seed == 3:  # a city with large plazas: terraces with steps, a 1:12 ramp and its landing
         kinds = {f.id.rsplit("-", 1)[0] for f in features}
         assert {"terrace", "terrace-steps", "terrace-ramp", "terrace-top"} <= kinds
-        ramp = next(f for f in features if f.kind == "ramp")
+        ramp = next(f for f in features if f.id.startswith("terrace-ramp-"))
         assert ramp.rise / ramp.length <= 1 / 12 + 1e-3
         terrace = next(f for f in features if f.id == ramp.id.replace("-ramp", ""))
         assert float(height_at(scene, *at(ramp, ramp.length - 0.01))) == pytest.approx(
@@ -59,7 +59,7 @@ def test_height_at_a_front_step_is_the_step_height_above_the_sidewalk():
     assert min(b.distance(feature_polygon(stoop)) for b in buildings) < 0.01
 
 
-def test_features_stay_off_hard_ground_and_the_route_which_stays_level():
+def test_features_stay_off_hard_ground_and_the_route_which_runs_on_curb_level():
     scene = small_city(1)
     route = LineString([scene.task.start.position, *scene.task.route])
     hard = [
@@ -67,20 +67,22 @@ def test_features_stay_off_hard_ground_and_the_route_which_stays_level():
         for z in scene.zones
         if z.kind in ("roadway", "curb", "crosswalk", "parking")
     ]
-    shapes = [feature_polygon(f) for f in scene.terrain.features]
+    curb = next(f.rise for f in scene.terrain.features if f.id.startswith("curb-"))
+    # Front steps and terraces; the curbs' slabs and ramps are tested in test_city_curbs.
+    shapes = [feature_polygon(f) for f in scene.terrain.features if not f.id.startswith("curb-")]
     for shape in shapes:
         probe = shape.buffer(-0.05)
         assert not any(h.intersects(probe) for h in hard)
         assert shape.distance(route) >= ROBOTS["quadruped"].radius
     points = [route.interpolate(d) for d in np.arange(0.0, route.length, 0.5)]
     z = height_at(scene, [p.x for p in points], [p.y for p in points])
-    flat = z[np.abs(z) > 1e-6]
-    # Only rough paving is under the route; it passes steps and terraces close by.
-    assert flat.size == 0 or np.abs(flat).max() < 0.1
+    # On the sidewalks' level, down a ramp to a crosswalk's, now and then on rough paving.
+    assert np.mean((np.abs(z - curb) < 1e-9) | (np.abs(z) < 1e-9)) >= 0.95
+    assert z.min() > -0.1 and z.max() < curb + 0.1
     assert sum(shape.distance(route) < 5.0 for shape in shapes) >= 1
 
 
-def test_wheels_cannot_cross_steps_or_climb_a_terrace_but_legs_climb_steps():
+def test_wheels_cannot_cross_steps_and_a_terrace_is_walled_but_where_its_steps_are():
     scene = small_city(0)
     stoop = next(f for f in scene.terrain.features if f.id.startswith("front-steps"))
     x, y = at(stoop, stoop.length / 2)
@@ -88,9 +90,13 @@ def test_wheels_cannot_cross_steps_or_climb_a_terrace_but_legs_climb_steps():
     assert blocked_cells(scene.terrain, ROBOTS["wheeled"], xs, ys)[0, 0]
     assert not blocked_cells(scene.terrain, ROBOTS["quadruped"], xs, ys)[0, 0]
     city = small_city(3)
-    terrace = next(f for f in city.terrain.features if f.kind == "landing")
-    xs, ys = np.array([terrace.center[0]]), np.array([terrace.center[1]])
-    assert blocked_cells(city.terrain, ROBOTS["quadruped"], xs, ys)[0, 0]
+    terrace = next(f for f in city.terrain.features if f.id.startswith("terrace-") and f.kind == "landing")
+    # Its top is level ground; its side away from its steps and its ramp is a wall to legs too.
+    c, s = math.cos(terrace.yaw), math.sin(terrace.yaw)
+    hw = terrace.width / 2 - 0.02
+    side = (terrace.center[0] + s * hw, terrace.center[1] - c * hw)
+    for (x, y), walled in ((terrace.center, False), (side, True)):
+        assert blocked_cells(city.terrain, ROBOTS["quadruped"], np.array([x]), np.array([y]))[0, 0] == walled
     assert max_step(scene) >= max(
         f.step_count * f.step_height for f in scene.terrain.features if f.kind == "steps"
     )

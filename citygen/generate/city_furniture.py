@@ -15,7 +15,9 @@ guides give, chosen by what the street fronts:
 
 Each row starts at a random phase along the strip; an object is kept where its base lies
 on the sidewalk, keeps its clearance from every object already there, stands on level
-ground (not on a terrain feature) and off the traverse route's corridor.
+ground at the sidewalk's level (not on a curb ramp, steps or a terrace) and off the
+traverse route's corridor. Objects placed before that stand on a curb ramp are dropped:
+the ramps stay clear for wheels.
 """
 
 from __future__ import annotations
@@ -29,7 +31,10 @@ from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
 from citygen.assets.catalog import CATEGORIES, resolve
-from citygen.generate.placement import _base_ring, _ground_height, _Hash, _Palettes, _pose, base_of
+from citygen.generate.city_curbs import CURB
+from citygen.generate.placement import _base_ring, _Hash, _Palettes, _pose, base_of
+from citygen.geometry.features import feature_polygon
+from citygen.geometry.terrain import height_at
 from citygen.seeding import child
 from citygen.spec.placements import Placement
 from citygen.spec.terrain import Terrain
@@ -52,6 +57,8 @@ WALL, HOUSES = 8.0, 20.0
 NARROW = 0.9
 #: Smallest gap (m) between two objects' bases.
 GAP = 0.3
+#: Largest rise (m) of the ground under an object's base: level ground.
+LEVEL = 0.02
 
 
 def street_furniture(
@@ -65,6 +72,12 @@ def street_furniture(
     """``placed`` followed by the rows of furniture of every furnishing strip (see the
     module docstring); ``keep_clear`` (m) is ground no object may reach."""
     polys = [Polygon(z.polygon, z.holes) for z in zones]
+    ramps = shapely.STRtree(
+        [feature_polygon(f) for f in (terrain.features or ()) if f.id.startswith("curb-ramp-")]
+        if terrain is not None
+        else []
+    )
+    placed = [p for p in placed if not len(ramps.query(base_of(p), predicate="intersects"))]
     strips = [
         p for p, z in zip(polys, zones, strict=True) if z.kind == "sidewalk" and z.strip == "furnishing"
     ]
@@ -126,8 +139,8 @@ def street_furniture(
                     continue
                 if keep_clear is not None and keep_clear.intersects(base):
                     continue
-                z = _ground_height(terrain, ring, x, y)
-                if z is None or z > 0.1:  # tilted, or on a terrain feature
+                z = _level(terrain, ring, x, y)
+                if z is None:
                     continue
                 clearance = min(asset.clearance, 0.5)
                 if not taken.clear(base, clearance, GAP, reach):
@@ -144,6 +157,17 @@ def street_furniture(
                     )
                 )
     return tuple(out)
+
+
+def _level(terrain: Terrain | None, ring: np.ndarray, x: float, y: float) -> float | None:
+    """The ground's height (m) under a base, or None where it is not level (a curb ramp, the
+    edge of the sidewalk) or higher than a sidewalk (steps, a terrace)."""
+    if terrain is None:
+        return 0.0
+    zs = height_at(terrain, np.append(ring[:, 0], x), np.append(ring[:, 1], y))
+    if float(zs.max() - zs.min()) > LEVEL or float(zs.max()) > CURB[1] + 0.05:
+        return None
+    return round(float(zs.min()), 3) + 0.0
 
 
 def _frontage(strip: Polygon, buildings, plazas, lawns) -> str:

@@ -1,7 +1,7 @@
 """Stage 3 for ``layout = "city"``: the level changes a city has, as terrain features.
 
-A city's streets, sidewalks and lots are at street level (the tile grid keeps them flat:
-hard ground pins nearly every tile); what a city adds to that are local features
+A city's tile grid is at street level (hard ground pins nearly every tile flat); what a
+city adds to that are local features
 (:class:`~citygen.spec.terrain.StepsFeature`, :class:`~citygen.spec.terrain.RampFeature`,
 :class:`~citygen.spec.terrain.LandingFeature`), placed from the zones:
 
@@ -12,11 +12,17 @@ hard ground pins nearly every tile); what a city adds to that are local features
   risers up, reached by a flight of steps on one side (``terrace-steps-<k>``) and a ramp of
   at most 1:12 on another (``terrace-ramp-<k>``), as accessibility codes ask.
 
+Under them, the curbs (:mod:`citygen.generate.city_curbs`): every sidewalk a curb's height
+above the street on slabs, and a 1:12 curb ramp at each end of every crosswalk. The front
+steps and terraces stand on the ground under their low edge (a sidewalk's slab, a lawn).
+
 Rough paving stays with the tile grid (rough tiles of cracked concrete, cobbles or setts),
-except under a feature, where the tile is made flat so no bump pokes through a tread.
-A feature never reaches into hard ground (roadway, curb, crosswalk, parking, another
-building), never overlaps another feature, and keeps clear of the traverse route's
-corridor, so the route stays on level ground; it passes the features beside it.
+except under a crosswalk or a feature other than a sidewalk's slab, where the tile is made
+flat so no bump pokes through a tread or a ramp (under the slabs the bumps, lower than the
+curb, stay hidden). A front step or a terrace never reaches into hard ground (roadway,
+curb, crosswalk, parking, another building), never overlaps another feature but a
+sidewalk's slab, and keeps clear of the traverse route's corridor; the route runs on the
+sidewalks' slabs and crosses the streets down and up the curb ramps.
 """
 
 from __future__ import annotations
@@ -29,6 +35,7 @@ import shapely
 from shapely.geometry import LineString, Polygon
 from shapely.geometry.base import BaseGeometry
 
+from citygen.generate.city_curbs import curb_features
 from citygen.geometry.features import feature_polygon
 from citygen.geometry.terrain import height_at
 from citygen.seeding import uniform
@@ -95,6 +102,8 @@ def city_features(
 
     features: list = []
     r = np.random.default_rng(rng.integers(2**63))
+    curbs, ramps = curb_features(zones, np.random.default_rng(rng.integers(2**63)))
+    take(ramps)
     for building in buildings:
         if r.random() >= FRONT_STEPS:
             continue
@@ -117,16 +126,21 @@ def city_features(
             take(shapes)
             features += parts
             t += 1
-    if not features:
+    if not features and not curbs:
         return terrain
-    terrain = _flatten_under(terrain, taken)
-    # Each feature stands on the ground under its low edge (street level in a city).
-    feet = np.array([_foot(f) for f in features])
-    ground = height_at(terrain, feet[:, 0], feet[:, 1])
-    features = [
-        f.model_copy(update={"height": quantize(float(z))}) for f, z in zip(features, ground, strict=True)
-    ]
-    features = [type(f).model_validate(f.model_dump()) for f in features]
+    # Crosswalks are smooth too: a step down the curb lands on level ground.
+    walks = [p for p, z in zip(polys, zones, strict=True) if z.kind == "crosswalk"]
+    terrain = _flatten_under(terrain, taken + walks)
+    # The curbs stand at street level; every other feature on the ground under its low edge
+    # (a sidewalk, a curb's height up, or a plaza or a lawn at street level).
+    curbed = terrain.model_copy(update={"features": tuple(curbs) or None})
+    if features:
+        feet = np.array([_foot(f) for f in features])
+        ground = height_at(curbed, feet[:, 0], feet[:, 1])
+        features = [
+            f.model_copy(update={"height": quantize(float(z))}) for f, z in zip(features, ground, strict=True)
+        ]
+    features = [*curbs, *(type(f).model_validate(f.model_dump()) for f in features)]
     return terrain.model_copy(update={"features": tuple(features)})
 
 

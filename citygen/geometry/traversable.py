@@ -11,8 +11,10 @@ the same ground:
   differ by more than its ``max_step`` (sampled four times finer than that run, with a
   10 % allowance for the peaks between samples);
 - a terrain feature's rectangle: steps as stairs, a ramp as a slope of ``atan(rise /
-  length)``, a landing when it rises at most ``max_step`` (its sides are vertical: a
-  raised landing is reached by its steps or ramp, and is not ground to plan across).
+  length)``; a landing's top is level ground, but its sides are vertical: along a side
+  where it stands more than ``max_step`` above the ground beside it, a band
+  (:func:`landing_rims`) is not crossed, so a raised landing (a raised sidewalk, a terrace)
+  is reached over its steps or ramps, or from a landing beside it at its level.
 
 >>> from citygen.spec.task import ROBOTS
 >>> from citygen.spec.terrain import StairTile
@@ -24,6 +26,7 @@ the same ground:
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -31,14 +34,35 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 
 from citygen.geometry.features import feature_mask, feature_polygon
-from citygen.geometry.terrain import tile_grid
+from citygen.geometry.terrain import height_at, tile_grid
 from citygen.spec.task import STEP_RUN, Mobility
-from citygen.spec.terrain import RampFeature, RoughTile, SlopeTile, StairTile, StepsFeature, Terrain
+from citygen.spec.terrain import (
+    LandingFeature,
+    RampFeature,
+    RoughTile,
+    SlopeTile,
+    StairTile,
+    StepsFeature,
+    Terrain,
+)
 
 #: Samples per :data:`STEP_RUN` when a rough tile's steps are measured.
 _SAMPLES = 4
 #: Allowance for the peaks of rough ground between samples.
 _ALLOWANCE = 1.1
+#: Depth (m) of a landing's rim; spacing (m) of the points a landing's sides are probed at,
+#: and how far (m) outside the side the ground beside it is measured.
+RIM, _PROBE_STEP, _PROBE_OUT = 0.05, 0.25, 0.03
+
+
+@dataclass(frozen=True)
+class Rim:
+    """A band along a landing's side (an oriented rectangle, as a feature's)."""
+
+    center: tuple[float, float]
+    yaw: float
+    length: float
+    width: float
 
 
 @lru_cache(maxsize=4096)
@@ -68,7 +92,55 @@ def feature_crossable(feature: object, mobility: Mobility) -> bool:
         return mobility.stairs and feature.step_height <= mobility.max_step
     if isinstance(feature, RampFeature):
         return math.atan2(feature.rise, feature.length) <= mobility.max_slope
-    return feature.rise <= mobility.max_step
+    return True  # a landing's top; its sides: landing_rims
+
+
+def landing_rims(terrain: Terrain | None, mobility: Mobility, depth: float = RIM) -> list[Rim]:
+    """The bands, ``depth`` metres deep, along the sides of ``terrain``'s landings where a
+    landing stands more than the robot's ``max_step`` above the ground beside it (sampled
+    every 0.25 m along each side, 3 cm outside it: a landing, a ramp's top or the steps
+    beside it at its level leave no rim)."""
+    if terrain is None or not terrain.features:
+        return []
+    high = [f for f in terrain.features if isinstance(f, LandingFeature) and f.rise > mobility.max_step]
+    if not high:
+        return []
+    yaw = np.array([f.yaw for f in high])
+    u = np.c_[np.cos(yaw), np.sin(yaw)]
+    v = np.c_[-u[:, 1], u[:, 0]]
+    centre = np.array([f.center for f in high], dtype=np.float64)
+    hl = np.array([f.length for f in high])[:, None] / 2
+    hw = np.array([f.width for f in high])[:, None] / 2
+    # The four sides of each landing, counter-clockwise: start, direction, outward normal, length.
+    start = np.stack([centre - u * hl - v * hw, centre + u * hl - v * hw, centre + u * hl + v * hw,
+                      centre - u * hl + v * hw], axis=1).reshape(-1, 2)  # fmt: skip
+    direction = np.stack([u, v, -u, -v], axis=1).reshape(-1, 2)
+    normal = np.stack([-v, u, v, -u], axis=1).reshape(-1, 2)
+    span = np.stack([2 * hl[:, 0], 2 * hw[:, 0], 2 * hl[:, 0], 2 * hw[:, 0]], axis=1).ravel()
+    top = np.repeat([f.height + f.rise for f in high], 4)
+    counts = np.maximum(1, np.ceil(span / _PROBE_STEP - 1e-9)).astype(np.int64)
+    side = np.repeat(np.arange(len(span)), counts)
+    offset = np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
+    step = span / counts
+    along = (offset + 0.5) * step[side]
+    probes = start[side] + direction[side] * along[:, None] + normal[side] * _PROBE_OUT
+    beside = height_at(terrain, probes[:, 0], probes[:, 1])
+    cliff = np.flatnonzero(top[side] - beside > mobility.max_step + 1e-9)
+    if not cliff.size:
+        return []
+    # Runs of consecutive cliff samples along one side.
+    new = np.ones(cliff.size, dtype=bool)
+    new[1:] = (np.diff(cliff) != 1) | (side[cliff[1:]] != side[cliff[:-1]])
+    first = cliff[new]
+    last = cliff[np.r_[np.flatnonzero(new)[1:] - 1, cliff.size - 1]]
+    k = side[first]
+    s0, s1 = offset[first] * step[k], (offset[last] + 1) * step[k]
+    mid = start[k] + direction[k] * ((s0 + s1) / 2)[:, None] - normal[k] * depth / 2
+    angle = np.arctan2(direction[k, 1], direction[k, 0])
+    return [
+        Rim((float(x), float(y)), float(a), float(n), depth)
+        for x, y, a, n in zip(mid[:, 0], mid[:, 1], angle, s1 - s0, strict=True)
+    ]
 
 
 def blocked_features(terrain: Terrain | None, mobility: Mobility) -> list:
@@ -97,7 +169,9 @@ def blocked_ground(terrain: Terrain | None, mobility: Mobility) -> BaseGeometry:
     """The union of the squares of the tiles and the rectangles of the features the robot
     cannot cross (empty when none)."""
     blocked = blocked_tiles(terrain, mobility)
-    features = [feature_polygon(f) for f in blocked_features(terrain, mobility)]
+    features = [
+        feature_polygon(f) for f in [*blocked_features(terrain, mobility), *landing_rims(terrain, mobility)]
+    ]
     if not blocked.any() and not features:
         return shapely.Polygon()
     r, c = np.nonzero(blocked)
@@ -111,7 +185,12 @@ def blocked_cells(terrain: Terrain | None, mobility: Mobility, xs: np.ndarray, y
     (rows), in metres, lies on a tile or a feature the robot cannot cross (False off the
     tile grid)."""
     out = np.zeros((len(ys), len(xs)), dtype=bool)
-    features = blocked_features(terrain, mobility)
+    # A rim at least one and a half cells deep: no path between cell centres steps over it.
+    pitch = max(
+        float(np.median(np.diff(xs))) if len(xs) > 1 else 0.0,
+        float(np.median(np.diff(ys))) if len(ys) > 1 else 0.0,
+    )
+    features = [*blocked_features(terrain, mobility), *landing_rims(terrain, mobility, max(RIM, 1.5 * pitch))]
     if features:
         out |= feature_mask(features, np.asarray(xs, dtype=np.float64), np.asarray(ys, dtype=np.float64))
     blocked = blocked_tiles(terrain, mobility)
