@@ -243,6 +243,28 @@ def _polyline(points, step=RES):
     return out
 
 
+def test_the_distance_left_from_a_cell_touching_the_goal_region_is_the_way_onto_the_disc():
+    """A robot stopped just outside the tolerance, in a cell the region's field already
+    counts as 0, has the metres onto the disc left (was an IndexError ending a bench run)."""
+    from citygen.runner.planning import region_distance, region_path_length
+
+    grid, free = _wall_map()
+    goal, tol = (1.0, 8.0), 0.5
+    field = region_distance(free, grid, goal, tol)
+    starts = []
+    for r, c in zip(*np.nonzero(field == 0.0), strict=True):
+        cx, cy = grid.centre((int(r), int(c)))
+        for dx in (-0.49, 0.49):
+            for dy in (-0.49, 0.49):
+                xy = (cx + dx * RES, cy + dy * RES)
+                if math.dist(xy, goal) > tol + 1e-3 and grid.cell(*xy) == (r, c):
+                    starts.append(xy)
+    assert starts, "no point outside the disc in a cell the field counts as inside"
+    for start in starts[:8]:
+        left = region_path_length(free, grid, field, start, goal, tol)
+        assert left == pytest.approx(math.dist(start, goal) - tol, abs=1e-9)
+
+
 def test_spl_shortest_path_is_the_any_angle_geodesic_to_the_goal_region():
     from citygen.runner.planning import DistanceField, region_distance
 

@@ -567,6 +567,8 @@ def region_path_length(
         seen.add(nxt)
     goal = np.asarray(goal_xy[:2], dtype=np.float64)
     pts = [np.asarray(start_xy[:2], dtype=np.float64)] + [np.asarray(grid.centre(q)) for q in cells[1:]]
+    if len(pts) == 1:  # the start's cell touches the region: the straight way onto the disc
+        return max(0.0, math.dist(pts[0], goal) - tolerance)
     # Pull taut: from each kept vertex, the farthest later point in sight.
     taut, i = [pts[0]], 0
     while i < len(pts) - 1:
