@@ -50,7 +50,7 @@ class ProgressReward(gymnasium.Wrapper):
         self.gamma = float(gamma)
         self.reverse = float(reverse)
         self._d = math.inf
-        self._pose = self._last = (0.0, 0.0, 0.0)
+        self._pose = (0.0, 0.0, 0.0)
 
     def hold(self) -> float:
         """The discounted tracking reward of standing on the goal from now to the horizon."""
@@ -58,30 +58,31 @@ class ProgressReward(gymnasium.Wrapper):
         left = max(env.horizon - env.steps, 0)
         return TRACK_AT_GOAL * self.gamma * (1.0 - self.gamma**left) / (1.0 - self.gamma)
 
-    def _geodesic(self) -> float:
+    def _where(self) -> tuple[float, tuple[float, float, float]]:
+        """The robot's geodesic distance to the goal and its pose ``(x, y, yaw)``."""
         env = self.env.unwrapped
         x, y, _, yaw = env.handle.pose(env.data)
-        self._last, self._pose = self._pose, (x, y, yaw)
-        return env.prepared.field(env._goal(), env.tolerance).at(x, y)
+        return env.prepared.field(env._goal(), env.tolerance).at(x, y), (x, y, yaw)
 
-    def backwards(self) -> float:
-        """Metres the last step moved the robot backwards along its heading (0 if forwards)."""
-        (x0, y0, yaw0), (x1, y1, _) = self._last, self._pose
+    @staticmethod
+    def backwards(before: tuple[float, float, float], after: tuple[float, float, float]) -> float:
+        """Metres moved backwards along the heading ``before`` had (0 if forwards)."""
+        (x0, y0, yaw0), (x1, y1, _) = before, after
         return max(0.0, -((x1 - x0) * math.cos(yaw0) + (y1 - y0) * math.sin(yaw0)))
 
     def reset(self, **kwargs):
         out = self.env.reset(**kwargs)
-        self._d = self._geodesic()
+        self._d, self._pose = self._where()
         return out
 
     def step(self, action):
         obs, reward, terminated, truncated, info = self.env.step(action)
-        d = self._geodesic()
+        d, pose = self._where()
         if math.isfinite(d) and math.isfinite(self._d):
             reward = float(reward) + self.scale * (self._d - d)
         if self.reverse:
-            reward = float(reward) - self.reverse * self.backwards()
+            reward = float(reward) - self.reverse * self.backwards(self._pose, pose)
         if terminated and info.get("is_success"):
             reward = float(reward) + self.hold()
-        self._d = d
+        self._d, self._pose = d, pose
         return obs, reward, terminated, truncated, info
