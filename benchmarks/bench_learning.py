@@ -54,6 +54,7 @@ def run_one(scenes: int, sampling: str, args: argparse.Namespace) -> dict:
         scenes=scenes,
         sampling=sampling,
         checkpoint_every=max(args.steps // 4, 1),
+        **({"init": str(args.init)} if args.init is not None else {}),
     )
     t0 = time.perf_counter()
     resume = (out / "checkpoints").exists() and not (out / "policy.npz").exists()
@@ -71,17 +72,20 @@ def run_one(scenes: int, sampling: str, args: argparse.Namespace) -> dict:
         seed=args.seed,
     )
     n = len(rows)
+    success = [r["success_rate"] for r in rows]
+    mean = sum(success) / n
     return {
         "scenes": scenes,
         "sampling": sampling,
-        "success_rate": sum(r["success_rate"] for r in rows) / n,
+        "success_rate": mean,
+        "success_se": (sum((x - mean) ** 2 for x in success) / max(n - 1, 1) / n) ** 0.5,
         "route_completion": sum(r["route_completion"] for r in rows) / n,
         "train_s": train_s,
         "eval_s": time.perf_counter() - t0,
     }
 
 
-def plot(results: list[dict], path: Path, steps: int) -> None:
+def plot(results: list[dict], path: Path, steps: int, init: Path | None = None) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -89,15 +93,23 @@ def plot(results: list[dict], path: Path, steps: int) -> None:
 
     fig, ax = plt.subplots(figsize=(6.5, 4), dpi=110)
     for sampling, colour in (("async", "tab:green"), ("sync", "tab:orange")):
-        pts = sorted((r["scenes"], r["success_rate"]) for r in results if r["sampling"] == sampling)
+        pts = sorted(
+            (r["scenes"], r["success_rate"], r.get("success_se", 0.0))
+            for r in results
+            if r["sampling"] == sampling
+        )
         if pts:
-            ax.plot(*zip(*pts, strict=True), "o-", color=colour, label=f"citygen, {sampling} sampling")
+            x, y, se = zip(*pts, strict=True)
+            ax.errorbar(
+                x, y, yerr=se, fmt="o-", color=colour, capsize=3, label=f"citygen, {sampling} sampling"
+            )
     ax.plot(list(PAPER), list(PAPER.values()), "k*", markersize=12, label="URBAN-SIM paper (async)")
     ax.set_xscale("log", base=2)
     ax.set_xlabel("distinct training scenes")
     ax.set_ylabel("NavStatic success on urban-nav-2-test (%)")
     ax.set_ylim(0, 100)
-    ax.set_title(f"PPO, {steps:,} steps per run, wheeled robot")
+    start = "from scratch" if init is None else f"from {init.name}"
+    ax.set_title(f"PPO, {steps:,} steps per run {start}, wheeled robot")
     ax.legend(loc="upper left")
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -117,6 +129,13 @@ def main() -> None:
     p.add_argument("--robot", default="wheeled")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--config", type=Path, default=None, help="a TrainConfig file (TOML/JSON) for every run")
+    p.add_argument(
+        "--init",
+        type=Path,
+        default=None,
+        help="start every run from this run folder's weights and statistics (a curriculum, e.g. the "
+        "NavClear run behind the shipped baseline; the paper trains from scratch)",
+    )
     p.add_argument(
         "--out",
         type=Path,
@@ -140,14 +159,20 @@ def main() -> None:
             results.append(run_one(scenes, sampling, args))
             r = results[-1]
             print(
-                f"{sampling:>5} {scenes:>5} scenes: success {r['success_rate']:5.1f} %, "
+                f"{sampling:>5} {scenes:>5} scenes: success {r['success_rate']:5.1f} "
+                f"± {r['success_se']:.1f} %, "
                 f"route completion {r['route_completion']:5.1f} % ({r['train_s']:.0f} s training)",
                 flush=True,
             )
     one = next((r for r in results if r["scenes"] == 1), None)
     if one is not None and "sync" in samplings and "async" in samplings:
         results.append({**one, "sampling": "sync"})
-    plot(results, HERE / "plots" / ("learning_quick.png" if args.quick else "learning.png"), args.steps)
+    plot(
+        results,
+        HERE / "plots" / ("learning_quick.png" if args.quick else "learning.png"),
+        args.steps,
+        args.init,
+    )
 
     print()
     print(
