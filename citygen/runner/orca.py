@@ -39,6 +39,9 @@ RVO_EPSILON = 1e-5
 FEASIBLE_TOL = 1e-9
 """How far (m/s) a candidate velocity may lie on the wrong side of a half-plane and still keep
 it: rounding of the points computed on the line itself."""
+FAR = 1e6
+"""How far (m/s) from zero the line lies that stands in for a missing one (no velocity the
+solver meets violates it, and it bounds no other line within the speed disc)."""
 KDTREE_AGENTS = 48
 """From this many agents per environment on, neighbours come from a KD-tree (cheaper than
 the dense distance matrix)."""
@@ -91,66 +94,66 @@ def _strictly_lower(n: int) -> np.ndarray:
     return np.tri(n, k=-1, dtype=bool)
 
 
-def _candidates(px, py, dx, dy, valid, radius, ox, oy, direction_opt: bool):
-    """Every velocity RVO2's ``linearProgram2`` may hold, for lines ``(..., L)`` in order:
-    the start (``opt`` clipped to the disc of ``radius``, or ``opt * radius`` when
+def _clip(ox, oy, radius) -> tuple[np.ndarray, np.ndarray]:
+    """``(ox, oy)`` clipped to the disc of ``radius`` (RVO2's start of ``linearProgram2``)."""
+    n2 = ox * ox + oy * oy
+    over = n2 > radius * radius
+    scale = np.where(over, radius / np.sqrt(np.where(over, n2, 1.0)), 1.0)
+    return ox * scale, oy * scale
+
+
+def _offset(c, dx, dy, x, y) -> np.ndarray:
+    """How far velocities ``(x, y)`` ``(V, C)`` lie on the wrong side of lines ``(V, L)``
+    (``c = dx * py - dy * px``), ``[v, c, j]``: RVO2's ``det(direction, point - v)``."""
+    return c[:, None, :] - dx[:, None, :] * y[:, :, None] + dy[:, None, :] * x[:, :, None]
+
+
+def _candidates(px, py, dx, dy, radius, ox, oy, direction_opt: bool):
+    """Every velocity RVO2's ``linearProgram2`` may hold, for lines ``(V, L)`` in order: the
+    start (``opt`` clipped to the disc of ``radius``, or ``opt * radius`` when
     ``direction_opt``) and, per line, ``linearProgram1``'s point on it bounded by the disc and
-    the valid lines before it. Returns ``(cx, cy, usable)`` of shape ``(..., L + 1)``."""
+    the lines before it. Returns ``(cx, cy, usable)`` of shape ``(V, L + 1)``."""
     n_lines = px.shape[-1]
-    r = radius[..., None]
     pd = px * dx + py * dy
-    disc = pd * pd + r * r - (px * px + py * py)
-    ok = valid & (disc >= 0.0)
+    disc = pd * pd + (radius * radius)[:, None] - (px * px + py * py)
+    ok = disc >= 0.0
     root = np.sqrt(np.maximum(disc, 0.0))
-    t_left, t_right = -pd - root, -pd + root
+    t_left, t_right = -pd - root, root - pd
     if n_lines > 1:
-        # [..., i, j]: line i against an earlier line j.
-        dxi, dyi, pxi, pyi = dx[..., :, None], dy[..., :, None], px[..., :, None], py[..., :, None]
-        dxj, dyj, pxj, pyj = dx[..., None, :], dy[..., None, :], px[..., None, :], py[..., None, :]
+        # [v, i, j]: line i against an earlier line j.
+        dxi, dyi, pxi, pyi = dx[:, :, None], dy[:, :, None], px[:, :, None], py[:, :, None]
+        dxj, dyj, pxj, pyj = dx[:, None, :], dy[:, None, :], px[:, None, :], py[:, None, :]
         den = dxi * dyj - dyi * dxj
         num = dxj * (pyi - pyj) - dyj * (pxi - pxj)
-        earlier = _strictly_lower(n_lines) & valid[..., None, :]
+        lower = _strictly_lower(n_lines)
         parallel = np.abs(den) <= RVO_EPSILON
-        ok &= ~np.any(earlier & parallel & (num < 0.0), axis=-1)
-        use = earlier & ~parallel
+        ok &= ~(parallel & (num < 0.0) & lower).any(axis=-1)
+        use = lower & ~parallel
         t = num / np.where(parallel, 1.0, den)
-        t_right = np.minimum(t_right, np.min(np.where(use & (den >= 0.0), t, np.inf), axis=-1))
-        t_left = np.maximum(t_left, np.max(np.where(use & (den < 0.0), t, -np.inf), axis=-1))
+        t_right = np.minimum(t_right, np.where(use & (den > 0.0), t, np.inf).min(axis=-1))
+        t_left = np.maximum(t_left, np.where(use & (den < 0.0), t, -np.inf).max(axis=-1))
         ok &= t_left <= t_right
-    ox_, oy_ = ox[..., None], oy[..., None]
+    ox_, oy_ = ox[:, None], oy[:, None]
     if direction_opt:
         t = np.where(ox_ * dx + oy_ * dy > 0.0, t_right, t_left)
         sx, sy = ox * radius, oy * radius
     else:
         t = np.minimum(np.maximum(dx * (ox_ - px) + dy * (oy_ - py), t_left), t_right)
-        n2 = ox * ox + oy * oy
-        over = n2 > radius * radius
-        scale = np.where(over, radius / np.sqrt(np.where(over, n2, 1.0)), 1.0)
-        sx, sy = ox * scale, oy * scale
-    cx = np.concatenate([sx[..., None], px + t * dx], axis=-1)
-    cy = np.concatenate([sy[..., None], py + t * dy], axis=-1)
-    usable = np.concatenate([np.ones((*ok.shape[:-1], 1), bool), ok], axis=-1)
+        sx, sy = _clip(ox, oy, radius)
+    cx = np.concatenate([sx[:, None], px + t * dx], axis=1)
+    cy = np.concatenate([sy[:, None], py + t * dy], axis=1)
+    usable = np.concatenate([np.ones((len(ok), 1), bool), ok], axis=1)
     return cx, cy, usable
 
 
-def _keeps(cx, cy, px, py, dx, dy, valid) -> np.ndarray:
-    """``[..., c, j]``: candidate ``c`` keeps (valid) line ``j``."""
-    off = (
-        (dx * py - dy * px)[..., None, :]
-        - dx[..., None, :] * cy[..., :, None]
-        + dy[..., None, :] * cx[..., :, None]
-    )
-    return (off <= FEASIBLE_TOL) | ~valid[..., None, :]
-
-
 def _pick(cx, cy, fit, score) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The fitting candidate of least ``score`` of each row ``(A, C)``: ``(x, y, any_fit)``."""
-    best = np.argmin(np.where(fit, score, np.inf), axis=-1)
-    rows = np.arange(len(cx))
-    return cx[rows, best], cy[rows, best], fit.any(axis=-1)
+    """The fitting candidate of least ``score`` of each row ``(V, C)``: ``(x, y, any_fit)``."""
+    best = np.where(fit, score, np.inf).argmin(axis=1)
+    best += np.arange(0, cx.size, cx.shape[1])
+    return cx.ravel()[best], cy.ravel()[best], fit.any(axis=1)
 
 
-def _scan(cx, cy, usable, px, py, dx, dy, valid):
+def _scan(cx, cy, usable, px, py, dx, dy):
     """RVO2's ``linearProgram2`` run line by line over precomputed candidates (exact also where
     its tolerances for nearly parallel lines matter): ``(x, y, fail)``, ``fail`` the line it
     stopped at (``L`` when it did not)."""
@@ -158,217 +161,118 @@ def _scan(cx, cy, usable, px, py, dx, dy, valid):
     x, y = cx[..., 0], cy[..., 0]
     fail = np.full(x.shape, n_lines)
     for k in range(n_lines):
-        hit = (
-            (fail == n_lines)
-            & valid[..., k]
-            & (dx[..., k] * (py[..., k] - y) - dy[..., k] * (px[..., k] - x) > 0)
-        )
+        hit = (fail == n_lines) & (dx[..., k] * (py[..., k] - y) - dy[..., k] * (px[..., k] - x) > 0)
         take = hit & usable[..., k + 1]
         x, y = np.where(take, cx[..., k + 1], x), np.where(take, cy[..., k + 1], y)
         fail = np.where(hit & ~usable[..., k + 1], k, fail)
     return x, y, fail
 
 
-def _linear_program(px, py, dx, dy, valid, n_static: int, radius, ox, oy):
+def _linear_program(px, py, dx, dy, agent_line, n_static: int, radius, ox, oy):
     """RVO2's ``linearProgram2`` and, where it fails, ``linearProgram3`` for lines ``(A, L)``
-    (the first ``n_static`` static): the velocities ``(x, y)`` ``(A,)``."""
-    n2 = ox * ox + oy * oy
-    over = n2 > radius * radius
-    scale = np.where(over, radius / np.sqrt(np.where(over, n2, 1.0)), 1.0)
-    x, y = ox * scale, oy * scale
+    (the first ``n_static`` static; ``agent_line`` marks the present neighbour lines, any
+    other line is one no velocity violates): the velocities ``(x, y)`` ``(A,)``."""
+    x, y = _clip(ox, oy, radius)
+    c = dx * py - dy * px
     # Most agents' preferred velocity (clipped to the disc) keeps every line: RVO2 stops there.
-    busy = np.flatnonzero(np.any(valid & (dx * (py - y[:, None]) - dy * (px - x[:, None]) > 0.0), axis=1))
+    busy = np.flatnonzero((c - dx * y[:, None] + dy * x[:, None] > 0.0).any(axis=1))
     if not len(busy):
         return x, y
-    px, py, dx, dy, valid, radius, ox, oy = (v[busy] for v in (px, py, dx, dy, valid, radius, ox, oy))
-    cx, cy, usable = _candidates(px, py, dx, dy, valid, radius, ox, oy, False)
-    keeps = _keeps(cx, cy, px, py, dx, dy, valid)
+    lines = np.stack([px, py, dx, dy, c])[:, busy]
+    px, py, dx, dy, c = lines
+    radius, ox, oy = radius[busy], ox[busy], oy[busy]
+    cx, cy, usable = _candidates(px, py, dx, dy, radius, ox, oy, False)
+    keeps = _offset(c, dx, dy, cx, cy) <= FEASIBLE_TOL
     score = (cx - ox[:, None]) ** 2 + (cy - oy[:, None]) ** 2
-    bx, by, feasible = _pick(cx, cy, usable & np.all(keeps, axis=-1), score)
+    bx, by, feasible = _pick(cx, cy, usable & keeps.all(axis=-1), score)
     stuck = np.flatnonzero(~feasible)
     if len(stuck):
-        # RVO2 fails at the first line whose prefix leaves nothing feasible, holding the
-        # optimum of the lines before it.
-        usable, keeps = usable[stuck], keeps[stuck]
-        prefix = np.logical_and.accumulate(keeps, axis=-1) & usable[..., None]
-        begin = np.argmin(np.any(prefix, axis=-2), axis=-1)
-        before = np.concatenate([usable[..., None], prefix], axis=-1)
-        fit = np.take_along_axis(before, begin[:, None, None], -1)[..., 0]
-        sx, sy, _ = _pick(cx[stuck], cy[stuck], fit, score[stuck])
+        # RVO2 fails at the first line no candidate keeps together with all lines before it,
+        # holding the optimum of the lines before it (a candidate keeping them all).
+        first_broken = np.where(usable[stuck], keeps[stuck].argmin(axis=-1), -1)
+        begin = first_broken.max(axis=1)
+        sx, sy, _ = _pick(cx[stuck], cy[stuck], first_broken == begin[:, None], score[stuck])
         bx[stuck], by[stuck] = _least_violation(
-            px[stuck], py[stuck], dx[stuck], dy[stuck], valid[stuck], n_static, radius[stuck], sx, sy, begin
+            lines[:, stuck], agent_line[busy[stuck]], n_static, radius[stuck], sx, sy, begin
         )
     x[busy], y[busy] = bx, by
     return x, y
 
 
-@functools.lru_cache(maxsize=64)
-def _triangle(n_lines: int, first: int) -> dict[str, np.ndarray]:
-    """Index layout of the sub-problems ``i`` in ``[first, n_lines)`` of ``linearProgram3``,
-    each over its lines ``j < i``: *slots* ``(i, k)`` (line ``k``'s point of sub-problem
-    ``i``), *triples* ``(i, k, j)``, ``j < k`` (line ``j`` bounding slot ``(i, k)``), the
-    candidates ``(i, c)`` (``c = 0`` the start, ``c = k + 1`` slot ``(i, k)``) and *checks*
-    ``(i, c, j)``; each group of triples and checks leads with a dummy entry, so that
-    ``ufunc.reduceat`` sees no empty group. Flat ``i * n_lines + j`` index the dense arrays."""
-    slot_i, slot_k, tri_slot, tri_j, tri_real, tri_start = [], [], [], [], [], []
-    cand_i, cand_slot, chk_cand, chk_j, chk_real, chk_start = [], [], [], [], [], []
-    for i in range(first, n_lines):
-        base = len(slot_i)
-        for k in range(i):
-            tri_start.append(len(tri_slot))
-            tri_slot += [len(slot_i)] * (k + 1)
-            tri_j += [0, *range(k)]
-            tri_real += [False] + [True] * k
-            slot_i.append(i)
-            slot_k.append(k)
-        for c in range(i + 1):
-            chk_start.append(len(chk_cand))
-            chk_cand += [len(cand_i)] * (i + 1)
-            chk_j += [0, *range(i)]
-            chk_real += [False] + [True] * i
-            cand_i.append(i)
-            cand_slot.append(base + c - 1 if c else -1)
-    a = np.asarray
-    cand_c = np.concatenate([np.zeros(0, int), *(np.arange(i + 1) for i in range(first, n_lines))])
-    cand_of = np.zeros((n_lines, n_lines + 1), int)  # [i, c]: the candidate's flat index
-    cand_of[a(cand_i, int), cand_c] = np.arange(len(cand_i))
-    slot_i, slot_k, tri_slot, tri_j = a(slot_i, int), a(slot_k, int), a(tri_slot, int), a(tri_j, int)
-    cand_i, chk_cand, chk_j = a(cand_i, int), a(chk_cand, int), a(chk_j, int)
-    return {
-        "slot": slot_i * n_lines + slot_k,
-        "slot_i": slot_i,
-        "tri_slot": tri_slot,
-        "tri_k": (slot_i * n_lines + slot_k)[tri_slot],
-        "tri_j": slot_i[tri_slot] * n_lines + tri_j,
-        "tri_real": a(tri_real, bool),
-        "tri_start": a(tri_start, int),
-        "cand_i": cand_i,
-        "cand_slot": a(cand_slot, int),
-        "chk_cand": chk_cand,
-        "chk_j": cand_i[chk_cand] * n_lines + chk_j,
-        "chk_real": a(chk_real, bool),
-        "chk_start": a(chk_start, int),
-        "cand_c": cand_c,
-        "cand_of": cand_of,
-    }
-
-
-def _solve_projected(qx, qy, ex, ey, sub_valid, radius, opt_x, opt_y, first: int):
-    """``linearProgram2`` (direction-optimal) of ``linearProgram3``'s sub-problems ``i >= first``
-    (dense ``[a, i, j]`` lines, sub-problem ``i`` over lines ``j < i``), by the candidate rule
-    over only the line pairs and triples a sub-problem has: ``(x, y, ok)`` of shape ``(A, L)``."""
-    n_agents, n_lines = opt_x.shape
-    if first >= n_lines:
-        return np.zeros(opt_x.shape), np.zeros(opt_x.shape), np.zeros(opt_x.shape, bool)
-    lay = _triangle(n_lines, first)
-    qx, qy, ex, ey = (v.reshape(n_agents, -1) for v in (qx, qy, ex, ey))
-    sv = sub_valid.reshape(n_agents, -1)
-    r = radius[:, None]
-    slot = lay["slot"]
-    px, py, dx, dy = qx[:, slot], qy[:, slot], ex[:, slot], ey[:, slot]
-    pd = px * dx + py * dy
-    disc = pd * pd + r * r - (px * px + py * py)
-    ok = sv[:, slot] & (disc >= 0.0)
-    root = np.sqrt(np.maximum(disc, 0.0))
-    t_left, t_right = -pd - root, -pd + root
-    if len(lay["tri_slot"]):
-        k, j, starts = lay["tri_k"], lay["tri_j"], lay["tri_start"]
-        dxk, dyk, pxk, pyk = ex[:, k], ey[:, k], qx[:, k], qy[:, k]
-        dxj, dyj = ex[:, j], ey[:, j]
-        den = dxk * dyj - dyk * dxj
-        num = dxj * (pyk - qy[:, j]) - dyj * (pxk - qx[:, j])
-        use = lay["tri_real"] & sv[:, j]
-        parallel = np.abs(den) <= RVO_EPSILON
-        ok &= ~np.logical_or.reduceat(use & parallel & (num < 0.0), starts, axis=1)
-        use &= ~parallel
-        t = num / np.where(parallel, 1.0, den)
-        t_right = np.minimum(
-            t_right, np.minimum.reduceat(np.where(use & (den >= 0.0), t, np.inf), starts, axis=1)
-        )
-        t_left = np.maximum(
-            t_left, np.maximum.reduceat(np.where(use & (den < 0.0), t, -np.inf), starts, axis=1)
-        )
-        ok &= t_left <= t_right
-    ox, oy = opt_x[:, lay["slot_i"]], opt_y[:, lay["slot_i"]]
-    t = np.where(ox * dx + oy * dy > 0.0, t_right, t_left)
-    sx, sy = px + t * dx, py + t * dy
-    # Candidates: the start of each sub-problem, then its slots.
-    ci, cs = lay["cand_i"], lay["cand_slot"]
-    start = cs < 0
-    cx = np.where(start, opt_x[:, ci] * r, sx[:, cs])
-    cy = np.where(start, opt_y[:, ci] * r, sy[:, cs])
-    usable = start | ok[:, cs]
-    cc, cj = lay["chk_cand"], lay["chk_j"]
-    off = ex[:, cj] * qy[:, cj] - ey[:, cj] * qx[:, cj] - ex[:, cj] * cy[:, cc] + ey[:, cj] * cx[:, cc]
-    keeps = (off <= FEASIBLE_TOL) | ~sv[:, cj] | ~lay["chk_real"]
-    fit = usable & np.logical_and.reduceat(keeps, lay["chk_start"], axis=1)
-    score = -(cx * opt_x[:, ci] + cy * opt_y[:, ci])
-    # Dense [a, i, c] for the choice per sub-problem.
-    dense = np.full((n_agents, n_lines, n_lines + 1), np.inf)
-    dense[:, ci, lay["cand_c"]] = np.where(fit, score, np.inf)
-    best = np.argmin(dense, axis=-1)
-    rows, subs = np.arange(n_agents)[:, None], np.arange(n_lines)[None, :]
-    pick = lay["cand_of"][subs, best]
-    return cx[rows, pick], cy[rows, pick], np.isfinite(dense[rows, subs, best])
-
-
-def _least_violation(px, py, dx, dy, valid, n_static: int, radius, sx, sy, begin):
-    """RVO2's ``linearProgram3`` for agents whose lines leave nothing feasible (first failing
-    at line ``begin``, holding ``(sx, sy)`` then): the velocity whose worst violation of an
-    agent line is least, static lines kept. Line ``i``'s step maximises the distance into
-    line ``i`` keeping the static lines and 'no agent line ``j < i`` worse than ``i``'."""
+def _projected_lines(lines, n_static: int, first: int, width: int):
+    """``linearProgram3``'s lines of the sub-problems ``i >= first`` of agents with ``lines``
+    ``(5, S, L)`` (``px, py, dx, dy, c``), the first ``width`` of each (a sub-problem ``i``
+    has ``i`` lines): ``(4, S, L - first, width)``, ``[:, s, i, j]`` the
+    static line ``j`` as it is, for an agent line ``j < i`` the line where ``j`` and ``i``
+    are violated alike (none where they run the same way), and one no velocity violates
+    for the others."""
+    px, py, dx, dy, _ = lines
     n_lines = px.shape[-1]
-    # [a, i, j]: the sub-problem of line i, its line j.
-    dxi, dyi, pxi, pyi = dx[:, :, None], dy[:, :, None], px[:, :, None], py[:, :, None]
-    dxj, dyj, pxj, pyj = dx[:, None, :], dy[:, None, :], px[:, None, :], py[:, None, :]
+    # [s, i, j]: sub-problem i, its line j.
+    dxi, dyi, pxi, pyi = dx[:, first:, None], dy[:, first:, None], px[:, first:, None], py[:, first:, None]
+    dxj, dyj, pxj, pyj = dx[:, None, :width], dy[:, None, :width], px[:, None, :width], py[:, None, :width]
     det = dxi * dyj - dyi * dxj
     parallel = np.abs(det) <= RVO_EPSILON
-    same = parallel & (dxi * dxj + dyi * dyj > 0.0)
     t = (dxj * (pyi - pyj) - dyj * (pxi - pxj)) / np.where(parallel, 1.0, det)
     qx = np.where(parallel, 0.5 * (pxi + pxj), pxi + t * dxi)
     qy = np.where(parallel, 0.5 * (pyi + pyj), pyi + t * dyi)
     ex, ey, _ = _unit(dxj - dxi, dyj - dyi)
-    static = np.arange(n_lines) < n_static
-    stat_b = np.broadcast_to(static, det.shape)
-    qx = np.where(stat_b, pxj, qx)
-    qy = np.where(stat_b, pyj, qy)
-    ex = np.where(stat_b, dxj, ex)
-    ey = np.where(stat_b, dyj, ey)
-    projected = _strictly_lower(n_lines) & ~static[None, :] & ~same
-    sub_valid = valid[:, None, :] & (stat_b | projected)
-    opt_x, opt_y = -dy, dx
-    rad = np.broadcast_to(radius[:, None], opt_x.shape)
+    j = np.arange(width)
+    lower = j < np.arange(first, n_lines)[:, None]
+    keep = lower & ~(parallel & (dxi * dxj + dyi * dyj > 0.0))
+    static = j < n_static
+    proj = np.where(static, lines[:4, :, None, :width], np.stack([qx, qy, ex, ey]))
+    return np.where(keep | static, proj, _NO_LINE)
+
+
+_NO_LINE = np.array([0.0, -FAR, 1.0, 0.0])[:, None, None, None]
+"""A line ``(px, py, dx, dy)`` no velocity within ``FAR`` m/s of zero violates."""
+
+
+def _least_violation(lines, agent_line, n_static: int, radius, sx, sy, begin):
+    """RVO2's ``linearProgram3`` for agents whose lines ``(5, S, L)`` (``px, py, dx, dy, c``)
+    leave nothing feasible (first failing at line ``begin``, holding ``(sx, sy)`` then): the
+    velocity whose worst violation of an agent line is least, static lines kept. Line ``i``'s
+    step maximises the distance into line ``i`` keeping the static lines and 'no agent line
+    ``j < i`` worse than ``i``'; the steps are independent, solved all at once."""
+    px, py, dx, dy, c = lines
+    n_agents, n_lines = px.shape
     rx, ry = sx.copy(), sy.copy()
     reg = np.flatnonzero(begin >= n_static)
     if len(reg):
         first = int(begin[reg].min())  # sub-problems before any begin are never taken
-        sub = (qx[reg], qy[reg], ex[reg], ey[reg], sub_valid[reg])
-        x, y, ok = _solve_projected(*sub, radius[reg], opt_x[reg], opt_y[reg], first)
+        # Sub-problem i has lines j < i: the last line is none's.
+        sub = _projected_lines(lines[:, reg], n_static, first, n_lines - 1)
+        n_sub = n_lines - first
+        qx, qy, ex, ey = sub.reshape(4, len(reg) * n_sub, n_lines - 1)
+        opt_x, opt_y = -dy[reg, first:].ravel(), dx[reg, first:].ravel()
+        rad = np.repeat(radius[reg], n_sub)
+        cx, cy, usable = _candidates(qx, qy, ex, ey, rad, opt_x, opt_y, True)
+        fit = usable & (_offset(ex * qy - ey * qx, ex, ey, cx, cy) <= FEASIBLE_TOL).all(axis=-1)
+        x, y, ok = _pick(cx, cy, fit, -(cx * opt_x[:, None] + cy * opt_y[:, None]))
+        x, y, ok = x.reshape(-1, n_sub), y.reshape(-1, n_sub), ok.reshape(-1, n_sub)
         # The worst violation of an agent line by each sub-problem's answer.
-        lx, ly, lpx, lpy, lv = dx[reg], dy[reg], px[reg], py[reg], valid[reg]
-        off = (
-            (lx * lpy - ly * lpx)[:, None, :]
-            - lx[:, None, :] * y[:, :, None]
-            + ly[:, None, :] * x[:, :, None]
-        )
-        worst = np.max(np.where(lv[:, None, :] & ~static, off, -np.inf), axis=-1)
-        take = ok & lv & ~static & (np.arange(n_lines) >= begin[reg][:, None])
+        mine = agent_line[reg]
+        worst = np.where(mine[:, None, :], _offset(c[reg], dx[reg], dy[reg], x, y), -np.inf).max(axis=-1)
+        take = ok & mine[:, first:] & (np.arange(first, n_lines) >= begin[reg][:, None])
         bx, by, found = _pick(x, y, take, worst)
         rx[reg], ry[reg] = np.where(found, bx, sx[reg]), np.where(found, by, sy[reg])
     odd = np.flatnonzero(begin < n_static)
     if len(odd):
         # The static lines themselves conflict: RVO2's steps depend on its tolerances; take them.
-        sub = (qx[odd], qy[odd], ex[odd], ey[odd], sub_valid[odd])
-        cx, cy, usable = _candidates(*sub, rad[odd], opt_x[odd], opt_y[odd], True)
+        n_odd = len(odd)
+        qx, qy, ex, ey = _projected_lines(lines[:, odd], n_static, 0, n_lines).reshape(4, -1, n_lines)
+        opt_x, opt_y = -dy[odd].ravel(), dx[odd].ravel()
+        rad = np.repeat(radius[odd], n_lines)
+        sub = (qx, qy, ex, ey)
+        cx, cy, usable = _candidates(*sub, rad, opt_x, opt_y, True)
         x, y, fail = _scan(cx, cy, usable, *sub)
-        ok = fail == n_lines
-        valid, begin = valid[odd], begin[odd]
+        x, y, ok = x.reshape(n_odd, n_lines), y.reshape(n_odd, n_lines), (fail == n_lines).reshape(n_odd, n_lines)
+        begin = begin[odd]
         dx, dy, px, py = dx[odd], dy[odd], px[odd], py[odd]
-        ux, uy, dist = sx[odd], sy[odd], np.zeros(len(odd))
+        ux, uy, dist = sx[odd], sy[odd], np.zeros(n_odd)
         for i in range(int(begin.min()), n_lines):
-            hit = (
-                (begin <= i) & valid[:, i] & (dx[:, i] * (py[:, i] - uy) - dy[:, i] * (px[:, i] - ux) > dist)
-            )
+            hit = (begin <= i) & (dx[:, i] * (py[:, i] - uy) - dy[:, i] * (px[:, i] - ux) > dist)
             ux, uy = np.where(hit & ok[:, i], x[:, i], ux), np.where(hit & ok[:, i], y[:, i], uy)
             dist = np.where(hit, dx[:, i] * (py[:, i] - uy) - dy[:, i] * (px[:, i] - ux), dist)
         rx[odd], ry[odd] = ux, uy
@@ -486,9 +390,6 @@ def orca_velocities(
     coop = np.broadcast_to(coop, (*batch, n)).reshape(-1, n)
     p = pos.reshape(-1, n, 2)
     b = p.shape[0]
-    vx, vy = vel[..., 0], vel[..., 1]
-    # Per line: relative position, relative velocity, combined radius, 1/tau, share, present.
-    parts = []
     n_static = 0
     if static is not None:
         sp, sr = static
@@ -498,47 +399,54 @@ def orca_velocities(
         n_static = sp.shape[-2]
         sr = _as_agents(sr, sp.shape[:-1], "static radii").reshape(b, n, n_static)
         sp = sp.reshape(b, n, n_static, 2)
-        present = (sr >= 0) & np.all(np.isfinite(sp), axis=-1)
-        rel = np.where(present[..., None], sp - p[:, :, None], 1e6)
-        shape = present.shape
-        parts.append(
-            (rel[..., 0], rel[..., 1], np.broadcast_to(vx[..., None], shape),
-             np.broadcast_to(vy[..., None], shape), rad[..., None] + sr, np.full(shape, 1.0 / tau_static),
-             np.ones(shape), present)
-        )  # fmt: skip
-    k = min(max_neighbors, n - 1)
-    if k > 0:
-        near, present = _neighbours(p, k, neighbor_dist)
-        bi = np.arange(b)[:, None, None]
-        rel = p[bi, near] - p[:, :, None]
-        rv = vel[:, :, None] - vel[bi, near]
-        parts.append(
-            (rel[..., 0], rel[..., 1], rv[..., 0], rv[..., 1], rad[:, :, None] + rad[bi, near],
-             np.full(present.shape, 1.0 / tau), np.where(coop[bi, near], 0.5, 1.0), present)
-        )  # fmt: skip
-    if not parts:
+    k = max(min(max_neighbors, n - 1), 0)
+    if not n_static + k:
         px_, py_ = pref[..., 0], pref[..., 1]
         n2 = px_ * px_ + py_ * py_
         over = n2 > vmax**2
         scale = np.where(over, vmax / np.sqrt(np.where(over, n2, 1.0)), 1.0)[..., None]
         return np.where(coop[..., None], pref * scale, vel).reshape(pos.shape)
-    rx, ry, rvx, rvy, comb, inv_tau, share, valid = (
-        (c[0] if len(c) == 1 else np.concatenate(c, axis=-1)).reshape(b * n, -1)
-        for c in zip(*parts, strict=True)
-    )
+    # Per line (the static discs, then the neighbours): relative position, relative velocity,
+    # combined radius, share of the avoidance, present.
+    line = np.empty((7, b, n, n_static + k))
+    if n_static:
+        present = (sr >= 0) & np.all(np.isfinite(sp), axis=-1)
+        rel = np.where(present[..., None], sp - p[:, :, None], 1e6)
+        ls = line[..., :n_static]
+        ls[0], ls[1] = rel[..., 0], rel[..., 1]
+        ls[2], ls[3] = vel[..., 0, None], vel[..., 1, None]
+        ls[4] = rad[..., None] + sr
+        ls[5], ls[6] = 1.0, present
+    if k:
+        near, present = _neighbours(p, k, neighbor_dist)
+        # Per agent (b, n): position, velocity, radius, cooperative; of each neighbour (b, n, k).
+        own = np.stack([p[..., 0], p[..., 1], vel[..., 0], vel[..., 1], rad, coop])
+        other = own.reshape(6, -1)[:, near + np.arange(0, b * n, n)[:, None, None]]
+        own = own[..., None]
+        ln = line[..., n_static:]
+        np.subtract(other[:2], own[:2], out=ln[:2])
+        np.subtract(own[2:4], other[2:4], out=ln[2:4])
+        np.add(own[4], other[4], out=ln[4])
+        np.subtract(1.0, 0.5 * other[5], out=ln[5])  # half for a cooperative neighbour
+        ln[6] = present
+    line = line.reshape(7, b * n, -1)
+    valid = line[6] > 0.5
     # Lines no agent has are dropped (absent static discs moved last first): the answer of
     # each agent depends only on its present lines, in order.
     cols, n_static = _present_columns(valid, n_static)
     if cols is not None:
-        rows = np.arange(len(cols))[:, None]
-        rx, ry, rvx, rvy, comb, inv_tau, share, valid = (
-            v[rows, cols] for v in (rx, ry, rvx, rvy, comb, inv_tau, share, valid)
-        )
+        line, valid = line[:, np.arange(len(cols))[:, None], cols], valid[np.arange(len(cols))[:, None], cols]
+    rx, ry, rvx, rvy, comb, share, _ = line
+    inv_tau = np.where(np.arange(line.shape[2]) < n_static, 1.0 / tau_static, 1.0 / tau)
+    vx, vy = vel.reshape(-1, 2).T
     dx, dy, ux, uy = half_planes(rx, ry, rvx, rvy, comb, inv_tau, 1.0 / dt)
-    px = vx.reshape(-1, 1) + share * ux
-    py = vy.reshape(-1, 1) + share * uy
+    px = vx[:, None] + share * ux
+    py = vy[:, None] + share * uy
     r_max = vmax.reshape(-1)
     ox, oy = pref[..., 0].reshape(-1), pref[..., 1].reshape(-1)
-    x, y = _linear_program(px, py, dx, dy, valid, n_static, r_max, ox, oy)
+    if not valid.all():
+        px, py, dx, dy = np.where(valid, np.stack([px, py, dx, dy]), _NO_LINE[..., 0])
+    agent_line = valid & (np.arange(valid.shape[1]) >= n_static)
+    x, y = _linear_program(px, py, dx, dy, agent_line, n_static, r_max, ox, oy)
     out = np.where(coop.reshape(-1)[:, None], np.stack([x, y], axis=-1), vel.reshape(-1, 2))
     return out.reshape(pos.shape)
