@@ -89,9 +89,9 @@ def half_planes(rx, ry, vx, vy, combined, inv_tau, inv_dt):
 
 
 @functools.lru_cache(maxsize=64)
-def _strictly_lower(n: int) -> np.ndarray:
-    """``[i, j]``: ``j < i``."""
-    return np.tri(n, k=-1, dtype=bool)
+def _earlier(n: int) -> np.ndarray:
+    """``[j, i, 0]``: ``j < i``."""
+    return np.tri(n, k=-1, dtype=bool).T[:, :, None]
 
 
 def _clip(ox, oy, radius) -> tuple[np.ndarray, np.ndarray]:
@@ -103,68 +103,76 @@ def _clip(ox, oy, radius) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _offset(c, dx, dy, x, y) -> np.ndarray:
-    """How far velocities ``(x, y)`` ``(V, C)`` lie on the wrong side of lines ``(V, L)``
-    (``c = dx * py - dy * px``), ``[v, c, j]``: RVO2's ``det(direction, point - v)``."""
-    return c[:, None, :] - dx[:, None, :] * y[:, :, None] + dy[:, None, :] * x[:, :, None]
+    """How far velocities ``(x, y)`` ``(C, V)`` lie on the wrong side of lines ``(L, V)``
+    (``c = dx * py - dy * px``), ``[j, c, v]``: RVO2's ``det(direction, point - v)``."""
+    return c[:, None] - dx[:, None] * y[None] + dy[:, None] * x[None]
 
 
 def _candidates(px, py, dx, dy, radius, ox, oy, direction_opt: bool):
-    """Every velocity RVO2's ``linearProgram2`` may hold, for lines ``(V, L)`` in order: the
-    start (``opt`` clipped to the disc of ``radius``, or ``opt * radius`` when
-    ``direction_opt``) and, per line, ``linearProgram1``'s point on it bounded by the disc and
-    the lines before it. Returns ``(cx, cy, usable)`` of shape ``(V, L + 1)``."""
-    n_lines = px.shape[-1]
+    """Every velocity RVO2's ``linearProgram2`` may hold, for lines ``(L, V)`` in order (one
+    problem per column): the start (``opt`` clipped to the disc of ``radius``, or
+    ``opt * radius`` when ``direction_opt``) and, per line, ``linearProgram1``'s point on it
+    bounded by the disc and the lines before it. Returns ``(cx, cy, usable)``, ``(L + 1, V)``."""
+    n_lines = px.shape[0]
     pd = px * dx + py * dy
-    disc = pd * pd + (radius * radius)[:, None] - (px * px + py * py)
+    disc = pd * pd + radius * radius - (px * px + py * py)
     ok = disc >= 0.0
     root = np.sqrt(np.maximum(disc, 0.0))
     t_left, t_right = -pd - root, root - pd
     if n_lines > 1:
-        # [v, i, j]: line i against an earlier line j.
-        dxi, dyi, pxi, pyi = dx[:, :, None], dy[:, :, None], px[:, :, None], py[:, :, None]
-        dxj, dyj, pxj, pyj = dx[:, None, :], dy[:, None, :], px[:, None, :], py[:, None, :]
+        # [j, i, v]: line i against an earlier line j.
+        dxi, dyi, pxi, pyi = dx[None], dy[None], px[None], py[None]
+        dxj, dyj, pxj, pyj = dx[:, None], dy[:, None], px[:, None], py[:, None]
         den = dxi * dyj - dyi * dxj
         num = dxj * (pyi - pyj) - dyj * (pxi - pxj)
-        lower = _strictly_lower(n_lines)
+        earlier = _earlier(n_lines)
         parallel = np.abs(den) <= RVO_EPSILON
-        ok &= ~(parallel & (num < 0.0) & lower).any(axis=-1)
-        use = lower & ~parallel
+        ok &= ~(parallel & (num < 0.0) & earlier).any(axis=0)
+        use = earlier & ~parallel
         t = num / np.where(parallel, 1.0, den)
-        t_right = np.minimum(t_right, np.where(use & (den > 0.0), t, np.inf).min(axis=-1))
-        t_left = np.maximum(t_left, np.where(use & (den < 0.0), t, -np.inf).max(axis=-1))
+        t_right = np.minimum(t_right, np.where(use & (den > 0.0), t, np.inf).min(axis=0))
+        t_left = np.maximum(t_left, np.where(use & (den < 0.0), t, -np.inf).max(axis=0))
         ok &= t_left <= t_right
-    ox_, oy_ = ox[:, None], oy[:, None]
     if direction_opt:
-        t = np.where(ox_ * dx + oy_ * dy > 0.0, t_right, t_left)
+        t = np.where(ox * dx + oy * dy > 0.0, t_right, t_left)
         sx, sy = ox * radius, oy * radius
     else:
-        t = np.minimum(np.maximum(dx * (ox_ - px) + dy * (oy_ - py), t_left), t_right)
+        t = np.minimum(np.maximum(dx * (ox - px) + dy * (oy - py), t_left), t_right)
         sx, sy = _clip(ox, oy, radius)
-    cx = np.concatenate([sx[:, None], px + t * dx], axis=1)
-    cy = np.concatenate([sy[:, None], py + t * dy], axis=1)
-    usable = np.concatenate([np.ones((len(ok), 1), bool), ok], axis=1)
+    cx = np.concatenate([sx[None], px + t * dx])
+    cy = np.concatenate([sy[None], py + t * dy])
+    usable = np.concatenate([np.ones((1, ok.shape[1]), bool), ok])
     return cx, cy, usable
 
 
 def _pick(cx, cy, fit, score) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The fitting candidate of least ``score`` of each row ``(V, C)``: ``(x, y, any_fit)``."""
-    best = np.where(fit, score, np.inf).argmin(axis=1)
-    best += np.arange(0, cx.size, cx.shape[1])
-    return cx.ravel()[best], cy.ravel()[best], fit.any(axis=1)
+    """The fitting candidate of least ``score`` of each column ``(C, V)``: ``(x, y, any_fit)``."""
+    best = np.where(fit, score, np.inf).argmin(axis=0)
+    best = best * cx.shape[1] + np.arange(cx.shape[1])
+    return cx.ravel()[best], cy.ravel()[best], fit.any(axis=0)
+
+
+def _best_in_direction(qx, qy, ex, ey, radius, opt_x, opt_y):
+    """RVO2's ``linearProgram2`` with ``directionOpt`` (the velocity in the disc of ``radius``
+    farthest along the unit ``opt``) for lines ``(L, V)``: ``(x, y, ok)`` ``(V,)``, by the
+    candidate rule."""
+    cx, cy, usable = _candidates(qx, qy, ex, ey, radius, opt_x, opt_y, True)
+    fit = usable & (_offset(ex * qy - ey * qx, ex, ey, cx, cy) <= FEASIBLE_TOL).all(axis=0)
+    return _pick(cx, cy, fit, -(cx * opt_x + cy * opt_y))
 
 
 def _scan(cx, cy, usable, px, py, dx, dy):
     """RVO2's ``linearProgram2`` run line by line over precomputed candidates (exact also where
     its tolerances for nearly parallel lines matter): ``(x, y, fail)``, ``fail`` the line it
     stopped at (``L`` when it did not)."""
-    n_lines = px.shape[-1]
-    x, y = cx[..., 0], cy[..., 0]
+    n_lines = px.shape[0]
+    x, y = cx[0], cy[0]
     fail = np.full(x.shape, n_lines)
     for k in range(n_lines):
-        hit = (fail == n_lines) & (dx[..., k] * (py[..., k] - y) - dy[..., k] * (px[..., k] - x) > 0)
-        take = hit & usable[..., k + 1]
-        x, y = np.where(take, cx[..., k + 1], x), np.where(take, cy[..., k + 1], y)
-        fail = np.where(hit & ~usable[..., k + 1], k, fail)
+        hit = (fail == n_lines) & (dx[k] * (py[k] - y) - dy[k] * (px[k] - x) > 0)
+        take = hit & usable[k + 1]
+        x, y = np.where(take, cx[k + 1], x), np.where(take, cy[k + 1], y)
+        fail = np.where(hit & ~usable[k + 1], k, fail)
     return x, y, fail
 
 
@@ -178,50 +186,54 @@ def _linear_program(px, py, dx, dy, agent_line, n_static: int, radius, ox, oy):
     busy = np.flatnonzero((c - dx * y[:, None] + dy * x[:, None] > 0.0).any(axis=1))
     if not len(busy):
         return x, y
-    lines = np.stack([px, py, dx, dy, c])[:, busy]
+    # From here on one agent per column: [quantity, line, agent].
+    lines = np.stack([px, py, dx, dy, c]).transpose(0, 2, 1)[:, :, busy]
+    x[busy], y[busy] = _solve(lines, agent_line[busy].T, n_static, radius[busy], ox[busy], oy[busy])
+    return x, y
+
+
+def _solve(lines, agent_line, n_static: int, radius, ox, oy):
+    """``linearProgram2`` and, where it fails, ``linearProgram3`` for the agents of ``lines``
+    ``(5, L, B)`` (``px, py, dx, dy, c``): ``(x, y)`` ``(B,)``."""
     px, py, dx, dy, c = lines
-    radius, ox, oy = radius[busy], ox[busy], oy[busy]
     cx, cy, usable = _candidates(px, py, dx, dy, radius, ox, oy, False)
     keeps = _offset(c, dx, dy, cx, cy) <= FEASIBLE_TOL
-    score = (cx - ox[:, None]) ** 2 + (cy - oy[:, None]) ** 2
-    bx, by, feasible = _pick(cx, cy, usable & keeps.all(axis=-1), score)
+    score = (cx - ox) ** 2 + (cy - oy) ** 2
+    x, y, feasible = _pick(cx, cy, usable & keeps.all(axis=0), score)
     stuck = np.flatnonzero(~feasible)
     if len(stuck):
         # RVO2 fails at the first line no candidate keeps together with all lines before it,
         # holding the optimum of the lines before it (a candidate keeping them all).
-        first_broken = np.where(usable[stuck], keeps[stuck].argmin(axis=-1), -1)
-        begin = first_broken.max(axis=1)
-        sx, sy, _ = _pick(cx[stuck], cy[stuck], first_broken == begin[:, None], score[stuck])
-        bx[stuck], by[stuck] = _least_violation(
-            lines[:, stuck], agent_line[busy[stuck]], n_static, radius[stuck], sx, sy, begin
+        first_broken = np.where(usable[:, stuck], keeps[:, :, stuck].argmin(axis=0), -1)
+        begin = first_broken.max(axis=0)
+        sx, sy, _ = _pick(cx[:, stuck], cy[:, stuck], first_broken == begin, score[:, stuck])
+        x[stuck], y[stuck] = _least_violation(
+            lines[:, :, stuck], agent_line[:, stuck], n_static, radius[stuck], sx, sy, begin
         )
-    x[busy], y[busy] = bx, by
     return x, y
 
 
 def _projected_lines(lines, n_static: int, first: int, width: int):
     """``linearProgram3``'s lines of the sub-problems ``i >= first`` of agents with ``lines``
-    ``(5, S, L)`` (``px, py, dx, dy, c``), the first ``width`` of each (a sub-problem ``i``
-    has ``i`` lines): ``(4, S, L - first, width)``, ``[:, s, i, j]`` the
-    static line ``j`` as it is, for an agent line ``j < i`` the line where ``j`` and ``i``
-    are violated alike (none where they run the same way), and one no velocity violates
-    for the others."""
+    ``(5, L, S)`` (``px, py, dx, dy, c``), the first ``width`` of each (a sub-problem ``i``
+    has ``i`` lines): ``(4, width, L - first, S)``, ``[:, j, i, s]`` the static line ``j``
+    as it is, for an agent line ``j < i`` the line where ``j`` and ``i`` are violated alike
+    (none where they run the same way), and one no velocity violates for the others."""
     px, py, dx, dy, _ = lines
-    n_lines = px.shape[-1]
-    # [s, i, j]: sub-problem i, its line j.
-    dxi, dyi, pxi, pyi = dx[:, first:, None], dy[:, first:, None], px[:, first:, None], py[:, first:, None]
-    dxj, dyj, pxj, pyj = dx[:, None, :width], dy[:, None, :width], px[:, None, :width], py[:, None, :width]
+    n_lines = px.shape[0]
+    # [j, i, s]: sub-problem i, its line j.
+    dxi, dyi, pxi, pyi = dx[None, first:], dy[None, first:], px[None, first:], py[None, first:]
+    dxj, dyj, pxj, pyj = dx[:width, None], dy[:width, None], px[:width, None], py[:width, None]
     det = dxi * dyj - dyi * dxj
     parallel = np.abs(det) <= RVO_EPSILON
     t = (dxj * (pyi - pyj) - dyj * (pxi - pxj)) / np.where(parallel, 1.0, det)
     qx = np.where(parallel, 0.5 * (pxi + pxj), pxi + t * dxi)
     qy = np.where(parallel, 0.5 * (pyi + pyj), pyi + t * dyi)
     ex, ey, _ = _unit(dxj - dxi, dyj - dyi)
-    j = np.arange(width)
-    lower = j < np.arange(first, n_lines)[:, None]
-    keep = lower & ~(parallel & (dxi * dxj + dyi * dyj > 0.0))
+    j = np.arange(width)[:, None, None]
+    keep = (j < np.arange(first, n_lines)[:, None]) & ~(parallel & (dxi * dxj + dyi * dyj > 0.0))
     static = j < n_static
-    proj = np.where(static, lines[:4, :, None, :width], np.stack([qx, qy, ex, ey]))
+    proj = np.where(static, lines[:4, :width, None], np.stack([qx, qy, ex, ey]))
     return np.where(keep | static, proj, _NO_LINE)
 
 
@@ -230,51 +242,48 @@ _NO_LINE = np.array([0.0, -FAR, 1.0, 0.0])[:, None, None, None]
 
 
 def _least_violation(lines, agent_line, n_static: int, radius, sx, sy, begin):
-    """RVO2's ``linearProgram3`` for agents whose lines ``(5, S, L)`` (``px, py, dx, dy, c``)
+    """RVO2's ``linearProgram3`` for agents whose lines ``(5, L, S)`` (``px, py, dx, dy, c``)
     leave nothing feasible (first failing at line ``begin``, holding ``(sx, sy)`` then): the
     velocity whose worst violation of an agent line is least, static lines kept. Line ``i``'s
     step maximises the distance into line ``i`` keeping the static lines and 'no agent line
     ``j < i`` worse than ``i``'; the steps are independent, solved all at once."""
     px, py, dx, dy, c = lines
-    n_agents, n_lines = px.shape
+    n_lines = px.shape[0]
     rx, ry = sx.copy(), sy.copy()
     reg = np.flatnonzero(begin >= n_static)
     if len(reg):
         first = int(begin[reg].min())  # sub-problems before any begin are never taken
-        # Sub-problem i has lines j < i: the last line is none's.
-        sub = _projected_lines(lines[:, reg], n_static, first, n_lines - 1)
         n_sub = n_lines - first
-        qx, qy, ex, ey = sub.reshape(4, len(reg) * n_sub, n_lines - 1)
-        opt_x, opt_y = -dy[reg, first:].ravel(), dx[reg, first:].ravel()
-        rad = np.repeat(radius[reg], n_sub)
-        cx, cy, usable = _candidates(qx, qy, ex, ey, rad, opt_x, opt_y, True)
-        fit = usable & (_offset(ex * qy - ey * qx, ex, ey, cx, cy) <= FEASIBLE_TOL).all(axis=-1)
-        x, y, ok = _pick(cx, cy, fit, -(cx * opt_x[:, None] + cy * opt_y[:, None]))
-        x, y, ok = x.reshape(-1, n_sub), y.reshape(-1, n_sub), ok.reshape(-1, n_sub)
+        # Sub-problem i has lines j < i: the last line is none's. Columns (i, s), i-major.
+        sub = _projected_lines(lines[:, :, reg], n_static, first, n_lines - 1)
+        qx, qy, ex, ey = sub.reshape(4, n_lines - 1, n_sub * len(reg))
+        opt_x, opt_y = -dy[first:, reg].ravel(), dx[first:, reg].ravel()
+        x, y, ok = _best_in_direction(qx, qy, ex, ey, np.tile(radius[reg], n_sub), opt_x, opt_y)
+        x, y, ok = x.reshape(n_sub, -1), y.reshape(n_sub, -1), ok.reshape(n_sub, -1)
         # The worst violation of an agent line by each sub-problem's answer.
-        mine = agent_line[reg]
-        worst = np.where(mine[:, None, :], _offset(c[reg], dx[reg], dy[reg], x, y), -np.inf).max(axis=-1)
-        take = ok & mine[:, first:] & (np.arange(first, n_lines) >= begin[reg][:, None])
+        mine = agent_line[:, reg]
+        off = _offset(c[:, reg], dx[:, reg], dy[:, reg], x, y)
+        worst = np.where(mine[:, None], off, -np.inf).max(axis=0)
+        take = ok & mine[first:] & (np.arange(first, n_lines)[:, None] >= begin[reg])
         bx, by, found = _pick(x, y, take, worst)
         rx[reg], ry[reg] = np.where(found, bx, sx[reg]), np.where(found, by, sy[reg])
     odd = np.flatnonzero(begin < n_static)
     if len(odd):
         # The static lines themselves conflict: RVO2's steps depend on its tolerances; take them.
         n_odd = len(odd)
-        qx, qy, ex, ey = _projected_lines(lines[:, odd], n_static, 0, n_lines).reshape(4, -1, n_lines)
-        opt_x, opt_y = -dy[odd].ravel(), dx[odd].ravel()
-        rad = np.repeat(radius[odd], n_lines)
-        sub = (qx, qy, ex, ey)
-        cx, cy, usable = _candidates(*sub, rad, opt_x, opt_y, True)
-        x, y, fail = _scan(cx, cy, usable, *sub)
-        x, y, ok = x.reshape(n_odd, n_lines), y.reshape(n_odd, n_lines), (fail == n_lines).reshape(n_odd, n_lines)
+        sub = _projected_lines(lines[:, :, odd], n_static, 0, n_lines)
+        qx, qy, ex, ey = sub.reshape(4, n_lines, n_lines * n_odd)
+        opt_x, opt_y = -dy[:, odd].ravel(), dx[:, odd].ravel()
+        cx, cy, usable = _candidates(qx, qy, ex, ey, np.tile(radius[odd], n_lines), opt_x, opt_y, True)
+        x, y, fail = _scan(cx, cy, usable, qx, qy, ex, ey)
+        x, y, ok = (v.reshape(n_lines, n_odd) for v in (x, y, fail == n_lines))
         begin = begin[odd]
-        dx, dy, px, py = dx[odd], dy[odd], px[odd], py[odd]
+        dx, dy, px, py = dx[:, odd], dy[:, odd], px[:, odd], py[:, odd]
         ux, uy, dist = sx[odd], sy[odd], np.zeros(n_odd)
         for i in range(int(begin.min()), n_lines):
-            hit = (begin <= i) & (dx[:, i] * (py[:, i] - uy) - dy[:, i] * (px[:, i] - ux) > dist)
-            ux, uy = np.where(hit & ok[:, i], x[:, i], ux), np.where(hit & ok[:, i], y[:, i], uy)
-            dist = np.where(hit, dx[:, i] * (py[:, i] - uy) - dy[:, i] * (px[:, i] - ux), dist)
+            hit = (begin <= i) & (dx[i] * (py[i] - uy) - dy[i] * (px[i] - ux) > dist)
+            ux, uy = np.where(hit & ok[i], x[i], ux), np.where(hit & ok[i], y[i], uy)
+            dist = np.where(hit, dx[i] * (py[i] - uy) - dy[i] * (px[i] - ux), dist)
         rx[odd], ry[odd] = ux, uy
     return rx, ry
 
@@ -319,6 +328,8 @@ def _present_columns(valid: np.ndarray, n_static: int) -> tuple[np.ndarray | Non
     """Per agent the columns of its lines to keep, ``(A, L')``, present static lines first
     (in order), then the neighbours (present ones come first already), ``L'`` the most any
     agent has; and the new count of static columns. None where nothing can be dropped."""
+    if valid.all():
+        return None, n_static
     n_lines = valid.shape[1]
     statics = valid[:, :n_static]
     keep_s = int(statics.sum(axis=1).max(initial=0))
@@ -437,7 +448,9 @@ def orca_velocities(
     if cols is not None:
         line, valid = line[:, np.arange(len(cols))[:, None], cols], valid[np.arange(len(cols))[:, None], cols]
     rx, ry, rvx, rvy, comb, share, _ = line
-    inv_tau = np.where(np.arange(line.shape[2]) < n_static, 1.0 / tau_static, 1.0 / tau)
+    inv_tau = 1.0 / tau
+    if n_static:
+        inv_tau = np.where(np.arange(line.shape[2]) < n_static, 1.0 / tau_static, inv_tau)
     vx, vy = vel.reshape(-1, 2).T
     dx, dy, ux, uy = half_planes(rx, ry, rvx, rvy, comb, inv_tau, 1.0 / dt)
     px = vx[:, None] + share * ux
@@ -446,7 +459,7 @@ def orca_velocities(
     ox, oy = pref[..., 0].reshape(-1), pref[..., 1].reshape(-1)
     if not valid.all():
         px, py, dx, dy = np.where(valid, np.stack([px, py, dx, dy]), _NO_LINE[..., 0])
-    agent_line = valid & (np.arange(valid.shape[1]) >= n_static)
+    agent_line = valid & (np.arange(valid.shape[1]) >= n_static) if n_static else valid
     x, y = _linear_program(px, py, dx, dy, agent_line, n_static, r_max, ox, oy)
     out = np.where(coop.reshape(-1)[:, None], np.stack([x, y], axis=-1), vel.reshape(-1, 2))
     return out.reshape(pos.shape)
