@@ -89,9 +89,16 @@ def half_planes(rx, ry, vx, vy, combined, inv_tau, inv_dt):
 
 
 @functools.lru_cache(maxsize=64)
-def _earlier(n: int) -> np.ndarray:
-    """``[j, i, 0]``: ``j < i``."""
-    return np.tri(n, k=-1, dtype=bool).T[:, :, None]
+def _earlier(n_j: int, first: int, n_i: int, n_problems: int) -> np.ndarray:
+    """``[j, (i - first) * n_problems + v]``: ``j < i``, for ``j < n_j``, ``first <= i < n_i``."""
+    return np.repeat(np.arange(n_j)[:, None] < np.arange(first, n_i), n_problems, axis=1)
+
+
+def _tiled(lines, times: int) -> np.ndarray:
+    """Quantities ``(Q, L, V)`` of lines repeated ``times`` along the last axis:
+    ``[q, j, k * V + v] = lines[q, j, v]``. Pair arrays are laid out ``[j, k * V + v]``, one
+    row per line ``j``: few long rows keep numpy's per-row overhead low."""
+    return np.tile(lines, (1, 1, times))
 
 
 def _clip(ox, oy, radius) -> tuple[np.ndarray, np.ndarray]:
@@ -104,8 +111,10 @@ def _clip(ox, oy, radius) -> tuple[np.ndarray, np.ndarray]:
 
 def _offset(c, dx, dy, x, y) -> np.ndarray:
     """How far velocities ``(x, y)`` ``(C, V)`` lie on the wrong side of lines ``(L, V)``
-    (``c = dx * py - dy * px``), ``[j, c, v]``: RVO2's ``det(direction, point - v)``."""
-    return c[:, None] - dx[:, None] * y[None] + dy[:, None] * x[None]
+    (``c = dx * py - dy * px``), ``[j, k * V + v]`` for velocity ``k``: RVO2's
+    ``det(direction, point - v)``."""
+    cj, dxj, dyj = _tiled(np.stack([c, dx, dy]), x.shape[0])
+    return cj - dxj * y.reshape(1, -1) + dyj * x.reshape(1, -1)
 
 
 def _candidates(px, py, dx, dy, radius, ox, oy, direction_opt: bool):
@@ -113,25 +122,25 @@ def _candidates(px, py, dx, dy, radius, ox, oy, direction_opt: bool):
     problem per column): the start (``opt`` clipped to the disc of ``radius``, or
     ``opt * radius`` when ``direction_opt``) and, per line, ``linearProgram1``'s point on it
     bounded by the disc and the lines before it. Returns ``(cx, cy, usable)``, ``(L + 1, V)``."""
-    n_lines = px.shape[0]
+    n_lines, n = px.shape
     pd = px * dx + py * dy
     disc = pd * pd + radius * radius - (px * px + py * py)
     ok = disc >= 0.0
     root = np.sqrt(np.maximum(disc, 0.0))
     t_left, t_right = -pd - root, root - pd
     if n_lines > 1:
-        # [j, i, v]: line i against an earlier line j.
-        dxi, dyi, pxi, pyi = dx[None], dy[None], px[None], py[None]
-        dxj, dyj, pxj, pyj = dx[:, None], dy[:, None], px[:, None], py[:, None]
+        # [j, i * V + v]: line i of problem v against an earlier line j.
+        pxj, pyj, dxj, dyj = _tiled(np.stack([px, py, dx, dy]), n_lines)
+        pxi, pyi, dxi, dyi = px.reshape(1, -1), py.reshape(1, -1), dx.reshape(1, -1), dy.reshape(1, -1)
         den = dxi * dyj - dyi * dxj
         num = dxj * (pyi - pyj) - dyj * (pxi - pxj)
-        earlier = _earlier(n_lines)
+        earlier = _earlier(n_lines, 0, n_lines, n)
         parallel = np.abs(den) <= RVO_EPSILON
-        ok &= ~(parallel & (num < 0.0) & earlier).any(axis=0)
+        ok &= ~(parallel & (num < 0.0) & earlier).any(axis=0).reshape(n_lines, n)
         use = earlier & ~parallel
         t = num / np.where(parallel, 1.0, den)
-        t_right = np.minimum(t_right, np.where(use & (den > 0.0), t, np.inf).min(axis=0))
-        t_left = np.maximum(t_left, np.where(use & (den < 0.0), t, -np.inf).max(axis=0))
+        t_right = np.minimum(t_right, np.where(use & (den > 0.0), t, np.inf).min(axis=0).reshape(n_lines, n))
+        t_left = np.maximum(t_left, np.where(use & (den < 0.0), t, -np.inf).max(axis=0).reshape(n_lines, n))
         ok &= t_left <= t_right
     if direction_opt:
         t = np.where(ox * dx + oy * dy > 0.0, t_right, t_left)
@@ -157,7 +166,7 @@ def _best_in_direction(qx, qy, ex, ey, radius, opt_x, opt_y):
     farthest along the unit ``opt``) for lines ``(L, V)``: ``(x, y, ok)`` ``(V,)``, by the
     candidate rule."""
     cx, cy, usable = _candidates(qx, qy, ex, ey, radius, opt_x, opt_y, True)
-    fit = usable & (_offset(ex * qy - ey * qx, ex, ey, cx, cy) <= FEASIBLE_TOL).all(axis=0)
+    fit = usable & (_offset(ex * qy - ey * qx, ex, ey, cx, cy) <= FEASIBLE_TOL).all(axis=0).reshape(cx.shape)
     return _pick(cx, cy, fit, -(cx * opt_x + cy * opt_y))
 
 
@@ -187,8 +196,11 @@ def _linear_program(px, py, dx, dy, agent_line, n_static: int, radius, ox, oy):
     if not len(busy):
         return x, y
     # From here on one agent per column: [quantity, line, agent].
-    lines = np.stack([px, py, dx, dy, c]).transpose(0, 2, 1)[:, :, busy]
-    x[busy], y[busy] = _solve(lines, agent_line[busy].T, n_static, radius[busy], ox[busy], oy[busy])
+    # (np.take keeps the result C-ordered, where indexing an axis with an array would not.)
+    lines = np.stack([px, py, dx, dy, c]).take(busy, axis=1).transpose(0, 2, 1).copy()
+    x[busy], y[busy] = _solve(
+        lines, agent_line.take(busy, axis=0).T.copy(), n_static, radius[busy], ox[busy], oy[busy]
+    )
     return x, y
 
 
@@ -199,16 +211,17 @@ def _solve(lines, agent_line, n_static: int, radius, ox, oy):
     cx, cy, usable = _candidates(px, py, dx, dy, radius, ox, oy, False)
     keeps = _offset(c, dx, dy, cx, cy) <= FEASIBLE_TOL
     score = (cx - ox) ** 2 + (cy - oy) ** 2
-    x, y, feasible = _pick(cx, cy, usable & keeps.all(axis=0), score)
+    x, y, feasible = _pick(cx, cy, usable & keeps.all(axis=0).reshape(cx.shape), score)
     stuck = np.flatnonzero(~feasible)
     if len(stuck):
         # RVO2 fails at the first line no candidate keeps together with all lines before it,
         # holding the optimum of the lines before it (a candidate keeping them all).
-        first_broken = np.where(usable[:, stuck], keeps[:, :, stuck].argmin(axis=0), -1)
+        first_broken = np.where(usable, keeps.argmin(axis=0).reshape(cx.shape), -1).take(stuck, axis=1)
         begin = first_broken.max(axis=0)
-        sx, sy, _ = _pick(cx[:, stuck], cy[:, stuck], first_broken == begin, score[:, stuck])
+        fit = first_broken == begin
+        sx, sy, _ = _pick(cx.take(stuck, axis=1), cy.take(stuck, axis=1), fit, score.take(stuck, axis=1))
         x[stuck], y[stuck] = _least_violation(
-            lines[:, :, stuck], agent_line[:, stuck], n_static, radius[stuck], sx, sy, begin
+            lines.take(stuck, axis=2), agent_line.take(stuck, axis=1), n_static, radius[stuck], sx, sy, begin
         )
     return x, y
 
@@ -216,28 +229,28 @@ def _solve(lines, agent_line, n_static: int, radius, ox, oy):
 def _projected_lines(lines, n_static: int, first: int, width: int):
     """``linearProgram3``'s lines of the sub-problems ``i >= first`` of agents with ``lines``
     ``(5, L, S)`` (``px, py, dx, dy, c``), the first ``width`` of each (a sub-problem ``i``
-    has ``i`` lines): ``(4, width, L - first, S)``, ``[:, j, i, s]`` the static line ``j``
-    as it is, for an agent line ``j < i`` the line where ``j`` and ``i`` are violated alike
-    (none where they run the same way), and one no velocity violates for the others."""
-    px, py, dx, dy, _ = lines
-    n_lines = px.shape[0]
-    # [j, i, s]: sub-problem i, its line j.
-    dxi, dyi, pxi, pyi = dx[None, first:], dy[None, first:], px[None, first:], py[None, first:]
-    dxj, dyj, pxj, pyj = dx[:width, None], dy[:width, None], px[:width, None], py[:width, None]
+    has ``i`` lines): ``(4, width, (L - first) * S)``, ``[:, j, (i - first) * S + s]`` the
+    static line ``j`` as it is, for an agent line ``j < i`` the line where ``j`` and ``i``
+    are violated alike (none where they run the same way), and one no velocity violates for
+    the others."""
+    n_lines, n = lines.shape[1:]
+    # [j, (i - first) * S + s]: sub-problem i of agent s, its line j.
+    j_lines = _tiled(lines[:4, :width], n_lines - first)
+    pxj, pyj, dxj, dyj = j_lines
+    pxi, pyi, dxi, dyi = (q.reshape(1, -1) for q in lines[:4, first:])
     det = dxi * dyj - dyi * dxj
     parallel = np.abs(det) <= RVO_EPSILON
     t = (dxj * (pyi - pyj) - dyj * (pxi - pxj)) / np.where(parallel, 1.0, det)
     qx = np.where(parallel, 0.5 * (pxi + pxj), pxi + t * dxi)
     qy = np.where(parallel, 0.5 * (pyi + pyj), pyi + t * dyi)
     ex, ey, _ = _unit(dxj - dxi, dyj - dyi)
-    j = np.arange(width)[:, None, None]
-    keep = (j < np.arange(first, n_lines)[:, None]) & ~(parallel & (dxi * dxj + dyi * dyj > 0.0))
-    static = j < n_static
-    proj = np.where(static, lines[:4, :width, None], np.stack([qx, qy, ex, ey]))
+    keep = _earlier(width, first, n_lines, n) & ~(parallel & (dxi * dxj + dyi * dyj > 0.0))
+    static = (np.arange(width) < n_static)[:, None]
+    proj = np.where(static, j_lines, np.stack([qx, qy, ex, ey]))
     return np.where(keep | static, proj, _NO_LINE)
 
 
-_NO_LINE = np.array([0.0, -FAR, 1.0, 0.0])[:, None, None, None]
+_NO_LINE = np.array([0.0, -FAR, 1.0, 0.0])[:, None, None]
 """A line ``(px, py, dx, dy)`` no velocity within ``FAR`` m/s of zero violates."""
 
 
@@ -247,23 +260,23 @@ def _least_violation(lines, agent_line, n_static: int, radius, sx, sy, begin):
     velocity whose worst violation of an agent line is least, static lines kept. Line ``i``'s
     step maximises the distance into line ``i`` keeping the static lines and 'no agent line
     ``j < i`` worse than ``i``'; the steps are independent, solved all at once."""
-    px, py, dx, dy, c = lines
-    n_lines = px.shape[0]
+    n_lines = lines.shape[1]
     rx, ry = sx.copy(), sy.copy()
     reg = np.flatnonzero(begin >= n_static)
     if len(reg):
         first = int(begin[reg].min())  # sub-problems before any begin are never taken
         n_sub = n_lines - first
+        every = len(reg) == len(begin)
+        lr = lines if every else lines.take(reg, axis=2)
+        mine = agent_line if every else agent_line.take(reg, axis=1)
         # Sub-problem i has lines j < i: the last line is none's. Columns (i, s), i-major.
-        sub = _projected_lines(lines[:, :, reg], n_static, first, n_lines - 1)
-        qx, qy, ex, ey = sub.reshape(4, n_lines - 1, n_sub * len(reg))
-        opt_x, opt_y = -dy[first:, reg].ravel(), dx[first:, reg].ravel()
+        qx, qy, ex, ey = _projected_lines(lr, n_static, first, n_lines - 1)
+        opt_x, opt_y = -lr[3, first:].ravel(), lr[2, first:].ravel()
         x, y, ok = _best_in_direction(qx, qy, ex, ey, np.tile(radius[reg], n_sub), opt_x, opt_y)
         x, y, ok = x.reshape(n_sub, -1), y.reshape(n_sub, -1), ok.reshape(n_sub, -1)
         # The worst violation of an agent line by each sub-problem's answer.
-        mine = agent_line[:, reg]
-        off = _offset(c[:, reg], dx[:, reg], dy[:, reg], x, y)
-        worst = np.where(mine[:, None], off, -np.inf).max(axis=0)
+        off = _offset(lr[4], lr[2], lr[3], x, y)
+        worst = np.where(np.tile(mine, (1, n_sub)), off, -np.inf).max(axis=0).reshape(n_sub, -1)
         take = ok & mine[first:] & (np.arange(first, n_lines)[:, None] >= begin[reg])
         bx, by, found = _pick(x, y, take, worst)
         rx[reg], ry[reg] = np.where(found, bx, sx[reg]), np.where(found, by, sy[reg])
@@ -271,14 +284,14 @@ def _least_violation(lines, agent_line, n_static: int, radius, sx, sy, begin):
     if len(odd):
         # The static lines themselves conflict: RVO2's steps depend on its tolerances; take them.
         n_odd = len(odd)
-        sub = _projected_lines(lines[:, :, odd], n_static, 0, n_lines)
-        qx, qy, ex, ey = sub.reshape(4, n_lines, n_lines * n_odd)
-        opt_x, opt_y = -dy[:, odd].ravel(), dx[:, odd].ravel()
+        lo = lines.take(odd, axis=2)
+        qx, qy, ex, ey = _projected_lines(lo, n_static, 0, n_lines)
+        opt_x, opt_y = -lo[3].ravel(), lo[2].ravel()
         cx, cy, usable = _candidates(qx, qy, ex, ey, np.tile(radius[odd], n_lines), opt_x, opt_y, True)
         x, y, fail = _scan(cx, cy, usable, qx, qy, ex, ey)
         x, y, ok = (v.reshape(n_lines, n_odd) for v in (x, y, fail == n_lines))
         begin = begin[odd]
-        dx, dy, px, py = dx[:, odd], dy[:, odd], px[:, odd], py[:, odd]
+        px, py, dx, dy, _ = lo
         ux, uy, dist = sx[odd], sy[odd], np.zeros(n_odd)
         for i in range(int(begin.min()), n_lines):
             hit = (begin <= i) & (dx[i] * (py[i] - uy) - dy[i] * (px[i] - ux) > dist)
@@ -458,7 +471,7 @@ def orca_velocities(
     r_max = vmax.reshape(-1)
     ox, oy = pref[..., 0].reshape(-1), pref[..., 1].reshape(-1)
     if not valid.all():
-        px, py, dx, dy = np.where(valid, np.stack([px, py, dx, dy]), _NO_LINE[..., 0])
+        px, py, dx, dy = np.where(valid, np.stack([px, py, dx, dy]), _NO_LINE)
     agent_line = valid & (np.arange(valid.shape[1]) >= n_static) if n_static else valid
     x, y = _linear_program(px, py, dx, dy, agent_line, n_static, r_max, ox, oy)
     out = np.where(coop.reshape(-1)[:, None], np.stack([x, y], axis=-1), vel.reshape(-1, 2))
