@@ -47,9 +47,11 @@ KDTREE_AGENTS = 48
 the dense distance matrix)."""
 
 
-def _unit(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(x, y) / |(x, y)|`` and the length; a zero vector gives ``(1, 0)``."""
-    n = np.sqrt(x * x + y * y)
+def _unit(x: np.ndarray, y: np.ndarray, n=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(x, y) / |(x, y)|`` and the length ``n`` (computed unless given); a zero vector gives
+    ``(1, 0)``."""
+    if n is None:
+        n = np.sqrt(x * x + y * y)
     safe = n > 1e-12
     inv = 1.0 / np.where(safe, n, 1.0)
     return np.where(safe, x * inv, 1.0), np.where(safe, y * inv, 0.0), n
@@ -67,15 +69,15 @@ def half_planes(rx, ry, vx, vy, combined, inv_tau, inv_dt):
     dotp = wx * rx + wy * ry
     on_cutoff = (dotp < 0.0) & (dotp * dotp > r2 * w_len2)
     # Projection on the legs of the cone (left or right as w lies).
-    leg = np.sqrt(np.maximum(dist2 - r2, 0.0))
     inv = 1.0 / np.where(dist2 > 0, dist2, 1.0)
-    side = np.where(rx * wy - ry * wx > 0.0, 1.0, -1.0)
-    dx = (side * rx * leg - ry * combined) * inv
-    dy = (rx * combined + side * ry * leg) * inv
+    leg = np.sqrt(np.maximum(dist2 - r2, 0.0))
+    leg *= np.where(rx * wy - ry * wx > 0.0, 1.0, -1.0)
+    dx = (rx * leg - ry * combined) * inv
+    dy = (rx * combined + ry * leg) * inv
     proj = vx * dx + vy * dy
     ux, uy = proj * dx - vx, proj * dy - vy
     if on_cutoff.any():  # projection on the cut-off circle
-        cx, cy, w_len = _unit(wx, wy)
+        cx, cy, w_len = _unit(wx, wy, np.sqrt(w_len2))
         k = combined * inv_tau - w_len
         dx, dy = np.where(on_cutoff, cy, dx), np.where(on_cutoff, -cx, dy)
         ux, uy = np.where(on_cutoff, k * cx, ux), np.where(on_cutoff, k * cy, uy)
@@ -92,6 +94,14 @@ def half_planes(rx, ry, vx, vy, combined, inv_tau, inv_dt):
 def _earlier(n_j: int, first: int, n_i: int, n_problems: int) -> np.ndarray:
     """``[j, (i - first) * n_problems + v]``: ``j < i``, for ``j < n_j``, ``first <= i < n_i``."""
     return np.repeat(np.arange(n_j)[:, None] < np.arange(first, n_i), n_problems, axis=1)
+
+
+@functools.lru_cache(maxsize=64)
+def _pairs(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The pairs ``(i, j)``, ``j < i < n``, grouped by ``i`` (``i = 1 .. n - 1``): ``(i, j,
+    starts)``, ``starts`` the first pair of each group."""
+    i, j = np.tril_indices(n, -1)
+    return i, j, np.searchsorted(i, np.arange(1, n))
 
 
 def _tiled(lines, times: int) -> np.ndarray:
@@ -122,25 +132,27 @@ def _candidates(px, py, dx, dy, radius, ox, oy, direction_opt: bool):
     problem per column): the start (``opt`` clipped to the disc of ``radius``, or
     ``opt * radius`` when ``direction_opt``) and, per line, ``linearProgram1``'s point on it
     bounded by the disc and the lines before it. Returns ``(cx, cy, usable)``, ``(L + 1, V)``."""
-    n_lines, n = px.shape
+    n_lines = px.shape[0]
     pd = px * dx + py * dy
     disc = pd * pd + radius * radius - (px * px + py * py)
     ok = disc >= 0.0
     root = np.sqrt(np.maximum(disc, 0.0))
     t_left, t_right = -pd - root, root - pd
     if n_lines > 1:
-        # [j, i * V + v]: line i of problem v against an earlier line j.
-        pxj, pyj, dxj, dyj = _tiled(np.stack([px, py, dx, dy]), n_lines)
-        pxi, pyi, dxi, dyi = px.reshape(1, -1), py.reshape(1, -1), dx.reshape(1, -1), dy.reshape(1, -1)
+        # [pair, v]: line i of problem v against an earlier line j, the pairs grouped by i.
+        i, j, starts = _pairs(n_lines)
+        lines = np.stack([px, py, dx, dy])
+        pxi, pyi, dxi, dyi = lines.take(i, axis=1)
+        pxj, pyj, dxj, dyj = lines.take(j, axis=1)
         den = dxi * dyj - dyi * dxj
         num = dxj * (pyi - pyj) - dyj * (pxi - pxj)
-        earlier = _earlier(n_lines, 0, n_lines, n)
         parallel = np.abs(den) <= RVO_EPSILON
-        ok &= ~(parallel & (num < 0.0) & earlier).any(axis=0).reshape(n_lines, n)
-        use = earlier & ~parallel
+        ok[1:] &= ~np.logical_or.reduceat(parallel & (num < 0.0), starts, axis=0)
         t = num / np.where(parallel, 1.0, den)
-        t_right = np.minimum(t_right, np.where(use & (den > 0.0), t, np.inf).min(axis=0).reshape(n_lines, n))
-        t_left = np.maximum(t_left, np.where(use & (den < 0.0), t, -np.inf).max(axis=0).reshape(n_lines, n))
+        upper = np.minimum.reduceat(np.where(den > RVO_EPSILON, t, np.inf), starts)
+        lower = np.maximum.reduceat(np.where(den < -RVO_EPSILON, t, -np.inf), starts)
+        t_right[1:] = np.minimum(t_right[1:], upper)
+        t_left[1:] = np.maximum(t_left[1:], lower)
         ok &= t_left <= t_right
     if direction_opt:
         t = np.where(ox * dx + oy * dy > 0.0, t_right, t_left)
@@ -326,14 +338,13 @@ def _neighbours(p: np.ndarray, k: int, neighbor_dist: float) -> tuple[np.ndarray
     for e in range(b):
         # Sorted by distance; each agent first, unless another stands exactly on it.
         dist, nb = cKDTree(p[e]).query(p[e], k=k + 1, distance_upper_bound=neighbor_dist * (1 + 1e-9))
-        if np.array_equal(nb[:, 0], me):
+        if (nb[:, 0] == me).all():
             dist, nb = dist[:, 1:], nb[:, 1:]
         else:
             order = np.argsort(nb == me[:, None], axis=1, kind="stable")[:, :k]
             dist, nb = np.take_along_axis(dist, order, 1), np.take_along_axis(nb, order, 1)
         idx[e] = np.minimum(nb, n - 1)
-        d = dist
-        present[e] = d * d < r2
+        present[e] = dist * dist < r2
     return idx, present
 
 
@@ -445,7 +456,7 @@ def orca_velocities(
         near, present = _neighbours(p, k, neighbor_dist)
         # Per agent (b, n): position, velocity, radius, cooperative; of each neighbour (b, n, k).
         own = np.stack([p[..., 0], p[..., 1], vel[..., 0], vel[..., 1], rad, coop])
-        other = own.reshape(6, -1)[:, near + np.arange(0, b * n, n)[:, None, None]]
+        other = own.reshape(6, -1).take(near + np.arange(0, b * n, n)[:, None, None], axis=1)
         own = own[..., None]
         ln = line[..., n_static:]
         np.subtract(other[:2], own[:2], out=ln[:2])
