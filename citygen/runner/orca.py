@@ -16,12 +16,19 @@ it is an array operation over all agents, lines and line pairs at once, with the
   lines leaves nothing feasible, and ``linearProgram3`` returns the velocity that violates
   the worst agent half-plane least (static ones stay hard). Its step for line ``i`` is again
   a small linear program independent of the velocity so far; all of them are solved at once
-  by the same candidate rule, and the answer is the solution of the worst violation.
+  by the same candidate rule (one problem per sub-problem), and the answer is the solution
+  of the worst violation.
 
 Neighbours come from a KD-tree (:class:`scipy.spatial.cKDTree`) for large crowds and from
 the dense distance matrix for small ones; lines no agent has (far static discs, missing
-neighbours) are dropped first. Results agree with RVO2 to float precision
-(``tests/test_crowd.py`` compares with RVO2 through ``pyrvo``). One exception, with static
+neighbours) are dropped first, and a line only some agents lack becomes one no velocity
+violates (no masks). At a hundred agents numpy's cost per call and per row of an array
+dominates, not the arithmetic, so the solver keeps few, long rows: one problem per column
+(``[line, agent]``), pair arrays with one row per line (``[j, k * V + v]``) or per line
+pair (only ``j < i``, grouped for ``ufunc.reduceat``), gathers by :func:`numpy.take`
+(C-ordered results). Results agree with
+RVO2 to float precision (``tests/test_crowd.py`` compares with RVO2 through ``pyrvo``, also
+in a dense crowd where most agents need ``linearProgram3``). One exception, with static
 discs: the line of a standing obstacle passes through zero velocity, and where several such
 lines leave zero alone RVO2's rounding decides whether that is feasible; here it is (the
 person stands), where RVO2 may fall back to ``linearProgram3``.
