@@ -264,9 +264,11 @@ def _projected_lines(lines, n_static: int, first: int, width: int):
     qy = np.where(parallel, 0.5 * (pyi + pyj), pyi + t * dyi)
     ex, ey, _ = _unit(dxj - dxi, dyj - dyi)
     keep = _earlier(width, first, n_lines, n) & ~(parallel & (dxi * dxj + dyi * dyj > 0.0))
-    static = (np.arange(width) < n_static)[:, None]
-    proj = np.where(static, j_lines, np.stack([qx, qy, ex, ey]))
-    return np.where(keep | static, proj, _NO_LINE)
+    proj = np.stack([qx, qy, ex, ey])
+    if n_static:
+        static = (np.arange(width) < n_static)[:, None]
+        proj, keep = np.where(static, j_lines, proj), keep | static
+    return np.where(keep, proj, _NO_LINE)
 
 
 _NO_LINE = np.array([0.0, -FAR, 1.0, 0.0])[:, None, None]
