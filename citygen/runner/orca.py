@@ -375,8 +375,11 @@ def _present_columns(valid: np.ndarray, n_static: int) -> tuple[np.ndarray | Non
 
 
 def _as_agents(x, shape: tuple[int, ...], name: str) -> np.ndarray:
+    x = np.asarray(x, dtype=np.float64)
+    if x.shape == shape:
+        return x
     try:
-        return np.broadcast_to(np.asarray(x, dtype=np.float64), shape)
+        return np.broadcast_to(x, shape)
     except ValueError:
         raise ValueError(
             f"{name}: expected a scalar or an array of shape {shape}, got {np.shape(x)}"
@@ -494,5 +497,7 @@ def orca_velocities(
         px, py, dx, dy = np.where(valid, np.stack([px, py, dx, dy]), _NO_LINE)
     agent_line = valid & (np.arange(valid.shape[1]) >= n_static) if n_static else valid
     x, y = _linear_program(px, py, dx, dy, agent_line, n_static, r_max, ox, oy)
-    out = np.where(coop.reshape(-1)[:, None], np.stack([x, y], axis=-1), vel.reshape(-1, 2))
+    out = np.stack([x, y], axis=-1)
+    if cooperative is not None:
+        out = np.where(coop.reshape(-1)[:, None], out, vel.reshape(-1, 2))
     return out.reshape(pos.shape)
