@@ -17,6 +17,7 @@ from scipy.spatial import cKDTree
 
 import citygen
 from citygen.exporters.occupancy import occupancy
+from citygen.runner import orca
 from citygen.runner.crowd import Crowd, Traffic, orca_velocities
 from citygen.spec.agents import Person, Vehicle
 from citygen.spec.scene import Scene
@@ -119,6 +120,42 @@ def test_agrees_with_rvo2_through_pyrvo():
     # RVO2 computes in float32, citygen in float64: they differ in the last digits, a little more
     # where the constraints leave no feasible velocity (linearProgram3).
     assert worst < 0.05
+
+
+@pytest.mark.parametrize("max_neighbors", [10, 1])
+def test_agrees_with_rvo2_in_a_dense_crowd(max_neighbors, monkeypatch):
+    # 100 agents on 6 m x 6 m: neighbours from the KD-tree, and for most agents the half-planes
+    # leave no feasible velocity (RVO2's linearProgram3), also with a single neighbour each.
+    pyrvo = pytest.importorskip(
+        "pyrvo", reason="the reference RVO2 comes with the bench extra (pip install .[bench])"
+    )
+    infeasible = []
+    least_violation = orca._least_violation
+
+    def counted(lines, *args):
+        infeasible.append(lines.shape[-1])
+        return least_violation(lines, *args)
+
+    monkeypatch.setattr(orca, "_least_violation", counted)
+    rng = np.random.default_rng(1)
+    n, worst = 100, 0.0
+    for _ in range(5):
+        pos, vel = rng.uniform(0, 6, (n, 2)), rng.normal(0, 1, (n, 2))
+        pref, radius, vmax = rng.normal(0, 1.2, (n, 2)), rng.uniform(0.2, 0.4, n), rng.uniform(1, 2, n)
+        sim = pyrvo.RVOSimulator(DT, 4.0, max_neighbors, 2.0, 1.0, 0.3, 2.0)
+        for i in range(n):
+            sim.add_agent(
+                tuple(pos[i]), 4.0, max_neighbors, 2.0, 1.0, float(radius[i]), float(vmax[i]), tuple(vel[i])
+            )
+            sim.set_agent_pref_velocity(i, tuple(pref[i]))
+        sim.do_step()
+        ref = np.array([sim.get_agent_velocity(i).to_tuple() for i in range(n)])
+        ours = orca_velocities(
+            pos, vel, pref, radius, vmax, dt=DT, tau=2.0, neighbor_dist=4.0, max_neighbors=max_neighbors
+        )
+        worst = max(worst, float(np.abs(ours - ref).max()))
+    assert sum(infeasible) > 100  # the infeasible case ran for many agents
+    assert worst < 0.05  # as in test_agrees_with_rvo2_through_pyrvo
 
 
 def test_bad_arguments_are_one_clear_error():
