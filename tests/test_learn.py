@@ -149,6 +149,16 @@ def test_numpy_policy_gives_the_actions_of_torch(run):
     numpy_actions = policy.predict(stacked)
     assert np.abs(numpy_actions).max() > 1e-3  # a real network, not zeros
     np.testing.assert_allclose(numpy_actions, torch_actions, atol=1e-5)
+    # Sampled: the trained Gaussian around the same mean, reproducible with the generator's seed.
+    std = np.exp(model.policy.log_std.detach().numpy())
+    draws = [policy.predict(stacked, np.random.default_rng(seed)) for seed in (0, 0, 1)]
+    np.testing.assert_array_equal(draws[0], draws[1])
+    assert not np.allclose(draws[0], draws[2])
+    mean = policy.mean(stacked)
+    inside = (np.abs(mean) < 0.5).all(axis=1)  # where clipping to [-1, 1] cannot hide a draw
+    assert inside.sum() >= 5
+    noise = (draws[2] - mean)[inside]
+    assert np.abs(noise).max() < 5 * std.max() and noise.std() > 0.3 * std.min()
 
 
 def test_clip_goal_shortens_far_goals_to_the_range_and_keeps_their_direction():

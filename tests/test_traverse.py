@@ -112,3 +112,69 @@ def test_the_ai_drives_the_robots_shipped_learned_navigator_else_the_planner(mon
     monkeypatch.setattr(learned, "shipped", lambda: {("nav-static", "quadruped"): some})
     ai = policies.traverse_ai("quadruped")
     assert isinstance(ai, policies.LearnedNavigator) and ai.path == str(some)
+
+
+def test_the_ai_sub_goal_follows_a_path_around_what_blocks_the_straight_leg(monkeypatch):
+    """With the map guide the learned navigator steers round a wall across the leg to the
+    next waypoint; the route guide points it into the wall."""
+    from types import SimpleNamespace
+
+    from citygen.exporters.occupancy import CLASSES, OccupancyMap
+    from citygen.geometry.raster import Grid
+    from citygen.runner import policies
+    from citygen.runner.learn import policy as learned
+    from citygen.runner.planning import point_ahead
+
+    grid = Grid.covering((0.0, 0.0, 20.0, 10.0), 0.05)
+    labels = np.full(grid.shape, CLASSES.index("sidewalk"), dtype=np.uint8)
+    xs, ys = grid.xs(), grid.ys()
+    wall = np.ix_(ys <= 7.0, (xs >= 9.0) & (xs <= 10.0))  # a wall with a gap at the top
+    labels[wall] = CLASSES.index("building")
+    occ = OccupancyMap(labels, np.zeros(grid.shape, np.float32), np.zeros(grid.shape, np.uint8), grid)
+    route = [(2.0, 3.0), (17.0, 3.0)]
+    env = SimpleNamespace(
+        prepared=SimpleNamespace(occupancy=occ, free=None),
+        robot=SimpleNamespace(radius=0.3, max_speed=1.0, max_yaw_rate=1.5),
+        route=route,
+        waypoint=1,
+        _goal=lambda: route[1],
+        dt=0.1,
+        np_random=np.random.default_rng(0),
+    )
+    env.prepared.free = ~occ.inflated(0.3)
+    some = str(next(iter(learned.shipped().values())))
+    nav = policies.LearnedNavigator(some)
+    nav.reset(env)
+    x, y = 4.0, 3.0
+    gx, gy = nav.subgoal(x, y)
+    assert gy > 3.5 and gx < 9.0  # up towards the gap, not at the wall
+    assert math.dist((x, y), (gx, gy)) == pytest.approx(policies.CARROT, abs=0.05)
+    # through the gap: still on the path, now heading down to the waypoint
+    gx, gy = nav.subgoal(9.5, 7.6)
+    assert gx > 10.0
+    # off the path by more than the planner's replan distance: planned again from there
+    before = nav.planner.path
+    nav.subgoal(4.0, 1.0)
+    assert nav.planner.path is not before and math.dist(nav.planner.path[0], (4.0, 1.0)) < 0.1
+    route_nav = policies.LearnedNavigator(some, guide="route")
+    route_nav.reset(env)
+    assert np.allclose(route_nav.subgoal(x, y), (10.0, 3.0))  # straight into the wall
+    assert np.allclose(point_ahead(np.array([[0.0, 0.0], [1.0, 0.0]]), (0.2, 0.3), 5.0), (1.0, 0.0))
+    with pytest.raises(ValueError, match="guide"):
+        policies.LearnedNavigator(some, guide="gps")
+    # wedged: under 0.15 m in 2 s is stuck; walking on at 0.5 m/s is not; a reset starts over
+    steps = round(policies.STUCK[0] / env.dt)
+    assert not any(nav.stuck(4.0 + 0.05 * k, 3.0) for k in range(3 * steps))
+    assert [nav.stuck(9.0 + 0.001 * k, 3.0) for k in range(steps + 1)][-1]
+    assert not nav.stuck(2.0, 3.0)  # put back at the last waypoint
+    # after HANDOVER failed attempts at one stretch the planner drives it
+    monkeypatch.setattr(policies, "HANDOVER", 1)
+    env.handle = SimpleNamespace(pose=lambda data: (4.0, 3.0, 0.0, 0.0))
+    env.data, env.scene, env.steps = None, None, 0
+    env.others = lambda: (np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0))
+    env.attempts = 0
+    nav.reset(env)
+    env.attempts = 1
+    planner = policies.PlannerPolicy()
+    planner.reset(env)
+    np.testing.assert_allclose(nav.act({}), planner.act({}))

@@ -297,6 +297,14 @@ def _point_at(path: np.ndarray, cum: np.ndarray, s: float) -> np.ndarray:
     return path[k] + t * (path[k + 1] - path[k])
 
 
+def point_ahead(path: np.ndarray, xy: Sequence[float], ahead: float) -> np.ndarray:
+    """The point ``ahead`` m along ``path`` (``(K, 2)``, m) past the point of it nearest
+    ``xy``, at most its end."""
+    path = np.asarray(path, dtype=np.float64)
+    s, cum = _closest_on_path(path, np.asarray(xy, dtype=np.float64)[:2])
+    return _point_at(path, cum, s + ahead)
+
+
 def pure_pursuit(
     pose: Sequence[float],
     path_xy: np.ndarray,
@@ -821,6 +829,14 @@ class Planner:
             xy[0] = start
         self.path, self._progress, self._held = xy, 0, 0
         return xy
+
+    def off_path(self, xy: Sequence[float]) -> bool:
+        """Whether ``xy`` lies more than ``replan_distance`` m from the planned path (or there
+        is none)."""
+        if self.path is None:
+            return True
+        s, cum = _closest_on_path(self.path, np.asarray(xy, dtype=np.float64)[:2])
+        return math.hypot(*(_point_at(self.path, cum, s) - np.asarray(xy[:2]))) > self.replan_distance
 
     def _others_blocked(self, xy: np.ndarray, radius: np.ndarray) -> np.ndarray:
         g = self.grid

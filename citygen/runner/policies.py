@@ -171,6 +171,14 @@ class ScriptedOracle:
 #: Metres ahead along the route of the sub-goal a learned navigator steers to, at most up to
 #: the next waypoint (its training goals lie 5-9 m away; the traverse's waypoints up to 23 m apart).
 CARROT = 6.0
+#: A learned navigator that moved less than ``STUCK[1]`` m in ``STUCK[0]`` s backs up for
+#: ``BACK_UP[0]`` s at ``BACK_UP[1]`` of its top speed (the back-up recovery of a navigation
+#: stack such as Nav2's), then drives on.
+STUCK = (2.0, 0.15)
+BACK_UP = (1.0, 0.5)
+#: Failed attempts at one stretch of a traverse after which a learned navigator hands that
+#: stretch (up to the next waypoint) to the classical planner.
+HANDOVER = 2
 #: The shipped learned baselines a traverse's AI drives with, in order of preference.
 AI_TASKS = ("nav-dynamic", "nav-static")
 
@@ -194,29 +202,100 @@ def carrot(
 
 class LearnedNavigator:
     """The paper's AI mode: "a general navigation model to make waypoint following". The
-    learned PPO baseline shipped for the robot (:data:`AI_TASKS`), steering to a sub-goal
-    :data:`CARROT` m ahead along the route as it was trained to reach goals a few metres
-    away; it sees what it was trained on (goal, velocity, height and local maps), nothing
-    privileged."""
+    learned PPO baseline shipped for the robot (:data:`AI_TASKS`) is the local navigator: it
+    sees only what it was trained on (goal, velocity, height and local maps) and steers to a
+    sub-goal :data:`CARROT` m ahead, as it was trained to reach goals a few metres away.
 
-    def __init__(self, path: str):
+    The sub-goal runs along a path to the next waypoint planned on the scene's static
+    occupancy map (a robot's map-based global planner; ``guide="map"``, the default), or
+    along the straight leg between waypoints (``guide="route"``), which on a track lined
+    with furniture points the navigator into objects it then has to find its way around.
+
+    A navigator wedged against an object (:data:`STUCK`) backs up (:data:`BACK_UP`) and
+    tries again. It acts on the policy's mean, except after a failed attempt: put back at
+    the last waypoint, a deterministic policy would fail the same way again, so until it
+    reaches the next waypoint it draws its actions from the policy's trained Gaussian (as in
+    training; seeded by the episode). After :data:`HANDOVER` failed attempts at one
+    stretch, the classical planner (:class:`PlannerPolicy`) drives that stretch: the AI is
+    the learned navigator with a classical recovery, so it completes a route its learned
+    part alone would fail forever, and its attempts count every failure of the learned part."""
+
+    def __init__(self, path: str, guide: str = "map"):
         from citygen.runner.learn.policy import load_policy
 
+        if guide not in ("map", "route"):
+            raise ValueError(f"LearnedNavigator: guide must be 'map' or 'route', got {guide!r}")
         self.path = path
+        self.guide = guide
         self.policy = load_policy(path)
         self.env = None
+        self.planner = None
 
     def reset(self, env: Any) -> None:
+        from citygen.runner.planning import Planner
+
         self.env = env
+        self.planner = Planner(
+            env.prepared.occupancy, env.robot.radius, free=env.prepared.free, replan_distance=1.0
+        )
+        self._goal = None
+        self._trail: list[tuple[float, float]] = []
+        self._backing = 0
+        self._attempts, self._reached = getattr(env, "attempts", 0), getattr(env, "waypoint", 0)
+        self._failed = 0
+        self._explore = False
+        self.fallback = PlannerPolicy()
+        self.fallback.reset(env)
+        # seeded by the episode without drawing from the environment's own generator
+        self._rng = np.random.default_rng(env.np_random.bit_generator.state["state"]["state"])
+
+    def subgoal(self, x: float, y: float) -> np.ndarray:
+        """Where the navigator steers from ``(x, y)``: :data:`CARROT` m ahead on the guide."""
+        env = self.env
+        if self.guide == "route":
+            return carrot(env.route, env.waypoint, (x, y), CARROT)
+        from citygen.runner.planning import point_ahead
+
+        goal = tuple(env._goal())
+        path = self.planner.path
+        if goal != self._goal or path is None or self.planner.off_path((x, y)):
+            path = self.planner.plan((x, y), goal)
+            self._goal = goal
+        if path is None:  # no free cell near the robot: the straight way
+            return carrot(env.route, env.waypoint, (x, y), CARROT)
+        return point_ahead(path, (x, y), CARROT)
+
+    def stuck(self, x: float, y: float) -> bool:
+        """Whether the robot, now at ``(x, y)``, moved less than ``STUCK[1]`` m over the last
+        ``STUCK[0]`` s (a reset of the traverse, a jump, starts the trail again)."""
+        n = max(1, round(STUCK[0] / self.env.dt))
+        if self._trail and math.dist(self._trail[-1], (x, y)) > 1.0:
+            self._trail.clear()
+        self._trail = [*self._trail[-n:], (x, y)]
+        return len(self._trail) > n and math.dist(self._trail[0], (x, y)) < STUCK[1]
 
     def act(self, obs: Any) -> np.ndarray:
         env = self.env
+        attempts, reached = getattr(env, "attempts", 0), getattr(env, "waypoint", 0)
+        if reached != self._reached:
+            self._failed, self._explore = 0, False
+        elif attempts > self._attempts:
+            self._failed, self._explore = self._failed + 1, True
+        self._attempts, self._reached = attempts, reached
+        if self._failed >= HANDOVER:
+            return self.fallback.act(obs)
         x, y, _, yaw = env.handle.pose(env.data)
-        gx, gy = carrot(env.route, env.waypoint, (x, y), CARROT)
+        if self._backing == 0 and self.stuck(x, y):
+            self._backing = max(1, round(BACK_UP[0] / env.dt))
+            self._trail.clear()
+        if self._backing > 0:
+            self._backing -= 1
+            return np.array([-BACK_UP[1], 0.0], dtype=np.float32)
+        gx, gy = self.subgoal(x, y)
         c, s = math.cos(yaw), math.sin(yaw)
         dx, dy = gx - x, gy - y
         obs = {**obs, "goal": np.array([c * dx + s * dy, -s * dx + c * dy], dtype=np.float32)}
-        return self.policy.act(obs)
+        return self.policy.predict(obs, self._rng if self._explore else None)[0]
 
 
 def traverse_ai(robot: str) -> Policy:

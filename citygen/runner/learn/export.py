@@ -79,6 +79,7 @@ class NumpyPolicy:
         layers = sum(1 for k in arrays if k.startswith("w"))
         self.weights = [arrays[f"w{i}"].astype(np.float32) for i in range(layers)]
         self.biases = [arrays[f"b{i}"].astype(np.float32) for i in range(layers)]
+        self.log_std = arrays["log_std"].astype(np.float32) if "log_std" in arrays else None
         self.norm = {
             k: (arrays[f"obs_mean/{k}"].astype(np.float32), np.sqrt(arrays[f"obs_var/{k}"] + meta["epsilon"]))
             for k in self.keys
@@ -122,13 +123,20 @@ class NumpyPolicy:
             parts.append(x.reshape(x.shape[0], -1))
         return np.concatenate(parts, axis=1)
 
-    def predict(self, obs: dict[str, Any]) -> np.ndarray:
-        """Deterministic actions, ``(batch, *action_shape)``."""
+    def mean(self, obs: dict[str, Any]) -> np.ndarray:
+        """The action distribution's mean, ``(batch, n)``, before clipping to the action space."""
         h = self.features(obs)
         for w, b in zip(self.weights[:-1], self.biases[:-1], strict=True):
             h = self.activation(h @ w.T + b)
-        mean = h @ self.weights[-1].T + self.biases[-1]
-        return np.clip(mean, self.low, self.high).reshape(-1, *self.meta["action_shape"])
+        return h @ self.weights[-1].T + self.biases[-1]
+
+    def predict(self, obs: dict[str, Any], rng: np.random.Generator | None = None) -> np.ndarray:
+        """Actions, ``(batch, *action_shape)``: the mean (deterministic), or with ``rng`` a draw
+        from the trained Gaussian (``exp(log_std)``) as in training, clipped to the space."""
+        a = self.mean(obs)
+        if rng is not None and self.log_std is not None:
+            a = a + np.exp(self.log_std) * rng.standard_normal(a.shape).astype(np.float32)
+        return np.clip(a, self.low, self.high).reshape(-1, *self.meta["action_shape"])
 
     # The runner's Policy protocol (citygen.runner.policies).
     def reset(self, env: Any) -> None:
