@@ -166,7 +166,7 @@ def _run(unit: _Unit) -> Iterator[Event]:
 #: on urban-tra-city, ``benchmarks/bench_export.py --all-formats``): :func:`_parallel` starts
 #: the longest first so that the last to finish is a short one.
 COST = MappingProxyType(
-    {"urdf": 90.0, "glb": 46.0, "html": 30.0, "mjcf": 30.0, "view": 30.0, "occupancy": 25.0, "usd": 24.0,
+    {"urdf": 135.0, "view": 120.0, "glb": 51.0, "html": 43.0, "occupancy": 32.0, "mjcf": 28.0, "usd": 20.0,
      "picture": 3.0}
 )  # fmt: skip
 
