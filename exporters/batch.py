@@ -189,15 +189,19 @@ def _worker(conn: Connection, unit: _Unit) -> None:
 
 def _parallel(steps: list[_Unit | list[Event]], jobs: int) -> Iterator[list[Event]]:
     """Each step's events in order, running up to ``jobs`` units at once, each in a process of
-    its own (forked where the platform can: the scene modules are already imported), the
-    costliest (:data:`COST`) first."""
+    its own (forked where the platform can: the exporter modules are imported first), scene
+    by scene and each scene's costliest (:data:`COST`) first."""
     methods = multiprocessing.get_all_start_methods()
     context = multiprocessing.get_context("fork" if "fork" in methods else None)
     units = [i for i, step in enumerate(steps) if isinstance(step, _Unit)]
     if context.get_start_method() == "fork":  # import once here, not in every worker
         for module in dict.fromkeys(steps[i].module for i in units):
             importlib.import_module(f"citygen.exporters.{module}")
-    queue = sorted(units, key=lambda i: -COST.get(steps[i].module, 1.0))  # stable: batch order within a cost
+    # Scene by scene (so that the first scenes' lines come first), each one's costliest first.
+    first: dict[Path, int] = {}
+    for i in units:
+        first.setdefault(steps[i].path, i)
+    queue = sorted(units, key=lambda i: (first[steps[i].path], -COST.get(steps[i].module, 1.0)))
     done: dict[int, list[Event]] = {i: step for i, step in enumerate(steps) if isinstance(step, list)}
     running: dict[int, tuple[Any, Connection]] = {}
     emitted = 0
