@@ -24,7 +24,7 @@ import importlib
 import multiprocessing
 import sys
 import warnings
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 from pathlib import Path
@@ -143,10 +143,15 @@ def export_batch(
     the same files and the same events in the same order, each module's as soon as it and
     every one before it have finished. A worker that dies (killed, out of memory) is that
     format's error; the others go on."""
-    steps = _steps(scenes, Path(out), formats, terrain_resolution, occupancy_resolution)
+    steps: Iterable[_Unit | list[Event]] = _steps(
+        scenes, Path(out), formats, terrain_resolution, occupancy_resolution
+    )
+    if jobs > 1:
+        steps = list(steps)
+        jobs = min(jobs, sum(isinstance(step, _Unit) for step in steps))
     if jobs > 1:
         results: Iterator[list[Event] | Iterator[Event]] = _parallel(list(steps), jobs)
-    else:
+    else:  # one at a time, here
         results = (step if isinstance(step, list) else _run(step) for step in steps)
     said: dict[Path, set[str]] = {}  # a warning two formats share (png's view is MJCF's) is said once
     for events in results:
