@@ -167,6 +167,16 @@ def export(
         float | None,
         typer.Option("--resolution", min=0.005, max=10.0, help="The same as --occupancy-resolution."),
     ] = None,
+    jobs: Annotated[
+        int | None,
+        typer.Option(
+            "--jobs",
+            "-j",
+            min=1,
+            help="Worker processes, each exporting one format of one scene at a time (1: all in this "
+            "process).  [default: every core]",
+        ),
+    ] = None,
 ) -> None:
     """Compile scenes to the files other simulators load: MJCF, USD, URDF, an occupancy map
     (npz, ROS yaml/pgm, png), GLB, a self-contained HTML viewer, PNG pictures.
@@ -175,10 +185,12 @@ def export(
     as its file's stem. Assets repeated across scenes are written once, content-addressed,
     under `OUT/assets/`. Whatever a format cannot express or had to coarsen is reported on
     stderr as `FILE: warning: ...`. A scene or format that fails is reported as
-    `FILE: error: ...` and the rest are still exported; the exit code is then 2.
+    `FILE: error: ...` and the rest are still exported; the exit code is then 2. Formats and
+    scenes are exported in --jobs processes at once; the output is the same, in the same order.
     """
     from citygen.errors import ExportError
     from citygen.exporters.batch import export_batch
+    from citygen.generate.dataset import default_jobs
 
     if fmt != "all" and fmt not in EXPORT_FORMATS:
         raise ExportError(f"--format: expected one of {', '.join(EXPORT_FORMATS)} or all, got {fmt!r}")
@@ -192,6 +204,7 @@ def export(
     for event in export_batch(
         scenes, out, chosen, terrain_resolution=terrain_resolution,
         occupancy_resolution=occupancy_resolution if occupancy_resolution is not None else resolution,
+        jobs=default_jobs() if jobs is None else jobs,
     ):  # fmt: skip
         if event.kind == "wrote":
             typer.echo(f"wrote {event.text}")

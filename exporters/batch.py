@@ -19,12 +19,17 @@ is given.
 
 from __future__ import annotations
 
+import contextlib
 import importlib
+import multiprocessing
+import sys
 import warnings
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
+from multiprocessing.connection import Connection, wait
 from pathlib import Path
 from types import MappingProxyType
+from typing import Any
 
 from citygen.errors import CitygenError
 from citygen.exporters import ExportWarning
@@ -79,6 +84,47 @@ def module_options(module: str, terrain_resolution: float | None, occupancy_reso
     return {}
 
 
+@dataclass(frozen=True)
+class _Unit:
+    """One exporter module to run on one scene: what a worker process does."""
+
+    path: Path
+    out: Path
+    name: str
+    fmt: str
+    module: str
+    terrain: float | None
+    occupancy: float | None
+
+
+def _steps(
+    scenes: Sequence[str | Path], out: Path, formats: Sequence[str], terrain: float | None,
+    occupancy: float | None,
+) -> Iterator[_Unit | list[Event]]:  # fmt: skip
+    """The batch in its order: each scene's exporter modules to run, or the error events of a
+    scene that cannot be read or would take a name already used."""
+    used: dict[str, Path] = {}
+    for raw in scenes:
+        path = Path(raw)
+        try:
+            model = load_scene(path)
+        except CitygenError as exc:
+            yield [Event("error", path, line.removeprefix(f"{path}: ")) for line in exc.lines()]
+            continue
+        name = export_name(path, model)
+        del model
+        if name in used:
+            yield [Event(
+                "error", path, f"its files would be named {name!r}, as those of {used[name]}; rename one of "
+                "them or export it with another --out",
+            )]  # fmt: skip
+            continue
+        used[name] = path
+        for fmt in formats:
+            for module_name in FORMATS[fmt]:
+                yield _Unit(path, out, name, fmt, module_name, terrain, occupancy)
+
+
 def export_batch(
     scenes: Sequence[str | Path],
     out: str | Path,
@@ -86,37 +132,121 @@ def export_batch(
     *,
     terrain_resolution: float | None = None,
     occupancy_resolution: float | None = None,
+    jobs: int = 1,
 ) -> Iterator[Event]:
     """Export every scene file to every format into ``out``, yielding what happens as it
     happens; failures are ``error`` events (``FORMAT: message``), never exceptions. A warning
-    two formats of one scene share (the PNG view compiles the MJCF) is yielded once."""
-    out = Path(out)
-    used: dict[str, Path] = {}
-    for raw in scenes:
-        path = Path(raw)
-        try:
-            model = load_scene(path)
-        except CitygenError as exc:
-            for line in exc.lines():
-                yield Event("error", path, line.removeprefix(f"{path}: "))
-            continue
-        name = export_name(path, model)
-        if name in used:
-            yield Event(
-                "error", path, f"its files would be named {name!r}, as those of {used[name]}; rename one of "
-                "them or export it with another --out",
-            )  # fmt: skip
-            continue
-        used[name] = path
-        said: set[str] = set()  # a warning two formats share (png's view is MJCF's) is said once
-        for fmt in formats:
-            for module_name in FORMATS[fmt]:
-                lod = (terrain_resolution, occupancy_resolution)
-                for event in _one(path, out, name, fmt, module_name, *lod):
-                    if event.kind == "warning" and event.text in said:
-                        continue
-                    said.add(event.text)
-                    yield event
+    two formats of one scene share (the PNG view compiles the MJCF) is yielded once.
+
+    ``jobs`` above 1 runs the exporter modules (one scene's formats as well as different
+    scenes) in up to that many worker processes at once, a process each (:func:`_parallel`):
+    the same files and the same events in the same order, each module's as soon as it and
+    every one before it have finished. A worker that dies (killed, out of memory) is that
+    format's error; the others go on."""
+    steps: Iterable[_Unit | list[Event]] = _steps(
+        scenes, Path(out), formats, terrain_resolution, occupancy_resolution
+    )
+    if jobs > 1:
+        steps = list(steps)
+        jobs = min(jobs, sum(isinstance(step, _Unit) for step in steps))
+    if jobs > 1:
+        results: Iterator[list[Event] | Iterator[Event]] = _parallel(list(steps), jobs)
+    else:  # one at a time, here
+        results = (step if isinstance(step, list) else _run(step) for step in steps)
+    said: dict[Path, set[str]] = {}  # a warning two formats share (png's view is MJCF's) is said once
+    for events in results:
+        for event in events:
+            seen = said.setdefault(event.scene, set())
+            if event.kind == "warning" and event.text in seen:
+                continue
+            seen.add(event.text)
+            yield event
+
+
+def _run(unit: _Unit) -> Iterator[Event]:
+    return _one(unit.path, unit.out, unit.name, unit.fmt, unit.module, unit.terrain, unit.occupancy)
+
+
+#: About how long each exporter module takes on a city, relative to the others (CPU seconds
+#: on urban-tra-city, ``benchmarks/bench_export.py --all-formats``): :func:`_parallel` starts
+#: the longest first so that the last to finish is a short one.
+COST = MappingProxyType(
+    {"urdf": 135.0, "view": 120.0, "glb": 51.0, "html": 43.0, "occupancy": 32.0, "mjcf": 28.0, "usd": 20.0,
+     "picture": 3.0}
+)  # fmt: skip
+
+
+def _worker(conn: Connection, unit: _Unit) -> None:
+    """A worker process: run one unit and send its events back."""
+    if sys.platform.startswith("linux"):  # end when the batch's process is killed
+        import ctypes
+        import signal
+
+        with contextlib.suppress(OSError, AttributeError):
+            ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    try:
+        events = list(_run(unit))
+    except Exception as exc:  # a bug in one exporter must not lose the other formats
+        events = [Event("error", unit.path, f"{unit.fmt}: {type(exc).__name__}: {exc}")]
+    conn.send(events)
+    conn.close()
+
+
+def _parallel(steps: list[_Unit | list[Event]], jobs: int) -> Iterator[list[Event]]:
+    """Each step's events in order, running up to ``jobs`` units at once, each in a process of
+    its own (forked where the platform can: the exporter modules are imported first), scene
+    by scene and each scene's costliest (:data:`COST`) first."""
+    methods = multiprocessing.get_all_start_methods()
+    context = multiprocessing.get_context("fork" if "fork" in methods else None)
+    units = [i for i, step in enumerate(steps) if isinstance(step, _Unit)]
+    if context.get_start_method() == "fork":  # import once here, not in every worker
+        for module in dict.fromkeys(steps[i].module for i in units):
+            importlib.import_module(f"citygen.exporters.{module}")
+    # Scene by scene (so that the first scenes' lines come first), each one's costliest first.
+    first: dict[Path, int] = {}
+    for i in units:
+        first.setdefault(steps[i].path, i)
+    queue = sorted(units, key=lambda i: (first[steps[i].path], -COST.get(steps[i].module, 1.0)))
+    done: dict[int, list[Event]] = {i: step for i, step in enumerate(steps) if isinstance(step, list)}
+    running: dict[int, tuple[Any, Connection]] = {}
+    emitted = 0
+    try:
+        while emitted < len(steps):
+            while queue and len(running) < jobs:
+                i = queue.pop(0)
+                receive, send = context.Pipe(duplex=False)
+                process = context.Process(target=_worker, args=(send, steps[i]), name=f"citygen-export-{i}")
+                process.start()
+                send.close()
+                running[i] = (process, receive)
+            while emitted in done:
+                yield done.pop(emitted)
+                emitted += 1
+            if emitted >= len(steps):
+                break
+            ready = wait([receive for _, receive in running.values()])
+            for i, (process, receive) in list(running.items()):
+                if receive not in ready:
+                    continue
+                try:
+                    events = receive.recv()
+                except (EOFError, OSError):
+                    events = None
+                receive.close()
+                process.join()
+                if events is None:
+                    unit = steps[i]
+                    events = [Event(
+                        "error", unit.path, f"{unit.fmt}: its worker process ended without a result "
+                        f"(exit code {process.exitcode}; out of memory?)",
+                    )]  # fmt: skip
+                done[i] = events
+                del running[i]
+    finally:
+        for process, receive in running.values():
+            process.kill()
+            process.join()
+            receive.close()
 
 
 def _one(

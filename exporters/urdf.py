@@ -485,9 +485,9 @@ def _tiles(t: Terrain, members: np.ndarray, floor: float, resolution: float | np
 def _write(
     out: Path, name: str, piece: tiles.Piece, folder: Path | None, friction: np.ndarray, options: dict,
     lod_choice: tuple[float | None, np.ndarray | None] | None,
-) -> tuple[Path, list[Path], float | None]:  # fmt: skip
-    """One URDF file of ``piece``: its path, its meshes, and its rough tiles' coarsest cell
-    size. ``lod_choice`` is :func:`_auto_lod`'s, None for an explicit ``resolution``."""
+) -> tuple[Path, list[Path], float | None, int]:  # fmt: skip
+    """One URDF file of ``piece``: its path, its meshes, its rough tiles' coarsest cell size
+    and its links. ``lod_choice`` is :func:`_auto_lod`'s, None for an explicit ``resolution``."""
     view, placements = piece.scene, piece.scene.placements
     if lod_choice is None:
         visual = terrain = fit_terrain(view, options["resolution"], "urdf", None)
@@ -507,7 +507,7 @@ def _write(
     if isinstance(terrain, np.ndarray):
         rough = [isinstance(tile, RoughTile) for tile in view.terrain.tiles]
         coarsest = float(terrain[rough].max()) if any(rough) else None
-    return path, sorted(w.files), coarsest
+    return path, sorted(w.files), coarsest, len(w.robot.findall("link"))
 
 
 def _auto_lod(model: Scene, pieces: list[tiles.Piece]) -> tuple[float | None, np.ndarray | None]:
@@ -601,7 +601,7 @@ def export(scene: Scene | str | Path, out_dir: str | Path, **options: Any) -> li
             list(range(len(model.placements))), np.arange(len(model.terrain.tiles) if model.terrain else 0),
         )  # fmt: skip
         choice = _auto_lod(model, [whole]) if settings["resolution"] == AUTO else None
-        path, files, _ = _write(out, name, whole, folder, friction, settings, choice)
+        path, files, _, _ = _write(out, name, whole, folder, friction, settings, choice)
         written = [path]
     else:
         written, files = _write_tiles(model, out, name, float(side), polys, folder, friction, settings)
@@ -629,13 +629,13 @@ def _write_tiles(
     digits = tiles.width(pieces)
     paths, files, entries = [], [], []
     for piece in pieces:
-        path, meshes, resolution = _write(
+        path, meshes, resolution, link_count = _write(
             out, piece.name(name, digits), piece, folder, friction, settings, choice
         )
         paths.append(path)
         files += meshes
         entries.append(tiles.entry(
-            piece, path.name, links=len(ET.parse(path).getroot().findall("link")),
+            piece, path.name, links=link_count,
             objects=len(piece.placements), terrain_resolution=resolution,
         ))  # fmt: skip
     index = tiles.write_index(out / f"{name}-urdf-tiles.json", name, "urdf", entries)

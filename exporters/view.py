@@ -12,6 +12,12 @@ libegl-mesa0 libgl1-mesa-dri`` or ``libosmesa6``). Where no backend works,
 into a clean skip message. Set ``MUJOCO_GL`` yourself if mujoco is imported before
 citygen chooses.
 
+Level of detail: a picture cannot show ground finer than its pixels, so a scene drawn
+without an explicit ``resolution`` gets rough tiles' heightfields sampled about once a pixel
+of the scene's larger side (slopes, which are planes, 4 times coarser) where that is
+coarser than the MJCF default (:func:`picture_resolution`; a 1.2 km city in 640 x 480 px:
+rough tiles every 1.9 m): the same picture, far less to build and upload.
+
 Units: sizes in pixels (width, height).
 """
 
@@ -24,13 +30,30 @@ from typing import Any
 import numpy as np
 
 from citygen.errors import ExportError
-from citygen.exporters import mjcf
+from citygen.exporters import as_scene, mjcf
 from citygen.io import write_atomic
 from citygen.spec.scene import Scene
 
 #: Smallest and largest side (px) of a picture.
 MIN_SIDE, MAX_SIDE = 16, 4096
 _OPTIONS = ("name", "size", "camera", "resolution", "apron", "mesh_dir")
+#: Pixels of the picture's larger side the ``resolution`` a picture is built with spans (see
+#: the module docstring): rough tiles are sampled 4 times finer (:mod:`citygen.exporters.mjcf`),
+#: about once a pixel.
+PIXELS_PER_SAMPLE = 4.0
+
+
+def picture_resolution(scene: Scene, size: tuple[int, int]) -> float | None:
+    """The heightfield ``resolution`` (m) a picture of ``size`` px is built with:
+    :data:`PIXELS_PER_SAMPLE` pixels of the scene's (and its terrain grid's) larger side, or
+    None (the MJCF default) where a pixel is not larger than ``mjcf.DEFAULT_RESOLUTION``."""
+    (x0, y0), (x1, y1) = scene.bounds.min, scene.bounds.max
+    t = scene.terrain
+    if t is not None:
+        x0, y0 = min(x0, t.origin[0]), min(y0, t.origin[1])
+        x1, y1 = max(x1, t.origin[0] + t.cols * t.tile_size), max(y1, t.origin[1] + t.rows * t.tile_size)
+    pixel = max(x1 - x0, y1 - y0) / max(size)
+    return PIXELS_PER_SAMPLE * pixel if pixel > mjcf.DEFAULT_RESOLUTION else None
 
 
 def _check_size(size: object) -> tuple[int, int]:
@@ -63,6 +86,14 @@ def render_array(
         if options:
             raise ExportError(f"options {sorted(options)} apply to scenes, not to a compiled model")
     else:
+        if options.get("resolution") is None:
+            scene, folder = as_scene(scene_or_model)
+            coarser = picture_resolution(scene, (width, height))
+            if coarser is not None:  # the scene as loaded here, not read a second time
+                options["resolution"] = coarser
+                if options.get("mesh_dir") is None and folder is not None:
+                    options["mesh_dir"] = folder
+                scene_or_model = scene
         model = mjcf.build(scene_or_model, **options)
     try:
         cam = model.camera(camera).id

@@ -88,3 +88,39 @@ def test_bad_arguments_fail_before_rendering(tmp_path):
     with pytest.raises(ExportError, match="unknown option 'dpi'"):
         view.export(STREET, tmp_path, dpi=3)
     assert not list(tmp_path.iterdir())
+
+
+SAME_PICTURE = """
+import sys
+import numpy as np
+from citygen.exporters import mjcf, view
+from citygen.io import load_scene
+scene = load_scene(sys.argv[1])
+coarse = view.render_array(scene).astype(float)  # the picture's own level of detail
+exported = mjcf.build(scene)  # the MJCF file's
+fine = view.render_array(exported).astype(float)
+drawn = mjcf.build(scene, resolution=view.picture_resolution(scene, (640, 480)))
+pooled = [a.reshape(60, 8, 80, 8, 3).mean(axis=(1, 3)) for a in (coarse, fine)]
+ground = (slice(200, 400), slice(150, 500))
+print(np.abs(pooled[0] - pooled[1]).mean(), coarse[ground].std(), fine[ground].std(), drawn.nhfielddata,
+      exported.nhfielddata)
+"""
+
+
+def test_a_large_scene_is_drawn_from_coarser_ground_that_looks_the_same(tmp_path):
+    """A picture samples the ground no finer than its pixels show: far fewer heightfield
+    samples for 256 rough tiles, and the same picture: within a grey level on average at
+    the scale of 8 x 8 pixels, its rough ground as contrasted (the bumps still show)."""
+    import citygen
+
+    scene = citygen.generate("urban-loc-4-test", index=0)
+    assert view.picture_resolution(scene, (640, 480)) > 0.1
+    assert view.picture_resolution(citygen.load_scene(STREET), (640, 480)) is None  # small: unchanged
+    path = tmp_path / "rough.json"
+    citygen.save_scene(scene, path)
+    done = run(SAME_PICTURE, str(path))
+    assert done.returncode == 0, done.stderr[-2000:]
+    difference, coarse_std, fine_std, coarse, fine = (float(x) for x in done.stdout.split())
+    assert coarse * 4 < fine, (coarse, fine)
+    assert difference < 1.0, difference
+    assert 0.8 < coarse_std / fine_std < 1.25 and fine_std > 5, (coarse_std, fine_std)
