@@ -213,7 +213,7 @@ def run(
             advance(t, max(horizon or 1, t))
 
         try:
-            result = run_episode(env, make_policy(policy, seed=seed), seed=seed, on_step=keep)
+            result = run_episode(env, make_policy(policy, seed=seed, task=kind), seed=seed, on_step=keep)
         finally:
             env.close()
         advance(result["steps"], result["steps"], result)

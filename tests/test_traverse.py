@@ -110,8 +110,35 @@ def test_the_ai_drives_the_robots_shipped_learned_navigator_else_the_planner(mon
     assert isinstance(policies.traverse_ai("no-such-robot"), policies.PlannerPolicy)
     some = next(iter(learned.shipped().values()))
     monkeypatch.setattr(learned, "shipped", lambda: {("nav-static", "quadruped"): some})
+    # a shipped baseline drives the traverse only once it is named for the robot's track
+    assert isinstance(policies.traverse_ai("quadruped"), policies.PlannerPolicy)
+    monkeypatch.setitem(policies.TRAVERSE_AI, "quadruped", "nav-static")
     ai = policies.traverse_ai("quadruped")
     assert isinstance(ai, policies.LearnedNavigator) and ai.path == str(some)
+
+
+def test_a_learned_model_given_on_a_traverse_drives_its_ai_mode(track):
+    """``--policy FILE.npz`` on a traverse: the ai mode with that model as its navigator,
+    which steers the quadruped along the track towards its next waypoint."""
+    from citygen.runner import policies
+    from citygen.runner.learn.policy import shipped
+
+    model = str(shipped()[("nav-clear", "quadruped")])
+    policy = make_policy(model, task="traverse")
+    assert isinstance(policy, policies.ControlMode) and isinstance(policy.ai, policies.LearnedNavigator)
+    assert policy.ai.path == model and policy.threshold == policies.MODES["ai"]
+    assert not isinstance(make_policy(model, task="nav-static"), policies.ControlMode)
+    scene = _stretch(track, (2.5, 2.5), [(12.5, 2.5), (22.5, 2.5)], time_limit=6.0)
+    env = make_env("traverse", scene)
+    xs = []
+
+    def x(e, t):
+        xs.append(e.unwrapped.handle.pose(e.unwrapped.data)[0])
+
+    result = run_episode(env, policy, seed=0, on_step=x)
+    assert policy.ai.env is env.unwrapped and not policy.human  # the learned navigator drove
+    assert result["labor_cost"] == 0.0 and result["steps"] == 60
+    assert xs[-1] - 2.5 > 3.0  # it went along the route, forwards (6 s at up to 1 m/s)
 
 
 def test_the_ai_sub_goal_follows_a_path_around_what_blocks_the_straight_leg(monkeypatch):

@@ -87,7 +87,7 @@ def _episode(spec: BenchSpec, i: int) -> dict[str, Any]:
         _WORKER.clear()
         _WORKER["key"] = key
         _WORKER["env"] = make_env(spec.task, split=spec.split, robot=spec.robot, **dict(spec.env_options))
-    policy = make_policy(spec.policy, seed=spec.seed + i)
+    policy = make_policy(spec.policy, seed=spec.seed + i, task=spec.task)
     return run_episode(_WORKER["env"], policy, seed=spec.seed + i, index=i)
 
 

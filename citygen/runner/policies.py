@@ -14,7 +14,9 @@ so a baseline may read privileged state such as the occupancy map and the agents
 - traverse control modes ``human``, ``ai``, ``shared-cautious``, ``shared-efficient``:
   who drives is decided at *decision points* (every :data:`DECISION_INTERVAL` m along the
   route) from the risk ahead (:func:`risk`); a person is a pluggable :class:`Driver`, with
-  :class:`ScriptedOracle` standing in for one in tests and benchmarks.
+  :class:`ScriptedOracle` standing in for one in tests and benchmarks;
+- a learned model's file (``FILE.npz``, ``FILE.zip``; :mod:`citygen.runner.learn`), which on a
+  traverse is the ``ai`` mode's navigator (:class:`LearnedNavigator`).
 """
 
 from __future__ import annotations
@@ -179,8 +181,13 @@ BACK_UP = (1.0, 0.5)
 #: Failed attempts at one stretch of a traverse after which a learned navigator hands that
 #: stretch (up to the next waypoint) to the classical planner.
 HANDOVER = 2
-#: The shipped learned baselines a traverse's AI drives with, in order of preference.
-AI_TASKS = ("nav-dynamic", "nav-static")
+#: Robot -> the task of its shipped learned baseline that drives its traverse's ``ai`` mode
+#: (:class:`LearnedNavigator`). A baseline is listed only once it completed that robot's
+#: track (``citygen bench --task traverse --policy FILE.npz`` on urban-tra-standard, in
+#: ``learn/baselines/README.md``); a good navigation score does not mean that (the learned
+#: NavStatic quadruped, 77 % on urban-nav-2-test, made 125 attempts and 72 % of the track in
+#: the hour). Robots not listed are driven by the planner (:class:`PlannerPolicy`).
+TRAVERSE_AI: dict[str, str] = {}
 
 
 def carrot(
@@ -202,7 +209,8 @@ def carrot(
 
 class LearnedNavigator:
     """The paper's AI mode: "a general navigation model to make waypoint following". The
-    learned PPO baseline shipped for the robot (:data:`AI_TASKS`) is the local navigator: it
+    learned PPO policy (``--policy FILE.npz`` on a traverse, or the baseline of
+    :data:`TRAVERSE_AI`) is the local navigator: it
     sees only what it was trained on (goal, velocity, height and local maps) and steers to a
     sub-goal :data:`CARROT` m ahead, as it was trained to reach goals a few metres away.
 
@@ -300,13 +308,12 @@ class LearnedNavigator:
 
 def traverse_ai(robot: str) -> Policy:
     """The AI of a traverse for ``robot``: :class:`LearnedNavigator` on its shipped learned
-    baseline when one ships, else the privileged planner (:class:`PlannerPolicy`)."""
+    baseline named in :data:`TRAVERSE_AI`, else the privileged planner (:class:`PlannerPolicy`)."""
     from citygen.runner.learn.policy import shipped
 
     found = shipped()
-    for task in AI_TASKS:
-        if (task, robot) in found:
-            return LearnedNavigator(str(found[(task, robot)]))
+    if (TRAVERSE_AI.get(robot), robot) in found:
+        return LearnedNavigator(str(found[(TRAVERSE_AI[robot], robot)]))
     return PlannerPolicy()
 
 
@@ -331,19 +338,24 @@ def risk(env: Any) -> float:
 class ControlMode:
     """A traverse control mode: at each decision point the mode chooses who drives until the
     next one. ``threshold`` is the risk at or above which a person takes over (0: always a
-    person, above 1: never)."""
+    person, above 1: never). ``ai`` drives when no person does; by default the robot's
+    (:func:`traverse_ai`)."""
 
-    def __init__(self, threshold: float, driver: Driver | None = None, interval: float = DECISION_INTERVAL):
+    def __init__(
+        self, threshold: float, driver: Driver | None = None, interval: float = DECISION_INTERVAL,
+        ai: Policy | None = None,
+    ):  # fmt: skip
         self.threshold = threshold
         self.driver = driver or ScriptedOracle()
         self.interval = interval
-        self.ai: Policy | None = None
+        self.ai = ai
+        self._given = ai is not None
         self._robot: str | None = None  # whose AI self.ai is
         self.env = None
 
     def reset(self, env: Any) -> None:
         self.env = env
-        if self._robot != env.robot.name:
+        if not self._given and self._robot != env.robot.name:
             self.ai, self._robot = traverse_ai(env.robot.name), env.robot.name
         self.ai.reset(env)
         self.driver.reset(env)
@@ -371,8 +383,9 @@ MODES = {"human": 0.0, "shared-cautious": 0.25, "shared-efficient": 0.55, "ai": 
 POLICIES = ("random", "planner", "stand", "trot", *MODES)
 
 
-def make_policy(name: str, *, seed: int = 0, driver: Driver | None = None) -> Policy:
-    """A baseline by name (see the module docstring)."""
+def make_policy(name: str, *, seed: int = 0, driver: Driver | None = None, task: str | None = None) -> Policy:
+    """A baseline by name (see the module docstring). A learned model's file on a ``traverse``
+    is that traverse's AI: the ``ai`` mode with it as the :class:`LearnedNavigator`."""
     if name == "random":
         return RandomPolicy(seed)
     if name == "planner":
@@ -382,6 +395,8 @@ def make_policy(name: str, *, seed: int = 0, driver: Driver | None = None) -> Po
     if name in MODES:
         return ControlMode(MODES[name], driver)
     if name.lower().endswith((".npz", ".zip")):  # a learned model (citygen.runner.learn)
+        if task == "traverse":
+            return ControlMode(MODES["ai"], driver, ai=LearnedNavigator(name))
         from citygen.runner.learn.policy import load_policy
 
         return load_policy(name)
