@@ -99,3 +99,44 @@ def test_nav_dynamic_local_map_marks_the_people():
     m = localmap.LocalMap()
     near = np.hypot(m.u - 1.0, m.v).reshape(m.shape) <= radius[0]
     assert np.all(grid[0][near] >= AGENT_HEIGHT - 1e-6) and not grid[1][near].any()
+
+
+def _reference_local_map(layers: StaticLayers, pose, ground, window=localmap.LOCAL_MAP):
+    """The local map by its definition, one output cell at a time: the highest elevation and
+    "all walkable" of the layers' cells under 2 x 2 sub-samples a quarter cell from the
+    cell's centre, turned with the robot's yaw."""
+    hx, hy, step = window
+    x, y, yaw = pose
+    c, s = math.cos(yaw), math.sin(yaw)
+    nu, nv = round(hx / step), round(hy / step)
+    out = np.zeros((2, nu, nv), dtype=np.float32)
+    q = step / 4
+    for i in range(nu):
+        for j in range(nv):
+            u, v = -hx / 2 + (i + 0.5) * step, -hy / 2 + (j + 0.5) * step
+            elev, walk = -np.inf, True
+            for du, dv in ((-q, -q), (-q, q), (q, -q), (q, q)):
+                px = x + c * (u + du) - s * (v + dv)
+                py = y + s * (u + du) + c * (v + dv)
+                col = int((px - layers.x0) / layers.cell)
+                row = int((py - layers.y0) / layers.cell)
+                elev = max(elev, float(layers.elevation[row, col]))
+                walk = walk and bool(layers.walkable[row, col])
+            out[0, i, j] = np.clip(np.float32(elev) - np.float32(ground), -localmap.MAX_ELEVATION,
+                                   localmap.MAX_ELEVATION)  # fmt: skip
+            out[1, i, j] = walk
+    return out
+
+
+def test_the_vectorised_local_map_is_its_definition_cell_by_cell():
+    rng = np.random.default_rng(3)
+    elev = rng.uniform(-1.0, 3.0, (120, 120)).astype(np.float32)
+    walk = rng.uniform(size=(120, 120)) < 0.85
+    layers = with_margin(StaticLayers(elev, walk, 0.0, 0.0, 0.1))
+    m = LocalMap()
+    for _ in range(6):
+        pose = (*rng.uniform(1.0, 11.0, 2), rng.uniform(-math.pi, math.pi))
+        ground = float(rng.uniform(-0.3, 0.3))
+        got, want = m(layers, pose, ground), _reference_local_map(layers, pose, ground)
+        # Sub-samples on a cell's edge may round either way: allow a handful of cells.
+        assert np.count_nonzero(got != want) <= 4, pose

@@ -118,9 +118,9 @@ class LocalMap:
         v = -hy / 2 + (np.arange(self.shape[1]) + 0.5) * step
         self.step = step
         self.u, self.v = (a.ravel() for a in np.meshgrid(u, v, indexing="ij"))  # cell centres
-        q = step / 4  # 2 x 2 sub-samples per cell, a pooled cell apart
-        su = (self.u[:, None] + np.array([-q, -q, q, q])).ravel()
-        sv = (self.v[:, None] + np.array([-q, q, -q, q])).ravel()
+        q = step / 4  # 2 x 2 sub-samples per cell, a pooled cell apart: 4 blocks of all cells
+        su = (np.array([-q, -q, q, q])[:, None] + self.u[None, :]).ravel()
+        sv = (np.array([-q, q, -q, q])[:, None] + self.v[None, :]).ravel()
         self._sub = (su, sv)
 
     def __call__(
@@ -136,13 +136,27 @@ class LocalMap:
         c, s = math.cos(yaw), math.sin(yaw)
         su, sv = self._sub
         inv = 1.0 / layers.cell
-        col = ((x - layers.x0) * inv + (c * inv) * su - (s * inv) * sv).astype(np.int64)
-        row = ((y - layers.y0) * inv + (s * inv) * su + (c * inv) * sv).astype(np.int64)
-        # Inside the margin of static_layers, indices are never negative (astype truncates).
-        flat = row * layers.elevation.shape[1] + col
-        n = self.u.size
-        elev = np.take(layers.elevation, flat, mode="clip").reshape(n, 4).max(axis=1) - np.float32(ground)
-        walk = np.take(layers.walkable, flat, mode="clip").reshape(n, 4).all(axis=1)
+        cols = layers.elevation.shape[1]
+        # Row-major flat indices of the sub-samples; inside the margin of static_layers they
+        # are never negative (astype truncates). Fewest passes over the 4 x H x W samples.
+        col = su * (c * inv)
+        col += (x - layers.x0) * inv
+        col -= sv * (s * inv)
+        row = su * (s * inv)
+        row += (y - layers.y0) * inv
+        row += sv * (c * inv)
+        flat = row.astype(np.int64)
+        flat *= cols
+        flat += col.astype(np.int64)
+        e = np.take(layers.elevation, flat, mode="clip").reshape(4, -1)
+        elev = np.maximum(e[0], e[1])
+        np.maximum(elev, e[2], out=elev)
+        np.maximum(elev, e[3], out=elev)
+        elev -= np.float32(ground)
+        w = np.take(layers.walkable, flat, mode="clip").reshape(4, -1)
+        walk = w[0] & w[1]
+        walk &= w[2]
+        walk &= w[3]
         if agents is not None and len(agents[0]):
             xy, radius = agents
             du, dv = xy[:, 0] - x, xy[:, 1] - y
@@ -154,8 +168,10 @@ class LocalMap:
                 elev[hit] = np.maximum(elev[hit], AGENT_HEIGHT)
                 walk[hit] = False
         out = np.empty((2, *self.shape), dtype=np.float32)
-        out[0] = np.clip(elev, -MAX_ELEVATION, MAX_ELEVATION).reshape(self.shape)
-        out[1] = walk.reshape(self.shape)
+        flat_out = out.reshape(2, -1)
+        np.maximum(elev, -MAX_ELEVATION, out=flat_out[0])
+        np.minimum(flat_out[0], MAX_ELEVATION, out=flat_out[0])
+        flat_out[1] = walk
         return out
 
 
