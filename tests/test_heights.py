@@ -653,3 +653,31 @@ def test_the_gallery_renders_every_tile_kind(tmp_path):
     committed = ROOT / "docs" / "terrain_tiles.png"
     assert committed.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert committed.stat().st_size < 300_000
+
+
+def test_the_runners_ground_raster_is_height_at_within_a_cell():
+    """The runner's height map and servo read the scene's 5 cm ground raster (bilinear): on
+    slopes and rough ground within a centimetre of :func:`height_at`, exact at the cells'
+    centres; a stair's edge becomes a ramp one cell wide."""
+    from citygen.runner.bench import make_env
+
+    env = make_env("nav-static", robot="quadruped")
+    for index in range(4):
+        env.reset(seed=index, options={"index": index})
+        p = env.unwrapped.prepared
+        assert p.fine_ground
+        grid = p.occupancy.grid
+        rng = np.random.default_rng(index)
+        (x0, y0), (x1, y1) = p.scene.bounds.min, p.scene.bounds.max
+        xs, ys = rng.uniform(x0 + 0.1, x1 - 0.1, 2000), rng.uniform(y0 + 0.1, y1 - 0.1, 2000)
+        raster = p.ground(xs, ys)
+        exact = height_at(p.scene, xs, ys)
+        err = np.abs(raster - exact)
+        assert np.percentile(err, 95) < 0.01
+        assert err.max() <= 0.25  # a stair riser or a curb smeared over one cell
+        one_by_one = [p.ground_at(x, y) for x, y in zip(xs[:50], ys[:50], strict=True)]
+        assert one_by_one == pytest.approx(raster[:50])
+        cx = np.repeat(grid.xs()[7::37], grid.ys()[7::37].size)
+        cy = np.tile(grid.ys()[7::37], grid.xs()[7::37].size)
+        assert p.ground(cx, cy) == pytest.approx(height_at(p.scene, cx, cy), abs=1e-6)
+    env.close()

@@ -81,6 +81,46 @@ class Grid:
         row, col = cell
         return (self.x0 + (col + 0.5) * self.resolution, self.y0 + (row + 0.5) * self.resolution)
 
+    def bilinear(self, values: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+        """``values`` (one per cell, at the cell centres) interpolated bilinearly at the
+        points ``(xs, ys)`` (m); points beyond the outermost centres take the edge's values.
+
+        >>> g = Grid(0.0, 0.0, 1.0, 2, 2)
+        >>> g.bilinear(np.array([[0.0, 1.0], [2.0, 3.0]]), np.array([1.0, 9.0]), np.array([1.0, 0.0]))
+        array([1.5, 1. ])
+        """
+        rows, cols = self.shape
+        flat = np.asarray(values, dtype=np.float64).ravel()
+        inv = 1.0 / self.resolution
+        # Fractional cell-centre coordinates, clamped a hair inside the last centre so that
+        # the corner cells (i, i + 1) always exist; in place: this runs every control step.
+        fx = np.multiply(xs, inv, dtype=np.float64)
+        fx -= self.x0 * inv + 0.5
+        np.clip(fx, 0.0, max(cols - 1 - 1e-9, 0.0), out=fx)
+        fy = np.multiply(ys, inv, dtype=np.float64)
+        fy -= self.y0 * inv + 0.5
+        np.clip(fy, 0.0, max(rows - 1 - 1e-9, 0.0), out=fy)
+        ix, iy = fx.astype(np.intp), fy.astype(np.intp)
+        fx -= ix
+        fy -= iy
+        i = iy * cols
+        i += ix
+        dx, dy = (1 if cols > 1 else 0), (cols if rows > 1 else 0)
+        a = flat[i]
+        top = flat[i + dx]
+        top -= a
+        top *= fx
+        top += a
+        b = flat[i + dy]
+        bottom = flat[i + (dy + dx)]
+        bottom -= b
+        bottom *= fx
+        bottom += b
+        bottom -= top
+        bottom *= fy
+        bottom += top
+        return bottom
+
     def window(self, bounds: Sequence[float]) -> tuple[slice, slice]:
         """Rows and columns whose centres can lie in ``(xmin, ymin, xmax, ymax)``."""
         xmin, ymin, xmax, ymax = bounds

@@ -13,7 +13,8 @@ appendix: the action is ``[v, w]`` in [-1, 1], scaled to the robot's maximum for
 and yaw rate, held for one control step of :data:`NAV_DT` s; the observation is a dict
 with ``goal`` (the goal in the robot's frame, m), ``velocity`` (``[vx, vy, wz]`` in the
 robot's frame) and ``height_map`` (ground heights relative to the robot's feet on a
-1.6 m x 1.0 m grid around it, every 0.1 m, from :func:`citygen.height_at`), plus ``depth``
+1.6 m x 1.0 m grid around it, every 0.1 m, interpolated in the scene's 5 cm elevation
+raster of :func:`citygen.height_at`), plus ``depth``
 and ``rgb`` (MuJoCo renderer, ``image_size`` square, off unless asked) and ``rays``
 (ranges of :data:`RAY_COUNT` horizontal rays, off unless asked), and ``local_map``
 (elevation of everything and walkability around the robot, :mod:`citygen.runner.localmap`);
@@ -245,7 +246,7 @@ class _CitygenEnv(gymnasium.Env):
             self._live[id(prepared)] = live
             while len(self._live) > LIVE_SCENES:
                 self._live.pop(next(iter(self._live)))
-            self.prepared, self.data, self.handle, self._robot_geoms, self._foot_geoms = live
+            self.prepared, self.data, self.handle, self._robot_geoms, self._foot_geoms, self._robot_ids = live
             self.model = prepared.model
             self._substeps = max(1, round(self.dt / self.model.opt.timestep))
         self._index = index
@@ -253,18 +254,22 @@ class _CitygenEnv(gymnasium.Env):
 
     def _bind(self, prepared: Prepared) -> tuple:
         """What running ``prepared`` needs in this environment: its MjData, the robot's
-        handle and the robot's (and its feet's) geoms as masks over the model's geoms."""
+        handle, the robot's (and its feet's) geoms as masks over the model's geoms, and the
+        robot's geom ids as a set."""
         import mujoco
 
         from citygen.runner.robots import RobotHandle
 
         model = prepared.model
         handle = RobotHandle(model, self.robot)
+        if prepared.fine_ground:
+            handle.terrain = prepared  # the servo reads the 5 cm ground raster, not rays
         robot_geoms = np.zeros(model.ngeom, dtype=bool)
         robot_geoms[handle.geom_ids] = True
         foot_geoms = np.zeros(model.ngeom, dtype=bool)
         foot_geoms[handle.foot_geom_ids] = True
-        return prepared, mujoco.MjData(model), handle, robot_geoms, foot_geoms
+        robot_ids = frozenset(handle.geom_ids.tolist())
+        return prepared, mujoco.MjData(model), handle, robot_geoms, foot_geoms, robot_ids
 
     def _pick_index(self, options: dict | None) -> int:
         if options and "index" in options:
@@ -282,7 +287,8 @@ class _CitygenEnv(gymnasium.Env):
 
     def _terrain_around(self, x: float, y: float, yaw: float) -> tuple[float, np.ndarray]:
         """The ground height (m) at ``(x, y)`` and the height map's grid of ground heights (m,
-        float64, flat) around the pose ``(x, y, yaw)``, from one :func:`height_at` call and
+        float64, flat) around the pose ``(x, y, yaw)``, from the scene's 5 cm ground raster
+        (:meth:`Prepared.ground`; a city's coarser map: one :func:`height_at` call) and
         remembered for the last pose (a step asks for them several times)."""
         c = self._around
         if c is not None and c.scene is self.scene and (c.x, c.y, c.yaw) == (x, y, yaw):
@@ -292,7 +298,8 @@ class _CitygenEnv(gymnasium.Env):
         xs, ys = np.empty(u.size + 1), np.empty(u.size + 1)
         xs[:-1], ys[:-1] = x + cs * u - sn * v, y + sn * u + cs * v
         xs[-1], ys[-1] = x, y
-        z = height_at(self.scene, xs, ys)
+        prepared = self.prepared
+        z = prepared.ground(xs, ys) if prepared.fine_ground else height_at(self.scene, xs, ys)
         self._around = _Around(self.scene, x, y, yaw, float(z[-1]), z[:-1])
         return self._around.ground, self._around.grid
 
@@ -454,11 +461,15 @@ class _CitygenEnv(gymnasium.Env):
         return np.asarray(c.geom1[:n]), np.asarray(c.geom2[:n])
 
     def _touching_obstacle(self) -> bool:
-        g1, g2 = self._contacts()
-        if g1.size == 0:
+        d = self.data
+        if d.ncon == 0:
             return False
-        rg, ob = self._robot_geoms, self.prepared.obstacle_geoms
-        return bool(np.any((rg[g1] & ob[g2]) | (rg[g2] & ob[g1])))
+        # A handful of contacts: set lookups beat numpy's overhead per call.
+        robot, obstacles = self._robot_ids, self.prepared.obstacle_ids
+        return any(
+            (g1 in robot and g2 in obstacles) or (g2 in robot and g1 in obstacles)
+            for g1, g2 in d.contact.geom.tolist()
+        )
 
 
 # --- navigation ---------------------------------------------------------------------------

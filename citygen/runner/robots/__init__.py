@@ -37,8 +37,9 @@ feedback; a turn tighter than its steering allows at low speed becomes a K-turn.
 locomotion policy under the navigation policy, so they use **ideal locomotion**
 (``nav_mode == "base"``): the legs hold the stand pose by PD while a servo of forces and
 torques on the base (``data.xfrc_applied``) carries the body's weight
-:data:`HOVER_CLEARANCE` above the stand height over the ground found by a ray under the
-base, keeps the trunk level, and tracks the planar velocity ``(v, w)``. Feet then do not
+:data:`HOVER_CLEARANCE` above the stand height over the ground under the base (in the
+environments, the scene's 5 cm terrain raster, :attr:`RobotHandle.terrain`; otherwise a ray
+down through the scene), keeps the trunk level, and tracks the planar velocity ``(v, w)``. Feet then do not
 touch flat ground; legs and trunk still collide with obstacles, curbs and agents. The
 open-loop trot of :mod:`citygen.runner.gaits` is the locomotion baseline, not the
 navigation drive (it is not precise enough to track a planner's commands).

@@ -185,6 +185,12 @@ class RobotHandle:
         self._ray_down = np.array([0.0, 0.0, -1.0])
         self._ray_geom = np.zeros(1, dtype=np.int32)
         self._footprint_ground = -math.inf  # m: highest ground at the footprint's probes
+        self.terrain: Any = None
+        """Where the ground is, if known without casting rays: an object whose
+        ``ground_at(x, y)`` gives the ground's height (m) at a point (such as
+        :class:`~citygen.runner.scenes.Prepared`'s raster of the scene's terrain, a few
+        microseconds where a ray through the scene costs ~10). The servo then stands on the
+        terrain alone: objects and people under it are obstacles, not ground."""
 
     @property
     def n_joints(self) -> int:
@@ -327,6 +333,7 @@ class RobotHandle:
         ray, down, gid, mj_step = mj.mj_ray, self._ray_down, self._ray_geom, mj.mj_step
         m, stand = self.mass, r.stand_height
         fv = m * _SERVO_V
+        terrain = self.terrain
         for _ in range(nstep):
             rv += _clamp(v - rv, av)
             rw += _clamp(w - rw, aw)
@@ -336,9 +343,13 @@ class RobotHandle:
                 self._servo_inertia = self._inertia(data)
                 self._footprint_ground = self._footprint_probe(data)
             inertia = self._servo_inertia
-            dist = ray(model, data, base_pos, down, SCENE_GROUPS, 1, -1, gid)
-            if dist >= 0:
-                self._ground = float(base_pos[2]) - dist
+            if terrain is not None:
+                bx, by, _ = base_pos.tolist()
+                self._ground = terrain.ground_at(bx, by)
+            else:
+                dist = ray(model, data, base_pos, down, SCENE_GROUPS, 1, -1, gid)
+                if dist >= 0:
+                    self._ground = float(base_pos[2]) - dist
             below = self._ground if self._ground is not None else 0.0
             fg = self._footprint_ground
             target = (below if below >= fg else fg) + stand + HOVER_CLEARANCE
@@ -425,7 +436,10 @@ class RobotHandle:
         return total + self._half_inertia
 
     def _ground_at(self, data: Any, x: float, y: float, top: float) -> float:
-        """Height (m) of the first non-robot surface below ``(x, y, top)``; -inf if none."""
+        """Height (m) of the first non-robot surface below ``(x, y, top)``; -inf if none
+        (:attr:`terrain`'s ground there when it is set)."""
+        if self.terrain is not None:
+            return self.terrain.ground_at(x, y)
         point = self._ray_point
         point[:] = (x, y, top)
         dist = self._mj.mj_ray(self.model, data, point, self._ray_down, SCENE_GROUPS, 1, -1, self._ray_geom)
