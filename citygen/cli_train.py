@@ -61,8 +61,9 @@ def train(
         Path | None,
         typer.Option(
             "--init",
-            help="Start from another run's weights and observation statistics (its folder or "
-            "model.zip; same observation keys and action space), e.g. another robot's or task's policy.",
+            help="Start from another run's weights and observation statistics (its folder, "
+            "model.zip, or an exported policy.npz such as a shipped baseline, whose critic starts "
+            "fresh; same observation keys and action space), e.g. another robot's or task's policy.",
         ),
     ] = None,
 ) -> None:

@@ -501,3 +501,25 @@ def test_init_starts_from_another_runs_weights_and_a_misfit_is_one_line(run, tmp
     other.write_text(config.read_text().replace("net_arch = [32, 32]", "net_arch = [16]"))
     r = _train("--steps", 100, "--config", other, "--out", tmp_path / "bad", "--init", run["out"])
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--init" in r.stderr, r.stderr
+
+
+@pytest.mark.slow
+def test_init_from_an_exported_policy_keeps_its_actor_and_statistics(run, tmp_path):
+    """``--init policy.npz`` (a shipped baseline's kind of file) starts from its actor, encoder
+    and observation statistics; a policy for another network is one line, exit 2."""
+    config = run["config"]
+    npz = run["out"] / "policy.npz"
+    r = _train("--steps", 100, "--config", config, "--out", tmp_path / "ft", "--seed", 5, "--init", npz)
+    assert r.returncode == 0, r.stderr
+    with np.load(npz) as base, np.load(tmp_path / "ft" / "policy.npz") as tuned:
+        assert np.abs(tuned["w0"] - base["w0"]).mean() < 0.02 * np.abs(base["w0"]).mean()
+        stats = [k for k in base.files if k.startswith("obs_mean/")]
+        assert stats
+        for k in stats:  # started from the file's statistics, moved little in 100 steps
+            assert tuned[k] == pytest.approx(base[k], rel=1e-2, abs=1e-2)
+    other = tmp_path / "other.toml"
+    other.write_text(config.read_text().replace("net_arch = [32, 32]", "net_arch = [16]"))
+    r = _train("--steps", 100, "--config", other, "--out", tmp_path / "bad", "--init", npz)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--init" in r.stderr, r.stderr
+    r = _train("--steps", 100, "--config", config, "--out", tmp_path / "bad2", "--init", tmp_path / "no.npz")
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--init" in r.stderr, r.stderr

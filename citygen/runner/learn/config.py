@@ -128,7 +128,8 @@ class TrainConfig(BaseModel):
     init: str | None = Field(
         None,
         description="A run folder or model.zip whose weights and observation statistics start "
-        "this run (same observation keys and action space): fine-tune another robot's or task's policy.",
+        "this run (same observation keys and action space): fine-tune another robot's or task's policy; "
+        "or an exported policy.npz (a shipped baseline): its actor and statistics, a fresh critic.",
     )
     # CPU and bookkeeping
     torch_threads: Annotated[int, Field(ge=0, le=256)] = Field(

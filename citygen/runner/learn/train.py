@@ -256,13 +256,19 @@ def _main_thread() -> bool:
 
 def _start_from(model: Any, venv: Any, init: Path) -> None:
     """Load ``init``'s policy weights into ``model`` and its observation statistics into
-    ``venv`` (``--init``); a one-line :class:`TrainError` when they do not fit."""
+    ``venv`` (``--init``); a one-line :class:`TrainError` when they do not fit. ``init`` is a
+    run folder, a ``model.zip``, or an exported ``policy.npz`` (:func:`_start_from_policy`)."""
     import pickle
 
+    if init.suffix == ".npz":
+        _start_from_policy(model, venv, init)
+        return
     zip_ = init / "model.zip" if init.is_dir() else init
     stats = stats_of(zip_)
     if not zip_.is_file():
-        raise TrainError(f"--init: expected a run folder or model.zip saved by citygen train, got {init}")
+        raise TrainError(
+            f"--init: expected a run folder, model.zip or policy.npz saved by citygen train, got {init}"
+        )
     try:
         model.set_parameters(str(zip_), exact_match=True, device="cpu")
     except Exception as exc:  # SB3 raises bare exceptions on mismatched state dicts
@@ -279,6 +285,62 @@ def _start_from(model: Any, venv: Any, init: Path) -> None:
             )
         venv.obs_rms = saved.obs_rms
         venv.ret_rms = saved.ret_rms
+
+
+def _start_from_policy(model: Any, venv: Any, path: Path) -> None:
+    """Start from an exported policy (``citygen train``'s ``policy.npz``, or a shipped
+    baseline): its actor (hidden layers, action layer, ``log_std``), its map encoders (the
+    feature extractor the critic shares) and its observation statistics. The file holds no
+    critic: the value head starts fresh, so begin with a small learning rate (the fine-tuning
+    ``--config`` of the baselines' README)."""
+    import numpy as np
+    import torch
+
+    from citygen.runner.learn.export import read_policy
+
+    try:
+        policy = read_policy(path)
+    except (OSError, ValueError) as exc:
+        raise TrainError(f"--init: {path}: expected {exc}") from None
+    keys = list(model.observation_space.spaces)
+    if list(policy.keys) != keys:
+        raise TrainError(f"--init: {path} reads the observation keys {list(policy.keys)}, this run {keys}")
+    p = model.policy
+    layers = [m for m in p.mlp_extractor.policy_net if isinstance(m, torch.nn.Linear)] + [p.action_net]
+    pairs = [(layer.weight, w) for layer, w in zip(layers, policy.weights, strict=False)]
+    pairs += [(layer.bias, b) for layer, b in zip(layers, policy.biases, strict=False)]
+    if len(layers) != len(policy.weights):
+        raise TrainError(f"--init: {path} has {len(policy.weights)} layers, this run's actor {len(layers)}")
+    if policy.log_std is not None:
+        pairs.append((p.log_std, policy.log_std))
+    encoders = getattr(p.features_extractor, "encoders", {})
+    for key, (convs, fc_w, fc_b) in policy.encoders.items():
+        if key not in encoders:
+            raise TrainError(f"--init: {path} encodes {key!r} with a CNN, this run does not")
+        mine = [m for m in encoders[key].modules() if isinstance(m, torch.nn.Conv2d)]
+        (fc,) = [m for m in encoders[key].modules() if isinstance(m, torch.nn.Linear)]
+        if len(mine) != len(convs):
+            raise TrainError(
+                f"--init: {path}'s {key!r} encoder has {len(convs)} convolutions, this run's {len(mine)}"
+            )
+        for conv, (w, b, _) in zip(mine, convs, strict=True):
+            pairs += [(conv.weight, w), (conv.bias, b)]
+        pairs += [(fc.weight, fc_w), (fc.bias, fc_b)]
+    for param, value in pairs:
+        if tuple(param.shape) != value.shape:
+            raise TrainError(
+                f"--init: {path} does not fit this run's network "
+                f"(a {value.shape} weight for {tuple(param.shape)})"
+            )
+    with torch.no_grad():
+        for param, value in pairs:
+            param.copy_(torch.as_tensor(value))
+    for key, (mean, std) in policy.norm.items():
+        if key in getattr(venv, "obs_rms", {}):
+            rms = venv.obs_rms[key]
+            rms.mean = mean.astype(np.float64)
+            rms.var = np.square(std.astype(np.float64)) - policy.meta["epsilon"]
+            rms.count = 1e6  # statistics of a finished run: new samples move them slowly
 
 
 def _schedule(cfg: TrainConfig) -> Any:
