@@ -4,10 +4,10 @@ A city holds more than some consumers take in one body (PyBullet 3.2.7 loads the
 15,000-link URDF of urban-tra-city in about 95 s and crashes freeing it). :func:`plan`
 cuts the scene's bounds into a grid of tiles whose edges lie on the terrain grid's lines
 (so every terrain tile lies in exactly one tile), and each :class:`Piece` is the scene
-seen through one tile: its bounds, the terrain tiles inside it, the zones clipped to it
-and the objects whose position lies in it (an object is in one tile only, even where it
-overhangs the edge). :func:`write_index` writes the JSON index that lists every tile's
-file, grid cell and bounds.
+seen through one tile: its bounds, the terrain tiles inside it, the zones clipped to it,
+and the objects and terrain features whose position (a feature's centre) lies in it (each
+in one tile only, even where it overhangs the edge). :func:`write_index` writes the JSON
+index that lists every tile's file, grid cell and bounds.
 
 Tiles are named ``<name>-tile-<row>-<col>`` (``row`` along +y, ``col`` along +x, from 0,
 two digits at least) and all share the scene's world frame: load each file at the origin
@@ -48,7 +48,8 @@ class Piece:
     """``(x0, y0, x1, y1)`` in metres."""
     scene: Scene
     """The scene with its bounds set to the tile's box, its terrain cut to the tiles inside
-    the box and its zones those that overlap it (not validated: a view, not a spec)."""
+    the box (and the features whose centre lies on them) and its zones those that overlap
+    it (not validated: a view, not a spec)."""
     zones: list
     """The shapes of ``scene.zones`` clipped to the box, in the same order."""
     zone_index: list[int]
@@ -89,6 +90,14 @@ def plan(scene: Scene, side: float, zones: Sequence[shapely.Geometry]) -> list[P
     where = np.array([p.position[:2] for p in scene.placements], dtype=np.float64).reshape(-1, 2)
     pcol = np.clip(np.searchsorted(xs, where[:, 0], side="right") - 1, 0, cols - 1)
     prow = np.clip(np.searchsorted(ys, where[:, 1], side="right") - 1, 0, rows - 1)
+    # A terrain feature lies in the tile of the grid cell under its centre (as an object, in
+    # one tile only even where it overhangs the edge).
+    feature_cell = np.zeros(0, dtype=np.int64)
+    if t is not None and t.features:
+        centres = np.array([f.center for f in t.features], dtype=np.float64)
+        fc = np.clip(np.floor((centres[:, 0] - t.origin[0]) / t.tile_size), 0, t.cols - 1).astype(np.int64)
+        fr = np.clip(np.floor((centres[:, 1] - t.origin[1]) / t.tile_size), 0, t.rows - 1).astype(np.int64)
+        feature_cell = fr * t.cols + fc
     shapes = np.asarray(zones, dtype=object)
     tree = shapely.STRtree(shapes) if len(shapes) else None
     pieces = []
@@ -109,12 +118,14 @@ def plan(scene: Scene, side: float, zones: Sequence[shapely.Geometry]) -> list[P
                 r0, r1 = (np.clip(np.round((np.array(box[1::2]) - t.origin[1]) / s), 0, t.rows)).astype(int)
                 if c1 > c0 and r1 > r0:
                     ids = (np.arange(r0, r1)[:, None] * t.cols + np.arange(c0, c1)[None, :]).ravel()
+                    inside = np.flatnonzero(np.isin(feature_cell, ids)).tolist()
                     terrain = t.model_copy(
                         update={
                             "origin": (t.origin[0] + c0 * s, t.origin[1] + r0 * s),
                             "rows": int(r1 - r0),
                             "cols": int(c1 - c0),
                             "tiles": tuple(t.tiles[k] for k in ids.tolist()),
+                            "features": tuple(t.features[i] for i in inside) if t.features else t.features,
                         }
                     )
             view = scene.model_copy(

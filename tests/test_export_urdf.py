@@ -534,3 +534,42 @@ def test_a_scene_cut_into_tiles_loads_tile_by_tile_and_fits_together(street, tmp
                 assert z == pytest.approx(height_at(scene, *xy), abs=0.05), xy
     assert sorted(owner) == sorted(p.id for p in scene.placements)
     assert all(len(tiles) == 1 for tiles in owner.values())  # every object in exactly one tile
+
+
+def test_each_terrain_feature_is_in_one_tile_only(tmp_path, monkeypatch):
+    """A tiled export writes each feature once, in the tile under its centre: loading every
+    tile of a city gives each curb and step once (it used to give them once a tile)."""
+    import xml.etree.ElementTree as ET
+
+    from citygen.geometry.features import feature_boxes
+
+    features = [
+        {"id": "landing-1", "kind": "landing", "center": [3.0, 3.0], "length": 1.0, "width": 1.0,
+         "rise": 0.2},
+        {"id": "steps-1", "kind": "steps", "center": [7.0, 5.0], "length": 1.2, "width": 1.0,
+         "height": R1, "step_height": 0.15, "step_count": 3},
+        {"id": "ramp-1", "kind": "ramp", "center": [13.9, 3.0], "length": 1.0, "width": 0.8, "rise": 0.1},
+    ]  # fmt: skip
+    terrain = {
+        "origin": list(ORIGIN), "tile_size": TILE, "rows": 2, "cols": len(TILE_ROW),
+        "tiles": TILE_ROW + TILE_ROW, "features": features,
+    }  # fmt: skip
+    path = write_terrain_scene(tmp_path / "scene", terrain=terrain)
+    scene = load_scene(path)
+    monkeypatch.setattr(urdf, "MAX_LINKS", 5)
+    monkeypatch.setattr(urdf, "TILE_LINKS", 6)
+    files = export_quiet(path, tmp_path / "out")
+    entries = json.loads(files[0].read_text())["tiles"]
+    assert len(entries) > 1
+    where: dict[str, list[str]] = {}
+    boxes = 0
+    for e in entries:
+        root = ET.parse(tmp_path / "out" / e["file"]).getroot()
+        for link in root.iter("link"):
+            if link.get("name").startswith("ground/features/"):
+                boxes += len(link.findall("collision"))
+                where.setdefault(e["file"], []).append(link.get("name"))
+        box = shapely.box(*e["min"], *e["max"])
+        inside = [f for f in scene.terrain.features if box.covers(shapely.Point(f.center))]
+        assert (e["file"] in where) == bool(inside)
+    assert boxes == sum(len(feature_boxes(f)) for f in scene.terrain.features)
