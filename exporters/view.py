@@ -1,6 +1,7 @@
 """A perspective picture of a scene as MuJoCo renders it (``<name>-perspective.png``).
 
-The scene is compiled with :func:`citygen.exporters.mjcf.build` and drawn offscreen by
+The scene is compiled as :func:`citygen.exporters.mjcf.build` does (a large one in chunks,
+:func:`_compile`, the same picture sooner) and drawn offscreen by
 ``mujoco.Renderer`` from one of the model's cameras (``perspective`` or ``top``, see
 :mod:`citygen.exporters.mjcf`), so the picture shows exactly what a simulation sees.
 
@@ -75,6 +76,71 @@ def _png(pixels: np.ndarray) -> bytes:
     return buf.getvalue()
 
 
+#: Most static geoms or bodies :func:`_compile` has MuJoCo parse in one piece (see there).
+CHUNK = 4_000
+
+
+def _compile(mj: mjcf.MJCF) -> Any:
+    """The model :func:`citygen.exporters.mjcf.build` compiles, for drawing: the same geoms in
+    the same order, drawn the same, but its static geoms and bodies parsed in chunks of
+    :data:`CHUNK` and attached under one static body. MuJoCo 4.0 walks the whole tree for
+    each element it adds (google-deepmind/mujoco#3397), so a city's 130,000 geoms took
+    about 145 s to parse in one piece and take about 25 s in chunks. Raises
+    :class:`~citygen.errors.ExportError` if MuJoCo rejects the model."""
+    import warnings
+    import xml.etree.ElementTree as ET
+
+    mujoco = mjcf.import_mujoco()
+    root = ET.fromstring(mj.xml)
+    world = root.find("worldbody")
+    static = [e for e in world if e.tag == "geom" or (e.tag == "body" and e.get("mocap") is None)]
+    try:
+        if len(static) <= CHUNK:
+            return mujoco.MjModel.from_xml_string(mj.xml, dict(mj.assets))
+        for e in static:
+            world.remove(e)
+        geoms = [e for e in static if e.tag == "geom"]
+        bodies = [e for e in static if e.tag == "body"]
+        # World geoms come first in a compiled model, then the bodies (in order): keep that.
+        groups = [geoms[i : i + CHUNK] for i in range(0, len(geoms), CHUNK)]
+        groups += [bodies[i : i + CHUNK // 4] for i in range(0, len(bodies), CHUNK // 4)]
+        head = "".join(ET.tostring(e, encoding="unicode") for e in root if e.tag in ("compiler", "default"))
+        spec = mujoco.MjSpec.from_string(ET.tostring(root, encoding="unicode"), dict(mj.assets))
+        holder = mujoco.MjSpec.from_string(
+            f'<mujoco>{head}<worldbody><body name="{_HOLDER}"/></worldbody></mujoco>'
+        )
+        top = holder.body(_HOLDER)
+        previous = mujoco.get_mju_user_warning()
+        # Attached without a prefix, so that the geoms name the model's materials and meshes.
+        mujoco.set_mju_user_warning(lambda text: None if _NO_PREFIX in text else (previous or _warn)(text))
+        try:
+            for k, group in enumerate(groups):
+                text = "".join(ET.tostring(e, encoding="unicode") for e in group)
+                chunk = mujoco.MjSpec.from_string(
+                    f'<mujoco>{head}<worldbody><body name="{_HOLDER}:{k}">{text}</body></worldbody></mujoco>'
+                )
+                top.add_frame().attach_body(chunk.body(f"{_HOLDER}:{k}"), "", "")
+            spec.worldbody.add_frame().attach_body(top, "", "")
+        finally:
+            mujoco.set_mju_user_warning(previous)
+        spec.assets = dict(mj.assets)
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message=f".*{_NO_PREFIX}")
+            return spec.compile()
+    except ValueError as exc:
+        raise ExportError(f"MuJoCo rejected the exported model: {exc}") from None
+
+
+def _warn(text: str) -> None:
+    import warnings
+
+    warnings.warn(f"MuJoCo: {text}", RuntimeWarning, stacklevel=2)
+
+
+_HOLDER = "citygen:picture:static"
+_NO_PREFIX = "with an empty prefix"
+
+
 def render_array(
     scene_or_model: Any, *, size: tuple[int, int] = (640, 480), camera: str = "perspective", **options: object
 ) -> np.ndarray:
@@ -94,7 +160,7 @@ def render_array(
                 if options.get("mesh_dir") is None and folder is not None:
                     options["mesh_dir"] = folder
                 scene_or_model = scene
-        model = mjcf.build(scene_or_model, **options)
+        model = _compile(mjcf.to_mjcf(scene_or_model, **options))
     try:
         cam = model.camera(camera).id
     except KeyError:
