@@ -122,15 +122,20 @@ def obj_bytes(vertices: np.ndarray, faces: np.ndarray) -> bytes:
 class _Writer:
     """Builds the URDF tree and writes its meshes, each once, under ``out_dir/assets``."""
 
-    def __init__(self, out_dir: Path, name: str) -> None:
+    def __init__(self, out_dir: Path, name: str, assets: dict | None = None) -> None:
         self.out_dir = out_dir
+        #: Each catalog asset's meshes as already written (shared by the tiles of one export).
+        self.assets: dict[str, tuple] = {} if assets is None else assets
         self.robot = ET.Element("robot", name=name)
         self.materials: dict[str, RGBA] = {}
         self.files: dict[Path, None] = {}
         _static(ET.SubElement(self.robot, "link", name=ROOT))
 
     def mesh(self, vertices: np.ndarray, faces: np.ndarray) -> str:
-        path = shared_file(self.out_dir, obj_bytes(vertices, faces), ".obj")
+        return self.uses(shared_file(self.out_dir, obj_bytes(vertices, faces), ".obj"))
+
+    def uses(self, path: Path) -> str:
+        """Note that the file references ``path`` (a mesh under ``out_dir``); its reference."""
         self.files[path] = None
         return path.relative_to(self.out_dir).as_posix()
 
@@ -208,19 +213,41 @@ def _add_placement(w: _Writer, pl: Placement, index: int, folder: Path | None, c
             _element(link, "visual", _mesh_geometry(w.mesh(*submesh(mesh, faces)), k), material=material)
         _element(link, "collision", _mesh_geometry(w.mesh(mesh.vertices, mesh.faces), k), concave=True)
         return
-    asset = catalog_asset(pl, index)
-    visual = asset.visual_mesh()
-    names = {tuple(round(c * 255) for c in p.material.rgba): p.material.name for p in asset.parts}
-    for colour, faces in colour_groups(visual):
-        look = names.get(colour, "part")
-        material = w.material(_colour_name(look, colour), tuple(c / 255 for c in colour))
-        filename = w.mesh(*submesh(visual, faces))
-        _element(link, "visual", _mesh_geometry(filename, k), material=material)
-    for part in asset.parts:
-        _add_part(w, link, part, k, capsules)
+    if pl.asset not in w.assets:  # an asset's meshes are the same wherever it stands: made once
+        asset = catalog_asset(pl, index)
+        visual = asset.visual_mesh()
+        names = {tuple(round(c * 255) for c in p.material.rgba): p.material.name for p in asset.parts}
+        looks = []
+        for colour, faces in colour_groups(visual):
+            path = shared_file(w.out_dir, obj_bytes(*submesh(visual, faces)), ".obj")
+            look = _colour_name(names.get(colour, "part"), colour)
+            looks.append((look, tuple(c / 255 for c in colour), path))
+        hulls = [
+            None if _primitive(part, capsules) else shared_file(w.out_dir, obj_bytes(*_hull(part)), ".obj")
+            for part in asset.parts
+        ]
+        w.assets[pl.asset] = (asset, looks, hulls)
+    asset, looks, hulls = w.assets[pl.asset]
+    for name, colour, path in looks:
+        _element(link, "visual", _mesh_geometry(w.uses(path), k), material=w.material(name, colour))
+    for part, hull in zip(asset.parts, hulls, strict=True):
+        _add_part(w, link, part, k, capsules, hull)
 
 
-def _add_part(w: _Writer, link: ET.Element, part: Part, k: float, capsules: str) -> None:
+def _primitive(part: Part, capsules: str) -> bool:
+    """Whether a part is written as a URDF primitive (else as its convex mesh)."""
+    return isinstance(part, Box | Cylinder) or (isinstance(part, Capsule) and capsules == "pybullet")
+
+
+def _hull(part: Part) -> tuple[np.ndarray, np.ndarray]:
+    hull = part.to_trimesh()
+    return hull.vertices, hull.faces
+
+
+def _add_part(
+    w: _Writer, link: ET.Element, part: Part, k: float, capsules: str, hull: Path | None = None
+) -> None:
+    """A part's collision element; ``hull`` is its convex mesh's file if already written."""
     if isinstance(part, Box):
         size = {"size": _v(np.asarray(part.size) * k)}
         _element(link, "collision", ("box", size), np.asarray(part.pos) * k, part.yaw)
@@ -231,8 +258,8 @@ def _add_part(w: _Writer, link: ET.Element, part: Part, k: float, capsules: str)
         size = {"radius": _f(part.radius * k), "length": _f(part.length * k)}
         _element(link, "collision", ("capsule", size), np.asarray(part.pos) * k)
     else:  # a convex mesh, or a capsule as its convex mesh
-        hull = part.to_trimesh()
-        _element(link, "collision", _mesh_geometry(w.mesh(hull.vertices, hull.faces), k))
+        filename = w.mesh(*_hull(part)) if hull is None else w.uses(hull)
+        _element(link, "collision", _mesh_geometry(filename, k))
 
 
 # --- the ground ---------------------------------------------------------------------------
@@ -496,7 +523,7 @@ def _write(
         terrain = (
             None if cells is None else view.terrain.tile_size / np.maximum(cells[piece.terrain_tiles], 1)
         )
-    w = _Writer(out, name)
+    w = _Writer(out, name, options.get("assets"))
     _add_ground(w, view, piece.zones, visual, options["thickness"])
     _add_terrain(w, view, piece.zones, friction[piece.terrain_tiles], terrain, options["floor"])
     for i in piece.placements:
@@ -588,7 +615,7 @@ def export(scene: Scene | str | Path, out_dir: str | Path, **options: Any) -> li
     resolution = resolution_option(options.get("resolution", AUTO), "urdf")
     settings = {
         "resolution": AUTO if resolution is None else resolution,
-        "thickness": thickness, "floor": floor, "capsules": capsules,
+        "thickness": thickness, "floor": floor, "capsules": capsules, "assets": {},
     }  # fmt: skip
     out = Path(out_dir)
     polys = zone_polygons(model)
