@@ -171,7 +171,7 @@ def _run(unit: _Unit) -> Iterator[Event]:
 #: on urban-tra-city, ``benchmarks/bench_export.py --all-formats``): :func:`_parallel` starts
 #: the longest first so that the last to finish is a short one.
 COST = MappingProxyType(
-    {"urdf": 135.0, "view": 120.0, "glb": 51.0, "html": 43.0, "occupancy": 32.0, "mjcf": 28.0, "usd": 20.0,
+    {"urdf": 76.0, "view": 70.0, "glb": 62.0, "html": 54.0, "occupancy": 36.0, "mjcf": 36.0, "usd": 26.0,
      "picture": 3.0}
 )  # fmt: skip
 
