@@ -128,7 +128,6 @@ class Prepared:
     """agent id -> mocap id."""
     _fields: dict = field(default_factory=dict)
     _routes: dict = field(default_factory=dict)
-    _heights: np.ndarray | None = None
 
     @functools.cached_property
     def obstacle_ids(self) -> frozenset[int]:
@@ -144,16 +143,16 @@ class Prepared:
     def ground(self, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
         """Ground heights (m, float64) at the points ``(xs, ys)``: the occupancy map's
         heights (:func:`~citygen.geometry.terrain.height_at` at its cell centres)
-        interpolated bilinearly, as an elevation map of that resolution gives them (within
-        a millimetre of ``height_at`` on slopes and rough ground at 5 cm; a stair's edge
-        is a ramp one cell wide). Tens of microseconds for a height map's points, where
-        evaluating the terrain costs hundreds."""
-        return self.occupancy.grid.bilinear(self._ground_raster(), xs, ys)
+        interpolated bilinearly, as an elevation map of that resolution gives them (at 5 cm,
+        95 % of points within a centimetre of ``height_at``; a stair's edge is a ramp one
+        cell wide). Tens of microseconds for a height map's points, where evaluating the
+        terrain costs hundreds."""
+        return self.occupancy.grid.bilinear(self._raster, xs, ys)
 
     def ground_at(self, x: float, y: float) -> float:
         """:meth:`ground` at one point, as a float, in plain Python (a few microseconds: the
         ideal-locomotion servo asks at every physics step)."""
-        h = self._ground_raster()
+        h = self._raster
         g = self.occupancy.grid
         rows, cols = h.shape
         fx = min(max((x - g.x0) / g.resolution - 0.5, 0.0), max(cols - 1 - 1e-9, 0.0))
@@ -166,10 +165,10 @@ class Prepared:
         top = a + fx * (b - a)
         return top + fy * (c + fx * (d - c) - top)
 
-    def _ground_raster(self) -> np.ndarray:
-        if self._heights is None:
-            self._heights = self.occupancy.heights.astype(np.float64)
-        return self._heights
+    @functools.cached_property
+    def _raster(self) -> np.ndarray:
+        """The occupancy map's heights as float64 (what :meth:`ground` interpolates)."""
+        return self.occupancy.heights.astype(np.float64)
 
     def field(self, goal: tuple[float, float], tolerance: float | None = None):
         """The :class:`~citygen.runner.planning.DistanceField` to ``goal`` (its region of
