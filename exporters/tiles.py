@@ -58,6 +58,10 @@ class Piece:
     """Indices (in the whole scene) of the objects whose position lies in the tile."""
     terrain_tiles: np.ndarray
     """Indices (in the whole scene's grid) of ``scene.terrain.tiles``, in their order."""
+    features: tuple | None = None
+    """The terrain features the tile holds (those whose centre lies on its terrain tiles;
+    ``scene.terrain.features`` also has those reaching into it, for the ground they raise),
+    or None: all of ``scene.terrain.features``."""
 
     def name(self, stem: str, width: int) -> str:
         return f"{stem}-tile-{self.row:0{width}d}-{self.col:0{width}d}"
@@ -92,12 +96,17 @@ def plan(scene: Scene, side: float, zones: Sequence[shapely.Geometry]) -> list[P
     prow = np.clip(np.searchsorted(ys, where[:, 1], side="right") - 1, 0, rows - 1)
     # A terrain feature lies in the tile of the grid cell under its centre (as an object, in
     # one tile only even where it overhangs the edge).
-    feature_cell = np.zeros(0, dtype=np.int64)
+    feature_cell, reach = np.zeros(0, dtype=np.int64), np.zeros((0, 4))
     if t is not None and t.features:
         centres = np.array([f.center for f in t.features], dtype=np.float64)
         fc = np.clip(np.floor((centres[:, 0] - t.origin[0]) / t.tile_size), 0, t.cols - 1).astype(np.int64)
         fr = np.clip(np.floor((centres[:, 1] - t.origin[1]) / t.tile_size), 0, t.rows - 1).astype(np.int64)
         feature_cell = fr * t.cols + fc
+        yaw = np.array([f.yaw for f in t.features])
+        half_l, half_w = np.array([[f.length / 2, f.width / 2] for f in t.features]).T
+        ex = np.abs(np.cos(yaw)) * half_l + np.abs(np.sin(yaw)) * half_w
+        ey = np.abs(np.sin(yaw)) * half_l + np.abs(np.cos(yaw)) * half_w
+        reach = np.c_[centres[:, 0] - ex, centres[:, 1] - ey, centres[:, 0] + ex, centres[:, 1] + ey]
     shapes = np.asarray(zones, dtype=object)
     tree = shapely.STRtree(shapes) if len(shapes) else None
     pieces = []
@@ -111,21 +120,28 @@ def plan(scene: Scene, side: float, zones: Sequence[shapely.Geometry]) -> list[P
             clipped = shapely.intersection(shapes[hit], square) if len(hit) else np.zeros(0, dtype=object)
             keep = [i for i, g in zip(hit.tolist(), clipped, strict=True) if g.area > 1e-9]
             shapes_kept = [g for g in clipped if g.area > 1e-9]
-            terrain, ids = None, np.zeros(0, dtype=np.int64)
+            terrain, ids, owned = None, np.zeros(0, dtype=np.int64), None
             if t is not None:
                 s = t.tile_size
                 c0, c1 = (np.clip(np.round((np.array(box[0::2]) - t.origin[0]) / s), 0, t.cols)).astype(int)
                 r0, r1 = (np.clip(np.round((np.array(box[1::2]) - t.origin[1]) / s), 0, t.rows)).astype(int)
                 if c1 > c0 and r1 > r0:
                     ids = (np.arange(r0, r1)[:, None] * t.cols + np.arange(c0, c1)[None, :]).ravel()
-                    inside = np.flatnonzero(np.isin(feature_cell, ids)).tolist()
+                    own = np.isin(feature_cell, ids)
+                    near = (reach[:, 0] < box[2]) & (reach[:, 2] > box[0]) & (reach[:, 1] < box[3])
+                    near &= reach[:, 3] > box[1]
+                    owned = tuple(t.features[i] for i in np.flatnonzero(own).tolist()) if t.features else None
                     terrain = t.model_copy(
                         update={
                             "origin": (t.origin[0] + c0 * s, t.origin[1] + r0 * s),
                             "rows": int(r1 - r0),
                             "cols": int(c1 - c0),
                             "tiles": tuple(t.tiles[k] for k in ids.tolist()),
-                            "features": tuple(t.features[i] for i in inside) if t.features else t.features,
+                            "features": (
+                                tuple(t.features[i] for i in np.flatnonzero(own | near).tolist())
+                                if t.features
+                                else t.features
+                            ),
                         }
                     )
             view = scene.model_copy(
@@ -136,7 +152,7 @@ def plan(scene: Scene, side: float, zones: Sequence[shapely.Geometry]) -> list[P
                 }
             )
             members = np.flatnonzero((prow == r) & (pcol == c)).tolist()
-            pieces.append(Piece(r, c, box, view, shapes_kept, keep, members, ids))
+            pieces.append(Piece(r, c, box, view, shapes_kept, keep, members, ids, owned))
     return pieces
 
 
