@@ -5,8 +5,9 @@ A city holds more than some consumers take in one body (PyBullet 3.2.7 loads the
 cuts the scene's bounds into a grid of tiles whose edges lie on the terrain grid's lines
 (so every terrain tile lies in exactly one tile), and each :class:`Piece` is the scene
 seen through one tile: its bounds, the terrain tiles inside it, the zones clipped to it,
-and the objects and terrain features whose position (a feature's centre) lies in it (each
-in one tile only, even where it overhangs the edge). :func:`write_index` writes the JSON
+the objects whose position lies in it (each in one tile only, even where it overhangs the
+edge) and the terrain features that reach into it (a curb across a tile's edge is in both
+tiles: a tile loaded alone has all of its ground). :func:`write_index` writes the JSON
 index that lists every tile's file, grid cell and bounds.
 
 Tiles are named ``<name>-tile-<row>-<col>`` (``row`` along +y, ``col`` along +x, from 0,
@@ -48,8 +49,8 @@ class Piece:
     """``(x0, y0, x1, y1)`` in metres."""
     scene: Scene
     """The scene with its bounds set to the tile's box, its terrain cut to the tiles inside
-    the box (and the features whose centre lies on them) and its zones those that overlap
-    it (not validated: a view, not a spec)."""
+    the box (and the features reaching into it) and its zones those that overlap it (not
+    validated: a view, not a spec)."""
     zones: list
     """The shapes of ``scene.zones`` clipped to the box, in the same order."""
     zone_index: list[int]
@@ -59,9 +60,8 @@ class Piece:
     terrain_tiles: np.ndarray
     """Indices (in the whole scene's grid) of ``scene.terrain.tiles``, in their order."""
     features: tuple | None = None
-    """The terrain features the tile holds (those whose centre lies on its terrain tiles;
-    ``scene.terrain.features`` also has those reaching into it, for the ground they raise),
-    or None: all of ``scene.terrain.features``."""
+    """The terrain features the tile holds: those reaching into its box, as in
+    ``scene.terrain.features`` (None: all of the scene's)."""
 
     def name(self, stem: str, width: int) -> str:
         return f"{stem}-tile-{self.row:0{width}d}-{self.col:0{width}d}"
@@ -120,7 +120,7 @@ def plan(scene: Scene, side: float, zones: Sequence[shapely.Geometry]) -> list[P
             clipped = shapely.intersection(shapes[hit], square) if len(hit) else np.zeros(0, dtype=object)
             keep = [i for i, g in zip(hit.tolist(), clipped, strict=True) if g.area > 1e-9]
             shapes_kept = [g for g in clipped if g.area > 1e-9]
-            terrain, ids, owned = None, np.zeros(0, dtype=np.int64), None
+            terrain, ids, held = None, np.zeros(0, dtype=np.int64), None
             if t is not None:
                 s = t.tile_size
                 c0, c1 = (np.clip(np.round((np.array(box[0::2]) - t.origin[0]) / s), 0, t.cols)).astype(int)
@@ -130,18 +130,19 @@ def plan(scene: Scene, side: float, zones: Sequence[shapely.Geometry]) -> list[P
                     own = np.isin(feature_cell, ids)
                     near = (reach[:, 0] < box[2]) & (reach[:, 2] > box[0]) & (reach[:, 1] < box[3])
                     near &= reach[:, 3] > box[1]
-                    owned = tuple(t.features[i] for i in np.flatnonzero(own).tolist()) if t.features else None
+                    # Every feature reaching in: the ground of a tile loaded alone is whole.
+                    held = (
+                        tuple(t.features[i] for i in np.flatnonzero(own | near).tolist())
+                        if t.features
+                        else None
+                    )
                     terrain = t.model_copy(
                         update={
                             "origin": (t.origin[0] + c0 * s, t.origin[1] + r0 * s),
                             "rows": int(r1 - r0),
                             "cols": int(c1 - c0),
                             "tiles": tuple(t.tiles[k] for k in ids.tolist()),
-                            "features": (
-                                tuple(t.features[i] for i in np.flatnonzero(own | near).tolist())
-                                if t.features
-                                else t.features
-                            ),
+                            "features": held if t.features else t.features,
                         }
                     )
             view = scene.model_copy(
@@ -152,7 +153,7 @@ def plan(scene: Scene, side: float, zones: Sequence[shapely.Geometry]) -> list[P
                 }
             )
             members = np.flatnonzero((prow == r) & (pcol == c)).tolist()
-            pieces.append(Piece(r, c, box, view, shapes_kept, keep, members, ids, owned))
+            pieces.append(Piece(r, c, box, view, shapes_kept, keep, members, ids, held))
     return pieces
 
 

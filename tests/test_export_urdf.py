@@ -536,9 +536,10 @@ def test_a_scene_cut_into_tiles_loads_tile_by_tile_and_fits_together(street, tmp
     assert all(len(tiles) == 1 for tiles in owner.values())  # every object in exactly one tile
 
 
-def test_each_terrain_feature_is_in_one_tile_only(tmp_path, monkeypatch):
-    """A tiled export writes each feature once, in the tile under its centre: loading every
-    tile of a city gives each curb and step once (it used to give them once a tile)."""
+def test_each_terrain_feature_is_in_the_tiles_it_reaches_into_only(tmp_path, monkeypatch):
+    """A tiled export writes each feature in the tiles its footprint reaches into (a tile
+    loaded alone has all of its ground; a curb across an edge is in both), not in every tile
+    (as it once did: the city's 25 tiles each held all 15,000 curb slabs)."""
     import xml.etree.ElementTree as ET
 
     from citygen.geometry.features import feature_boxes
@@ -562,7 +563,7 @@ def test_each_terrain_feature_is_in_one_tile_only(tmp_path, monkeypatch):
     entries = json.loads(files[0].read_text())["tiles"]
     assert len(entries) > 1
     where: dict[str, list[str]] = {}
-    boxes = 0
+    boxes = expected = 0
     for e in entries:
         root = ET.parse(tmp_path / "out" / e["file"]).getroot()
         for link in root.iter("link"):
@@ -570,6 +571,24 @@ def test_each_terrain_feature_is_in_one_tile_only(tmp_path, monkeypatch):
                 boxes += len(link.findall("collision"))
                 where.setdefault(e["file"], []).append(link.get("name"))
         box = shapely.box(*e["min"], *e["max"])
-        inside = [f for f in scene.terrain.features if box.covers(shapely.Point(f.center))]
-        assert (e["file"] in where) == bool(inside)
-    assert boxes == sum(len(feature_boxes(f)) for f in scene.terrain.features)
+        reaching = [f for f in scene.terrain.features if _footprint(f).intersection(box).area > 1e-9]
+        assert (e["file"] in where) == bool(reaching)
+        expected += sum(len(feature_boxes(f)) for f in reaching)
+    assert boxes == expected
+    crossing = _footprint(features_by_id(scene)["ramp-1"])  # 13.4-14.4 m: across the edge at 14 m
+    assert sum(shapely.box(*e["min"], *e["max"]).intersection(crossing).area > 0 for e in entries) == 2
+
+
+def _footprint(feature):
+    """A terrain feature's footprint (its rotated rectangle), a shapely polygon."""
+    import shapely.affinity
+
+    x, y = feature.center
+    rect = shapely.box(
+        x - feature.length / 2, y - feature.width / 2, x + feature.length / 2, y + feature.width / 2
+    )
+    return shapely.affinity.rotate(rect, feature.yaw, origin=(x, y), use_radians=True)
+
+
+def features_by_id(scene):
+    return {f.id: f for f in scene.terrain.features}
