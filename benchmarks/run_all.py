@@ -58,7 +58,7 @@ ARGS: dict[str, list[str]] = {
 """Arguments per script (by file stem); scripts not listed run with none."""
 EXTRA = ("profile_generate", "profile_export")
 """Scripts besides ``bench_*.py`` that the suite runs (by file stem), last."""
-TIMEOUT_S = 900
+TIMEOUT_S = 1800
 """A script running longer than this is stopped and reported as failed."""
 PACKAGES = (
     "citygen",
@@ -163,8 +163,10 @@ TARGETS = (
            "orca_circle_100_citygen_over_rvo2", "<=", 2, "x"),
     Target(17, "ORCA per agent-step over RVO2 (pyrvo), 100 agents, random", "bench_orca",
            "orca_random_100_citygen_over_rvo2", "<=", 2, "x"),
+    Target(18, "urban-tra-city, citygen export --format all (every core), wall time", "bench_export",
+           "tra_city_all_wall_s", "<=", 300, "s"),
 )  # fmt: skip
-"""Every numeric target of issues 3 to 9 and 17 (issue 8 asks for ratios, not bounds: they are
+"""Every numeric target of issues 3 to 9, 17 and 18 (issue 8 asks for ratios, not bounds: they are
 in the runner plot and table)."""
 
 
