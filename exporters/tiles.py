@@ -59,9 +59,6 @@ class Piece:
     """Indices (in the whole scene) of the objects whose position lies in the tile."""
     terrain_tiles: np.ndarray
     """Indices (in the whole scene's grid) of ``scene.terrain.tiles``, in their order."""
-    features: tuple | None = None
-    """The terrain features the tile holds: those reaching into its box, as in
-    ``scene.terrain.features`` (None: all of the scene's)."""
 
     def name(self, stem: str, width: int) -> str:
         return f"{stem}-tile-{self.row:0{width}d}-{self.col:0{width}d}"
@@ -153,7 +150,7 @@ def plan(scene: Scene, side: float, zones: Sequence[shapely.Geometry]) -> list[P
                 }
             )
             members = np.flatnonzero((prow == r) & (pcol == c)).tolist()
-            pieces.append(Piece(r, c, box, view, shapes_kept, keep, members, ids, held))
+            pieces.append(Piece(r, c, box, view, shapes_kept, keep, members, ids))
     return pieces
 
 

@@ -429,11 +429,9 @@ def _split_flat(
 
 
 def _add_terrain(
-    w: _Writer, scene: Scene, polys: list, friction: np.ndarray, resolution: float | None, floor: float,
-    features: Sequence | None = None,
-) -> None:  # fmt: skip
-    """The terrain's links, one per friction coefficient (``features``: the terrain features
-    to write, default all of the terrain's). ``friction`` is each tile's
+    w: _Writer, scene: Scene, polys: list, friction: np.ndarray, resolution: float | None, floor: float
+) -> None:
+    """The terrain's links, one per friction coefficient. ``friction`` is each tile's
     (:func:`tile_friction`); flat tiles without a friction of their own are instead cut
     where the zone changes (:func:`_split_flat`), each piece a slab with its zone's."""
     t = scene.terrain
@@ -478,7 +476,7 @@ def _add_terrain(
             _element(link, "collision", _mesh_geometry(filename), concave=True)
     # Terrain features: oriented boxes, one link per friction.
     groups: dict[float, list] = {}
-    for f in (t.features if features is None else features) or ():
+    for f in t.features or ():
         groups.setdefault(FRICTION[f.material or "concrete"], []).append(f)
     for g, (mu, group) in enumerate(groups.items()):
         link = w.link(f"ground/features/{g}", friction=mu)
@@ -527,9 +525,7 @@ def _write(
         )
     w = _Writer(out, name, options.get("assets"))
     _add_ground(w, view, piece.zones, visual, options["thickness"])
-    _add_terrain(
-        w, view, piece.zones, friction[piece.terrain_tiles], terrain, options["floor"], piece.features
-    )
+    _add_terrain(w, view, piece.zones, friction[piece.terrain_tiles], terrain, options["floor"])
     for i in piece.placements:
         _add_placement(w, placements[i], i, folder, options["capsules"])
     path = out / f"{name}.urdf"
