@@ -523,3 +523,28 @@ def test_init_from_an_exported_policy_keeps_its_actor_and_statistics(run, tmp_pa
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--init" in r.stderr, r.stderr
     r = _train("--steps", 100, "--config", config, "--out", tmp_path / "bad2", "--init", tmp_path / "no.npz")
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--init" in r.stderr, r.stderr
+
+
+@pytest.mark.slow
+def test_a_critic_warmup_moves_the_critic_alone(run, tmp_path):
+    """``critic_warmup``: started from an exported policy (no critic), the first steps train
+    the fresh value head while every actor and encoder weight stays bit for bit; after the
+    warm-up the actor learns again."""
+    npz = run["out"] / "policy.npz"
+    config = tmp_path / "warm.toml"
+    config.write_text(run["config"].read_text() + "critic_warmup = 200\n")
+    r = _train("--steps", 200, "--config", config, "--out", tmp_path / "warm", "--seed", 6, "--init", npz)
+    assert r.returncode == 0, r.stderr
+    actor = [k for k in np.load(npz).files if k != "meta" and not k.startswith("obs_")]
+    assert {"w0", "log_std", "enc/local_map/fc/w"} <= set(actor)
+    with np.load(npz) as base, np.load(tmp_path / "warm" / "policy.npz") as warm:
+        for k in actor:
+            assert np.array_equal(warm[k], base[k]), k
+    logs = list((tmp_path / "warm" / "logs").glob("run-*/progress.csv"))
+    with open(logs[0], newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r.get("train/value_loss")]
+    assert rows and all(float(r["train/approx_kl"]) == 0.0 for r in rows)
+    r = _train("--steps", 200, "--config", run["config"], "--out", tmp_path / "cold", "--seed", 6, "--init", npz)
+    assert r.returncode == 0, r.stderr
+    with np.load(npz) as base, np.load(tmp_path / "cold" / "policy.npz") as cold:
+        assert not np.array_equal(cold["w0"], base["w0"])

@@ -131,6 +131,13 @@ class TrainConfig(BaseModel):
         "this run (same observation keys and action space): fine-tune another robot's or task's policy; "
         "or an exported policy.npz (a shipped baseline): its actor and statistics, a fresh critic.",
     )
+    critic_warmup: Annotated[int, Field(ge=0)] = Field(
+        0,
+        description="Steps at the start of the run (counted from step 0) in which only the critic "
+        "learns: the actor, its log_std and the map encoder they share stay as they are. With "
+        "--init FILE.npz (which holds no critic) the fresh value head first learns the actor's "
+        "returns, so its first advantages do not undo the actor.",
+    )
     # CPU and bookkeeping
     torch_threads: Annotated[int, Field(ge=0, le=256)] = Field(
         1, description="PyTorch threads (0: PyTorch's default); the sub-environments use the other cores."

@@ -125,6 +125,7 @@ def _callbacks(cfg: TrainConfig, out: Path, venv: Any, tracker: _Tracker, bar: A
 
         def _on_rollout_end(self) -> None:
             n = self.model.num_timesteps
+            freeze_actor(self.model.policy, n <= cfg.critic_warmup)  # for the update of the rollout just ended
             row = {
                 "steps": n,
                 "seconds": round(seconds0 + time.perf_counter() - tracker.t0, 2),
@@ -144,6 +145,24 @@ def _callbacks(cfg: TrainConfig, out: Path, venv: Any, tracker: _Tracker, bar: A
                 w.writerow(row)
 
     return Callback()
+
+
+def actor_parameters(policy: Any) -> list[Any]:
+    """The parameters of an SB3 actor-critic policy that the critic does not own: the
+    feature extractor (shared with the critic, as citygen trains), the actor's hidden layers,
+    its action layer and ``log_std``."""
+    modules = [policy.features_extractor, policy.mlp_extractor.policy_net, policy.action_net]
+    found = [p for m in modules for p in m.parameters()]
+    if hasattr(policy, "pi_features_extractor") and policy.pi_features_extractor is not policy.features_extractor:
+        found += list(policy.pi_features_extractor.parameters())
+    return [*found, *([policy.log_std] if hasattr(policy, "log_std") else [])]
+
+
+def freeze_actor(policy: Any, frozen: bool) -> None:
+    """Hold the actor still (``critic_warmup``): its parameters get no gradient, so PPO's
+    update (Adam skips a parameter without one) moves the critic alone."""
+    for param in actor_parameters(policy):
+        param.requires_grad_(not frozen)
 
 
 def save_checkpoint(model: Any, venv: Any, out: Path, keep: int) -> None:
