@@ -544,7 +544,8 @@ def test_a_critic_warmup_moves_the_critic_alone(run, tmp_path):
     with open(logs[0], newline="") as f:
         rows = [r for r in csv.DictReader(f) if r.get("train/value_loss")]
     assert rows and all(float(r["train/approx_kl"]) == 0.0 for r in rows)
-    r = _train("--steps", 200, "--config", run["config"], "--out", tmp_path / "cold", "--seed", 6, "--init", npz)
+    cold = tmp_path / "cold"
+    r = _train("--steps", 200, "--config", run["config"], "--out", cold, "--seed", 6, "--init", npz)
     assert r.returncode == 0, r.stderr
-    with np.load(npz) as base, np.load(tmp_path / "cold" / "policy.npz") as cold:
-        assert not np.array_equal(cold["w0"], base["w0"])
+    with np.load(npz) as base, np.load(cold / "policy.npz") as tuned:
+        assert not np.array_equal(tuned["w0"], base["w0"])

@@ -125,7 +125,8 @@ def _callbacks(cfg: TrainConfig, out: Path, venv: Any, tracker: _Tracker, bar: A
 
         def _on_rollout_end(self) -> None:
             n = self.model.num_timesteps
-            freeze_actor(self.model.policy, n <= cfg.critic_warmup)  # for the update of the rollout just ended
+            # for the update of the rollout just ended
+            freeze_actor(self.model.policy, n <= cfg.critic_warmup)
             row = {
                 "steps": n,
                 "seconds": round(seconds0 + time.perf_counter() - tracker.t0, 2),
@@ -153,8 +154,9 @@ def actor_parameters(policy: Any) -> list[Any]:
     its action layer and ``log_std``."""
     modules = [policy.features_extractor, policy.mlp_extractor.policy_net, policy.action_net]
     found = [p for m in modules for p in m.parameters()]
-    if hasattr(policy, "pi_features_extractor") and policy.pi_features_extractor is not policy.features_extractor:
-        found += list(policy.pi_features_extractor.parameters())
+    own = getattr(policy, "pi_features_extractor", policy.features_extractor)
+    if own is not policy.features_extractor:
+        found += list(own.parameters())
     return [*found, *([policy.log_std] if hasattr(policy, "log_std") else [])]
 
 
