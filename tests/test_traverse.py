@@ -69,6 +69,34 @@ def test_ai_passes_a_crest_between_two_slopes(track):
     assert result["attempts"] == 0.0
 
 
+def test_a_reset_on_the_crest_stands_the_robot_on_the_ground_and_it_walks_on(track):
+    # A failed attempt puts the robot back at its last waypoint. On the crest at (94.5, 7.5)
+    # it used to be set at the ground under its base: its hind feet sank 2.5 cm into the
+    # higher slope behind, and the learned AI's planner fallback stood there for 125 attempts.
+    from citygen.runner.envs import STUCK_SECONDS
+
+    scene = _stretch(track, (99.0, 7.5), [(94.5, 7.5), (91.0, 7.5), (71.5, 7.5)], time_limit=60.0)
+    env = make_env("traverse", scene)
+    env.reset(seed=0)
+    u = env.unwrapped
+    u.waypoint, u._anchor, u._best = 1, ((94.5, 7.5), math.pi), 0.0  # no progress for too long:
+    u._since_progress = STUCK_SECONDS + 1.0  # the next step fails the attempt
+    forward = np.array([1.0, 0.0], dtype=np.float32)
+    info = env.step(forward)[-1]
+    assert info["attempts"] == 1
+    x0 = u.handle.pose(u.data)[0]
+    assert x0 == pytest.approx(94.5, abs=0.05)
+    n = u.data.ncon
+    g1, g2, dist = u.data.contact.geom1[:n], u.data.contact.geom2[:n], u.data.contact.dist[:n]
+    robot, ground = u._robot_geoms, u.prepared.ground_geoms
+    inside = ((robot[g1] & ground[g2]) | (robot[g2] & ground[g1])) & (dist < -1e-3)
+    assert not inside.any(), dist[inside]
+    for _ in range(30):
+        info = env.step(forward)[-1]
+    assert info["attempts"] == 1
+    assert x0 - u.handle.pose(u.data)[0] > 0.5  # it walked on towards the next waypoint
+
+
 @pytest.mark.slow
 def test_human_oracle_needs_no_more_attempts_than_ai(track):
     # The dynamic uneven unit: people, cyclists and scooters on slopes, stairs and rough tiles.

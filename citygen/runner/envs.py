@@ -787,7 +787,7 @@ class TraverseEnv(NavEnv):
             self._out_of_bounds(x, y) or self._fallen(z, x, y, yaw) or self._since_progress > STUCK_SECONDS
         ):
             (ax, ay), ayaw = self._anchor
-            self.handle.reset(self.data, (ax, ay, self._ground_z(ax, ay), ayaw))
+            self._spawn(ax, ay, ayaw)  # feet on the ground under each, as at the start
             mujoco.mj_forward(self.model, self.data)
             self.attempts += 1
             self._best, self._since_progress = math.inf, 0.0
