@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode
 
-from citygen.runner.bench import make_vector_env
+from citygen.runner.bench import make_env, make_vector_env
+from citygen.runner.vector import VectorEnv
 
 SPLIT = "urban-nav-2-train"
 
@@ -25,19 +28,24 @@ def _rollout(venv, actions):
 
 @pytest.mark.slow
 def test_worker_processes_give_the_same_batches_as_one_process():
-    actions = _actions(2, 8)
+    """Every sub-environment in this process, each in a worker, and the first here with the
+    others in workers (what ``make_vector_env`` does when each process has a core)."""
+    actions = _actions(3, 8)
+    fns = [functools.partial(make_env, "nav-static", split=SPLIT, max_steps=3) for _ in range(3)]
     runs = []
-    for asynchronous in (True, False):
-        venv = make_vector_env("nav-static", split=SPLIT, num_envs=2, asynchronous=asynchronous, max_steps=3)
+    for processes, local in ((False, None), (True, 0), (True, 1), (True, 2)):
+        venv = VectorEnv(fns, processes=processes, local=local)
         assert venv.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
+        assert len(venv._slots) == (3 if not processes else local)
         runs.append(_rollout(venv, actions))
         venv.close()
-    for (o1, r1, t1, u1, _), (o2, r2, t2, u2, _) in zip(*runs, strict=True):
-        for key in o1:
-            np.testing.assert_array_equal(o1[key], o2[key])
-        if r1 is not None:
-            np.testing.assert_array_equal(r1, r2)
-            np.testing.assert_array_equal(t1 | u1, t2 | u2)
+    for other in runs[1:]:
+        for (o1, r1, t1, u1, _), (o2, r2, t2, u2, _) in zip(runs[0], other, strict=True):
+            for key in o1:
+                np.testing.assert_array_equal(o1[key], o2[key])
+            if r1 is not None:
+                np.testing.assert_array_equal(r1, r2)
+                np.testing.assert_array_equal(t1 | u1, t2 | u2)
 
 
 @pytest.mark.slow
@@ -75,6 +83,9 @@ def test_worker_errors_reach_the_caller():
         venv.call("no_such_method")
     with pytest.raises(ValueError):
         venv.step(np.zeros((3, 2), dtype=np.float32))  # three actions for two environments
+    # the pipes stay in step after an error here or in a worker
+    assert venv.step(np.zeros((2, 2), dtype=np.float32))[0]["goal"].shape == (2, 2)
+    assert venv.call("task_kind") == ("nav-static", "nav-static")
     venv.close()
     assert venv.closed
 

@@ -9,9 +9,12 @@ With ``processes=True`` each sub-environment lives in a worker process and steps
 parallel with the others. Actions, observations, rewards and done flags travel through
 shared memory; a step costs each worker one byte down a pipe and an empty message back, so
 nothing is pickled per step. A worker pickles its ``info`` only on the last step of an
-episode (it holds the task's metrics) and on resets, unless ``step_infos=True``. With
-``processes=False`` the sub-environments step one after another in this process, behind the
-same interface.
+episode (it holds the task's metrics) and on resets, unless ``step_infos=True``. When every
+process can have a core of its own (``num_envs`` at most the cores), this process steps the
+first sub-environment itself while the workers step the others, and both sides of a pipe
+poll it for up to :data:`SPIN_S` before they sleep on it: on an otherwise idle core, waking
+a sleeping process costs more than a step's physics. With ``processes=False`` the
+sub-environments step one after another in this process, behind the same interface.
 
 Autoreset is Gymnasium's *next step* mode by default (``metadata["autoreset_mode"]``): the
 step after a sub-environment's episode ended resets it (reward 0, not done) and returns its
@@ -25,8 +28,11 @@ does), pickled by the worker on that step only.
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing as mp
+import os
 import pickle
+import time
 import traceback
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -38,6 +44,8 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space, create_shared_memory, read_from_shared_memory
 
 _STEP, _RESET, _CALL, _CLOSE = b"s", b"r", b"c", b"q"
+#: Seconds a process polls a pipe before it blocks on it (when every process has a core).
+SPIN_S = 0.002
 _OK, _ERROR = b"o", b"e"
 #: Key of a same-step autoreset's ``(last observation, last info)`` in a slot's info.
 _FINAL = "\0final"
@@ -124,16 +132,27 @@ def _views(raw: dict[str, Any], obs_space, act_space, n: int) -> dict[str, Any]:
     }
 
 
-def _worker(make: bytes, index: int, raw, spaces, n: int, step_infos: bool, same_step: bool, conn):
+def _receive(conn, spin: float) -> bytes:
+    """The next message on ``conn``, polled for up to ``spin`` seconds before blocking."""
+    if spin > 0.0:
+        deadline = time.perf_counter() + spin
+        while not conn.poll() and time.perf_counter() < deadline:
+            pass
+    return conn.recv_bytes()
+
+
+def _worker(
+    make: bytes, index: int, raw, spaces, n: int, step_infos: bool, same_step: bool, spin: float, conn
+):
     """A worker process's loop: one sub-environment (``make``: its function, cloudpickled),
-    commands from ``conn``."""
+    commands from ``conn`` (polled for ``spin`` seconds before blocking)."""
     env = None
     try:
         env = pickle.loads(make)()
         slot = _Slot(env, index, _views(raw, *spaces, n), step_infos, same_step)
         conn.send_bytes(_OK)
         while True:
-            msg = conn.recv_bytes()
+            msg = _receive(conn, spin)
             cmd = msg[:1]
             try:
                 if cmd == _STEP:
@@ -166,9 +185,11 @@ def _worker(make: bytes, index: int, raw, spaces, n: int, step_infos: bool, same
 
 class VectorEnv(gymnasium.vector.VectorEnv):
     """``len(env_fns)`` sub-environments, each built by its function, batched (see the module
-    docstring). ``processes``: one worker process per sub-environment (``context``: the
+    docstring). ``processes``: worker processes step the sub-environments (``context``: the
     multiprocessing start method, default ``"forkserver"``: a worker starts from a fresh
-    interpreter, so its scene cache starts empty); ``copy``: return copies of the
+    interpreter, so its scene cache starts empty); ``local``: how many of them (the first)
+    step in this process instead, in parallel with the workers (default: 1 when every
+    process then has a core, ``num_envs`` <= ``os.cpu_count()``, else 0); ``copy``: return copies of the
     observation buffers (False: views that the next step overwrites); ``autoreset_mode``:
     Gymnasium's ``NEXT_STEP`` (default) or ``SAME_STEP`` (see the module docstring)."""
 
@@ -179,6 +200,7 @@ class VectorEnv(gymnasium.vector.VectorEnv):
         env_fns: Sequence[Callable[[], gymnasium.Env]],
         *,
         processes: bool = True,
+        local: int | None = None,
         context: str | None = None,
         copy: bool = True,
         step_infos: bool = False,
@@ -203,22 +225,34 @@ class VectorEnv(gymnasium.vector.VectorEnv):
         spaces = (self.single_observation_space, self.single_action_space)
         self._conns: list[Any] = []
         self._procs: list[Any] = []
+        self._spin = 0.0
         if not processes:
             self._bufs = _buffers(*spaces, n, None)
             envs = [first] + [fn() for fn in env_fns[1:]]
             self._slots = [_Slot(e, i, self._bufs, step_infos, same) for i, e in enumerate(envs)]
             return
-        first.close()
-        self._slots = []
+        cores = os.cpu_count() or 1
+        if local is None:
+            local = 1 if 1 < n <= cores else 0
+        if not 0 <= local <= n:
+            raise ValueError(f"VectorEnv: local: expected 0 to {n} sub-environments, got {local}")
+        # Polling pays only when no process has to wait for a core another one polls on.
+        self._spin = SPIN_S if n - local + 1 <= cores else 0.0
         # A fresh interpreter per worker (forkserver): forking a process that holds a GL
         # context (a renderer) leaves the child's EGL hanging.
         methods = mp.get_all_start_methods()
         ctx = mp.get_context(context or ("forkserver" if "forkserver" in methods else "spawn"))
         raw = _buffers(*spaces, n, ctx)
         self._bufs = _views(raw, *spaces, n)
+        envs = [first] + [fn() for fn in env_fns[1:local]] if local else []
+        if not local:
+            first.close()
+        self._slots = [_Slot(e, i, self._bufs, step_infos, same) for i, e in enumerate(envs)]
         for i, fn in enumerate(env_fns):
+            if i < local:
+                continue
             parent, child = ctx.Pipe()
-            args = (cloudpickle.dumps(fn), i, raw, spaces, n, step_infos, same, child)
+            args = (cloudpickle.dumps(fn), i, raw, spaces, n, step_infos, same, self._spin, child)
             proc = ctx.Process(target=_worker, args=args, daemon=True, name=f"citygen-vector-{i}")
             proc.start()
             child.close()
@@ -236,7 +270,7 @@ class VectorEnv(gymnasium.vector.VectorEnv):
         """Each worker's answer to the last command: the unpickled payload or None."""
         out, error = [], None
         for conn in self._conns:
-            msg = conn.recv_bytes()
+            msg = _receive(conn, self._spin)
             if msg[:1] == _ERROR:
                 exc, tb = pickle.loads(msg[1:])
                 error = error or (exc, tb)
@@ -248,6 +282,16 @@ class VectorEnv(gymnasium.vector.VectorEnv):
             exc.add_note(f"in a citygen vector-env worker:\n{tb}")
             raise exc
         return out
+
+    def _here(self, work: Callable[[], list[Any]]) -> list[Any]:
+        """``work()`` on this process's sub-environments while the workers run the command
+        just sent; if it raises, the workers' answers are read first (the pipes stay in step)."""
+        try:
+            return work()
+        except BaseException:
+            with contextlib.suppress(BaseException):
+                self._collect()
+            raise
 
     def _obs(self):
         obs = self._bufs["obs"]
@@ -277,23 +321,22 @@ class VectorEnv(gymnasium.vector.VectorEnv):
             seeds = [None if seed is None else seed + i for i in range(n)]
         if len(seeds) != n:
             raise ValueError(f"reset: expected {n} seeds, got {len(seeds)}")
-        if self._slots:
-            infos = [s.reset(sd, options) for s, sd in zip(self._slots, seeds, strict=True)]
-        else:
-            for conn, sd in zip(self._conns, seeds, strict=True):
-                conn.send_bytes(_RESET + pickle.dumps((sd, options)))
-            infos = self._collect()
+        k = len(self._slots)
+        for conn, sd in zip(self._conns, seeds[k:], strict=True):
+            conn.send_bytes(_RESET + pickle.dumps((sd, options)))
+        infos = self._here(
+            lambda: [s.reset(sd, options) for s, sd in zip(self._slots, seeds[:k], strict=True)]
+        )
+        infos += self._collect()
         return self._obs(), self._infos(infos)
 
     def step(self, actions):
         b = self._bufs
         b["actions"][...] = np.asarray(actions).reshape(b["actions"].shape)
-        if self._slots:
-            infos = [s.step() for s in self._slots]
-        else:
-            for conn in self._conns:
-                conn.send_bytes(_STEP)
-            infos = self._collect()
+        for conn in self._conns:  # the workers step while this process steps its own
+            conn.send_bytes(_STEP)
+        infos = self._here(lambda: [s.step() for s in self._slots])
+        infos += self._collect()
         return (
             self._obs(),
             b["rewards"].copy(),
@@ -304,12 +347,14 @@ class VectorEnv(gymnasium.vector.VectorEnv):
 
     def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
         """``name(*args, **kwargs)`` on every sub-environment (or the attribute's value)."""
-        if self._slots:
-            attrs = [getattr(s.env, name) for s in self._slots]
-            return tuple(a(*args, **kwargs) if callable(a) else a for a in attrs)
         for conn in self._conns:
             conn.send_bytes(_CALL + pickle.dumps((name, args, kwargs)))
-        return tuple(self._collect())
+
+        def mine():
+            attrs = [getattr(s.env, name) for s in self._slots]
+            return [a(*args, **kwargs) if callable(a) else a for a in attrs]
+
+        return (*self._here(mine), *self._collect())
 
     def get_attr(self, name: str) -> tuple[Any, ...]:
         return self.call(name)
@@ -321,11 +366,10 @@ class VectorEnv(gymnasium.vector.VectorEnv):
             values = [values] * self.num_envs
         if len(values) != self.num_envs:
             raise ValueError(f"set_attr: expected {self.num_envs} values, got {len(values)}")
-        if self._slots:
-            for s, v in zip(self._slots, values, strict=True):
-                setattr(s.env, name, v)
-            return
-        for conn, v in zip(self._conns, values, strict=True):
+        k = len(self._slots)
+        for s, v in zip(self._slots, values[:k], strict=True):
+            setattr(s.env, name, v)
+        for conn, v in zip(self._conns, values[k:], strict=True):
             conn.send_bytes(_CALL + pickle.dumps(("__setattr__", (name, v), {})))
         self._collect()
 
