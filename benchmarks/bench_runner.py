@@ -2,13 +2,15 @@
 
 1. NavStatic (urban-nav-2-test, random actions) environment steps per second with the default
    observation (state + height map), resets included, each environment on its own scenes:
-   one wheeled environment in this process; :func:`make_vector_env` with 2 workers (wheeled,
-   quadruped, and 64 x 64 depth), beside Gymnasium's ``AsyncVectorEnv`` of the same 2
-   environments (the previous ``make_vector_env``) and one environment at the old 2 ms
-   physics step. Steady state: the environments draw from the split's first
-   :data:`POOL` scenes (``scene_pool``), which every process has compiled before the
-   measurement, so a reset swaps a cached scene; ``*_cold_*`` figures draw from the whole
-   split, where most resets compile a new scene.
+   one wheeled environment in this process; :func:`make_vector_env` of 2 (wheeled,
+   quadruped, and 64 x 64 depth: one sub-environment in this process, one in a worker, both
+   polling their pipe), beside Gymnasium's ``AsyncVectorEnv`` of the same 2 environments, the
+   same :class:`~citygen.runner.vector.VectorEnv` with both in workers that sleep on their
+   pipes (``local=0``, the previous default) and one environment at the old 2 ms physics
+   step. Steady state: the environments draw from the split's first :data:`POOL` scenes
+   (``scene_pool``), which every process has compiled before the measurement, so a reset
+   swaps a cached scene; ``*_cold_*`` figures draw from the whole split, where most resets
+   compile a new scene.
 2. *Runner cost over physics cost*: CPU time of an environment step over the CPU time of the
    ``mj_step`` calls inside it (``runner_over_mj_step``, timed around each call), and over
    the raw ``mj_step`` rate of the same model with the robot at rest
@@ -57,6 +59,7 @@ OBS = {
 VECTORS = {
     "citygen 2 workers": ("citygen", {}),
     "gymnasium async 2 workers": ("gymnasium", {}),
+    "citygen 2 workers, none here": ("citygen-workers", {}),
     "citygen 2 workers, quadruped": ("citygen", {"robot": "quadruped"}),
     "citygen 2 workers, humanoid": ("citygen", {"robot": "humanoid"}),
     "citygen 2 workers, depth 64x64": ("citygen", {"depth": True, "image_size": 64}),
@@ -179,6 +182,11 @@ class VectorRun:
         self.n = N_VEC
         if impl == "citygen":
             self.venv = make_vector_env(TASK, split=SPLIT, num_envs=self.n, **kw)
+        elif impl == "citygen-workers":  # every sub-environment in a worker, none polled
+            from citygen.runner import vector
+
+            fns = [functools.partial(make_env, TASK, split=SPLIT, **kw) for _ in range(self.n)]
+            self.venv = vector.VectorEnv(fns, local=0)
         else:
             fns = [functools.partial(make_env, TASK, split=SPLIT, **kw) for _ in range(self.n)]
             self.venv = gymnasium.vector.AsyncVectorEnv(fns, shared_memory=False)
@@ -348,6 +356,7 @@ def main(argv: list[str] | None = None) -> int:
     obs_ratios = [None if obs[k] is None else (1.0 / obs[k]["cpu_steps_per_s"]) / physics_cpu for k in labels]
     one = state["with_resets_per_s"]  # like the vector environments: resets included
     v2, gym2 = vec["citygen 2 workers"], vec["gymnasium async 2 workers"]
+    workers2 = vec["citygen 2 workers, none here"]
     quad2, depth2 = vec["citygen 2 workers, quadruped"], vec["citygen 2 workers, depth 64x64"]
     human2 = vec["citygen 2 workers, humanoid"]
     cold2 = vec["citygen 2 workers, cold"]
@@ -369,6 +378,7 @@ def main(argv: list[str] | None = None) -> int:
             "steps/s",
             f"gymnasium AsyncVectorEnv: {gym2:.1f} ({v2 / gym2:.2f}x); one env: {v2 / one:.2f}x",
         ),
+        ("  both in workers, none polled", workers2, "steps/s", f"the default: {v2 / workers2:.2f}x"),
         ("  quadruped", quad2, "steps/s", f"wheeled: {quad2 / v2:.2f}x"),
         ("  humanoid", human2, "steps/s", f"wheeled: {human2 / v2:.2f}x"),
         ("  depth 64x64", depth2, "steps/s", f"state only: {depth2 / v2:.2f}x"),
@@ -408,6 +418,8 @@ def main(argv: list[str] | None = None) -> int:
         "navstatic_2proc_steps_per_s": round(v2, 1),
         "navstatic_2proc_gym_async_steps_per_s": round(gym2, 1),
         "navstatic_2proc_over_gym_async": round(v2 / gym2, 3),
+        "navstatic_2proc_all_workers_steps_per_s": round(workers2, 1),
+        "navstatic_2proc_over_all_workers": round(v2 / workers2, 3),
         "navstatic_2proc_speedup": round(v2 / one, 3),
         "navstatic_2proc_cold_steps_per_s": round(cold2, 1),
         "quadruped_2proc_steps_per_s": round(quad2, 1),

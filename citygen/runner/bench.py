@@ -145,9 +145,10 @@ def make_vector_env(
     (default: one per core) environments of ``task`` sampling ``split``: every sub-environment
     draws its own scene on every reset (from its own generator, seeded ``seed + i``) out of its
     process's cache of compiled scenes -- asynchronous scene sampling. Batched: an array of
-    actions in, arrays of observations out. ``asynchronous=True`` steps each sub-environment
-    in its own process (shared-memory buffers, nothing pickled per step); False steps them in
-    this process. ``kwargs`` go to :func:`make_env`."""
+    actions in, arrays of observations out. ``asynchronous=True`` steps the sub-environments
+    in parallel, in worker processes (shared-memory buffers, nothing pickled per step) and,
+    when every process has a core, the first in this process; False steps them one after
+    another in this process. ``kwargs`` go to :func:`make_env`."""
     from citygen.runner.vector import VectorEnv
 
     n = num_envs or os.cpu_count() or 1
