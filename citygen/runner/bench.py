@@ -147,7 +147,8 @@ def make_vector_env(
     process's cache of compiled scenes -- asynchronous scene sampling. Batched: an array of
     actions in, arrays of observations out. ``asynchronous=True`` steps the sub-environments
     in parallel, in worker processes (shared-memory buffers, nothing pickled per step) and,
-    when every process has a core, the first in this process; False steps them one after
+    when every process has a core and no images are rendered, the first in this process;
+    False steps them one after
     another in this process. ``kwargs`` go to :func:`make_env`."""
     from citygen.runner.vector import VectorEnv
 

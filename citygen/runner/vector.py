@@ -10,10 +10,11 @@ parallel with the others. Actions, observations, rewards and done flags travel t
 shared memory; a step costs each worker one byte down a pipe and an empty message back, so
 nothing is pickled per step. A worker pickles its ``info`` only on the last step of an
 episode (it holds the task's metrics) and on resets, unless ``step_infos=True``. When every
-process can have a core of its own (``num_envs`` at most the cores), this process steps the
-first sub-environment itself while the workers step the others, and both sides of a pipe
-poll it for up to :data:`SPIN_S` before they sleep on it: on an otherwise idle core, waking
-a sleeping process costs more than a step's physics. With ``processes=False`` the
+process can have a core of its own (``num_envs`` at most the cores) and the environments
+render no images, this process steps the first sub-environment itself while the workers
+step the others, and both sides of a pipe poll it for up to :data:`SPIN_S` before they
+sleep on it: on an otherwise idle core, waking a sleeping process costs more than a step's
+physics. With ``processes=False`` the
 sub-environments step one after another in this process, behind the same interface.
 
 Autoreset is Gymnasium's *next step* mode by default (``metadata["autoreset_mode"]``): the
@@ -189,7 +190,8 @@ class VectorEnv(gymnasium.vector.VectorEnv):
     multiprocessing start method, default ``"forkserver"``: a worker starts from a fresh
     interpreter, so its scene cache starts empty); ``local``: how many of them (the first)
     step in this process instead, in parallel with the workers (default: 1 when every
-    process then has a core, ``num_envs`` <= ``os.cpu_count()``, else 0); ``copy``: return copies of the
+    process then has a core, ``num_envs`` <= ``os.cpu_count()``, and the environments
+    render no images, else 0); ``copy``: return copies of the
     observation buffers (False: views that the next step overwrites); ``autoreset_mode``:
     Gymnasium's ``NEXT_STEP`` (default) or ``SAME_STEP`` (see the module docstring)."""
 
@@ -233,7 +235,11 @@ class VectorEnv(gymnasium.vector.VectorEnv):
             return
         cores = os.cpu_count() or 1
         if local is None:
-            local = 1 if 1 < n <= cores else 0
+            # Not an environment that renders: its renderers (a GL context each, 80-160 MB and
+            # ~0.3 s to make, one per scene) would crowd this process's few (envs.RENDERERS).
+            unwrapped = getattr(first, "unwrapped", first)
+            renders = getattr(unwrapped, "use_depth", False) or getattr(unwrapped, "use_rgb", False)
+            local = 1 if 1 < n <= cores and not renders else 0
         if not 0 <= local <= n:
             raise ValueError(f"VectorEnv: local: expected 0 to {n} sub-environments, got {local}")
         # Polling pays only when no process has to wait for a core another one polls on.
