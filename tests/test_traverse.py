@@ -238,3 +238,20 @@ def test_the_ai_sub_goal_follows_a_path_around_what_blocks_the_straight_leg(monk
     planner = policies.PlannerPolicy()
     planner.reset(env)
     np.testing.assert_allclose(nav.act({}), planner.act({}))
+
+
+def test_the_learned_ai_waits_for_walk_as_the_planner_does(track, monkeypatch):
+    """In a city the learned navigator stops at a crosswalk that does not show walk (it
+    crossed on red within 20 s before): its forward command is held at 0 while
+    :func:`wait_for_walk` says wait, and passes when it does not."""
+    from citygen.runner import policies
+    from citygen.runner.learn.policy import shipped
+
+    scene = _stretch(track, (2.5, 2.5), [(12.5, 2.5), (22.5, 2.5)], time_limit=6.0)
+    env = make_env("traverse", scene)
+    obs, _ = env.reset(seed=0)
+    nav = policies.LearnedNavigator(str(shipped()[("nav-static", "quadruped")]))
+    nav.reset(env.unwrapped)
+    assert nav.act(obs)[0] > 0  # the way ahead is clear: it drives on
+    monkeypatch.setattr(policies, "wait_for_walk", lambda env, x, y, yaw: True)
+    assert nav.act(obs)[0] == 0.0

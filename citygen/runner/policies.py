@@ -218,7 +218,9 @@ class LearnedNavigator:
     along the straight leg between waypoints (``guide="route"``), which on a track lined
     with furniture points the navigator into objects it then has to find its way around.
 
-    A navigator wedged against an object (:data:`STUCK`) backs up (:data:`BACK_UP`) and
+    At the edge of a signalised crosswalk that does not show walk it does not drive forwards
+    (:func:`wait_for_walk`, as the planner). A navigator wedged against an object
+    (:data:`STUCK`) backs up (:data:`BACK_UP`) and
     tries again. It acts on the policy's mean, except after a failed attempt: put back at
     the last waypoint, a deterministic policy would fail the same way again, so until it
     reaches the next waypoint it draws its actions from the policy's trained Gaussian (as in
@@ -302,7 +304,10 @@ class LearnedNavigator:
         c, s = math.cos(yaw), math.sin(yaw)
         dx, dy = gx - x, gy - y
         obs = {**obs, "goal": np.array([c * dx + s * dy, -s * dx + c * dy], dtype=np.float32)}
-        return self.policy.predict(obs, self._rng if self._explore else None)[0]
+        action = np.array(self.policy.predict(obs, self._rng if self._explore else None)[0], copy=True)
+        if action[0] > 0 and wait_for_walk(env, x, y, yaw):  # as the planner: walk on walk only
+            action[0] = 0.0
+        return action
 
 
 def traverse_ai(robot: str) -> Policy:
