@@ -14,8 +14,8 @@ process can have a core of its own (``num_envs`` at most the cores) and the envi
 render no images, this process steps the first sub-environment itself while the workers
 step the others, and both sides of a pipe poll it for up to :data:`SPIN_S` before they
 sleep on it: on an otherwise idle core, waking a sleeping process costs more than a step's
-physics. With ``processes=False`` the
-sub-environments step one after another in this process, behind the same interface.
+physics. With ``processes=False`` the sub-environments step one after another in this
+process, behind the same interface.
 
 Autoreset is Gymnasium's *next step* mode by default (``metadata["autoreset_mode"]``): the
 step after a sub-environment's episode ended resets it (reward 0, not done) and returns its
@@ -190,7 +190,7 @@ class VectorEnv(gymnasium.vector.VectorEnv):
     multiprocessing start method, default ``"forkserver"``: a worker starts from a fresh
     interpreter, so its scene cache starts empty); ``local``: how many of them (the first)
     step in this process instead, in parallel with the workers (default: 1 when every
-    process then has a core, ``num_envs`` <= ``os.cpu_count()``, and the environments
+    process then has a core, ``num_envs`` <= the cores this process may use, and the environments
     render no images, else 0); ``copy``: return copies of the
     observation buffers (False: views that the next step overwrites); ``autoreset_mode``:
     Gymnasium's ``NEXT_STEP`` (default) or ``SAME_STEP`` (see the module docstring)."""
@@ -233,7 +233,8 @@ class VectorEnv(gymnasium.vector.VectorEnv):
             envs = [first] + [fn() for fn in env_fns[1:]]
             self._slots = [_Slot(e, i, self._bufs, step_infos, same) for i, e in enumerate(envs)]
             return
-        cores = os.cpu_count() or 1
+        # the cores this process may run on (a container's or taskset's share, not the host's)
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
         if local is None:
             # Not an environment that renders: its renderers (a GL context each, 80-160 MB and
             # ~0.3 s to make, one per scene) would crowd this process's few (envs.RENDERERS).
