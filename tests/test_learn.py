@@ -527,25 +527,22 @@ def test_init_from_an_exported_policy_keeps_its_actor_and_statistics(run, tmp_pa
 
 @pytest.mark.slow
 def test_a_critic_warmup_moves_the_critic_alone(run, tmp_path):
-    """``critic_warmup``: started from an exported policy (no critic), the first steps train
-    the fresh value head while every actor and encoder weight stays bit for bit; after the
-    warm-up the actor learns again."""
+    """``critic_warmup``: started from an exported policy (no critic), the updates of the
+    first steps train the fresh value head alone; after the warm-up the actor learns again.
+    SB3's approximate KL is the mean over an update's minibatches of how far the actor moved
+    from the rollout's: exactly 0 only if no minibatch moved it."""
     npz = run["out"] / "policy.npz"
     config = tmp_path / "warm.toml"
     config.write_text(run["config"].read_text() + "critic_warmup = 200\n")
-    r = _train("--steps", 200, "--config", config, "--out", tmp_path / "warm", "--seed", 6, "--init", npz)
+    out = tmp_path / "warm"
+    # 4 rollouts of 100 steps; SB3 writes an update's losses with the next rollout's row
+    r = _train("--steps", 400, "--config", config, "--out", out, "--seed", 6, "--init", npz)
     assert r.returncode == 0, r.stderr
-    actor = [k for k in np.load(npz).files if k != "meta" and not k.startswith("obs_")]
-    assert {"w0", "log_std", "enc/local_map/fc/w"} <= set(actor)
-    with np.load(npz) as base, np.load(tmp_path / "warm" / "policy.npz") as warm:
-        for k in actor:
-            assert np.array_equal(warm[k], base[k]), k
-    logs = list((tmp_path / "warm" / "logs").glob("run-*/progress.csv"))
-    with open(logs[0], newline="") as f:
+    (log,) = (out / "logs").glob("run-*/progress.csv")
+    with open(log, newline="") as f:
         rows = [r for r in csv.DictReader(f) if r.get("train/value_loss")]
-    assert rows and all(float(r["train/approx_kl"]) == 0.0 for r in rows)
-    cold = tmp_path / "cold"
-    r = _train("--steps", 200, "--config", run["config"], "--out", cold, "--seed", 6, "--init", npz)
-    assert r.returncode == 0, r.stderr
-    with np.load(npz) as base, np.load(cold / "policy.npz") as tuned:
+    kl = [float(r["train/approx_kl"]) for r in rows]
+    assert len(kl) == 3 and kl[0] == kl[1] == 0.0 and kl[2] > 0.0, kl
+    assert all(float(r["train/value_loss"]) > 0.0 for r in rows)
+    with np.load(npz) as base, np.load(out / "policy.npz") as tuned:
         assert not np.array_equal(tuned["w0"], base["w0"])
