@@ -180,15 +180,14 @@ class VectorRun:
 
         kw = {"scene_pool": POOL, **kwargs}
         self.n = N_VEC
+        fns = [functools.partial(make_env, TASK, split=SPLIT, **kw) for _ in range(self.n)]
         if impl == "citygen":
             self.venv = make_vector_env(TASK, split=SPLIT, num_envs=self.n, **kw)
         elif impl == "citygen-workers":  # every sub-environment in a worker, none polled
-            from citygen.runner import vector
+            from citygen.runner.vector import VectorEnv
 
-            fns = [functools.partial(make_env, TASK, split=SPLIT, **kw) for _ in range(self.n)]
-            self.venv = vector.VectorEnv(fns, local=0)
+            self.venv = VectorEnv(fns, local=0)
         else:
-            fns = [functools.partial(make_env, TASK, split=SPLIT, **kw) for _ in range(self.n)]
             self.venv = gymnasium.vector.AsyncVectorEnv(fns, shared_memory=False)
         if kw["scene_pool"] is not None:
             for i in range(POOL):  # every worker compiles the pool first

@@ -148,8 +148,7 @@ def make_vector_env(
     actions in, arrays of observations out. ``asynchronous=True`` steps the sub-environments
     in parallel, in worker processes (shared-memory buffers, nothing pickled per step) and,
     when every process has a core and no images are rendered, the first in this process;
-    False steps them one after
-    another in this process. ``kwargs`` go to :func:`make_env`."""
+    False steps them one after another in this process. ``kwargs`` go to :func:`make_env`."""
     from citygen.runner.vector import VectorEnv
 
     n = num_envs or os.cpu_count() or 1

@@ -761,7 +761,6 @@ class TraverseEnv(NavEnv):
         return M.TraverseEpisode(start_xy=self._start, dt=self.dt, mass=self.robot.mass)
 
     def _after_step(self):
-        import mujoco
 
         x, y, z, yaw = self.handle.pose(self.data)
         d = self._distance()
@@ -787,8 +786,7 @@ class TraverseEnv(NavEnv):
             self._out_of_bounds(x, y) or self._fallen(z, x, y, yaw) or self._since_progress > STUCK_SECONDS
         ):
             (ax, ay), ayaw = self._anchor
-            self._spawn(ax, ay, ayaw)  # feet on the ground under each, as at the start
-            mujoco.mj_forward(self.model, self.data)
+            self._spawn(ax, ay, ayaw)  # feet on the ground under each, as at the start (forwarded)
             self.attempts += 1
             self._best, self._since_progress = math.inf, 0.0
             reset = True
