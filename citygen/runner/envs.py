@@ -761,7 +761,6 @@ class TraverseEnv(NavEnv):
         return M.TraverseEpisode(start_xy=self._start, dt=self.dt, mass=self.robot.mass)
 
     def _after_step(self):
-
         x, y, z, yaw = self.handle.pose(self.data)
         d = self._distance()
         collision = self._collision(x, y)
