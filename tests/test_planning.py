@@ -353,3 +353,24 @@ def test_planner_waits_when_an_agent_closes_the_only_way():
     pose, closest = _drive(planner, (1.0, 2.0, 0.0), (7.0, 2.0), (4.0, 2.0), steps=400)
     assert pose[0] < 3.5 and closest > 0.3 + ROBOT_RADIUS["wheeled"]
     assert math.dist(planner.path[-1], (7.0, 2.0)) < 1e-9  # still heading for the goal
+
+
+def test_farthest_visible_is_the_last_segment_visible_tests_one_at_a_time():
+    """The batched line-of-sight test of the taut path (SPL's shortest path) finds the same
+    farthest point in sight as testing each segment with ``_visible``, on random obstacles,
+    with points inside and outside the grid and batches of more than one pass."""
+    from citygen.runner.planning import _SIGHT_BATCH, _farthest_visible, _visible
+
+    rng = np.random.default_rng(7)
+    grid = Grid(-1.0, 2.0, 0.05, 80, 120)
+    agreed = found = 0
+    for trial in range(60):
+        free = rng.random((grid.rows, grid.cols)) > (0.002 if trial % 2 else 0.0005)
+        pts = rng.uniform((-1.5, 1.5), (5.5, 6.5), size=(2 * _SIGHT_BATCH + 5, 2))
+        a = pts[0]
+        first = int(rng.integers(1, 6))
+        naive = next((j for j in range(len(pts) - 1, first - 1, -1) if _visible(free, grid, a, pts[j])), None)
+        assert _farthest_visible(free, grid, a, pts, first) == naive
+        agreed += 1
+        found += naive is not None
+    assert agreed == 60 and 0 < found < 60  # both outcomes met

@@ -534,14 +534,52 @@ def _off_corner(free: np.ndarray, grid: Grid, q: np.ndarray, eps: float) -> np.n
 
 def _visible(free: np.ndarray, grid: Grid, a: np.ndarray, b: np.ndarray) -> bool:
     """Whether the segment ``a``-``b`` (m) stays on free cells, sampled every quarter cell."""
-    n = max(2, math.ceil(math.hypot(*(b - a)) / (grid.resolution / 4)) + 1)
-    t = np.linspace(0.0, 1.0, n)[:, None]
-    p = a + t * (b - a)
-    col = np.floor((p[:, 0] - grid.x0) / grid.resolution).astype(np.int64)
-    row = np.floor((p[:, 1] - grid.y0) / grid.resolution).astype(np.int64)
-    if col.min() < 0 or row.min() < 0 or col.max() >= grid.cols or row.max() >= grid.rows:
+    d = b - a
+    n = max(2, math.ceil(math.hypot(d[0], d[1]) / (grid.resolution / 4)) + 1)
+    t = np.arange(n) * (1.0 / (n - 1))  # np.linspace(0, 1, n), to the bit
+    t[-1] = 1.0
+    col = np.floor((a[0] + t * d[0] - grid.x0) / grid.resolution).astype(np.int64)
+    row = np.floor((a[1] + t * d[1] - grid.y0) / grid.resolution).astype(np.int64)
+    if min(col[0], col[-1]) < 0 or min(row[0], row[-1]) < 0:
+        return False
+    if max(col[0], col[-1]) >= grid.cols or max(row[0], row[-1]) >= grid.rows:
         return False
     return bool(free[row, col].all())
+
+
+#: Segments :func:`_farthest_visible` tests in one array pass (from the far end).
+_SIGHT_BATCH = 32
+
+
+def _farthest_visible(free: np.ndarray, grid: Grid, a: np.ndarray, pts: np.ndarray, first: int) -> int | None:
+    """The largest ``j >= first`` whose segment ``a``-``pts[j]`` :func:`_visible` finds on
+    free cells (None if none): the same samples and cells as ``_visible`` (its ``linspace``
+    reproduced exactly), for a batch of segments per array pass instead of one per call."""
+    stop = len(pts)
+    while stop > first:
+        start = max(first, stop - _SIGHT_BATCH)
+        b = pts[start:stop]
+        d = b - a
+        n = np.maximum(2, np.ceil(np.hypot(d[:, 0], d[:, 1]) / (grid.resolution / 4)).astype(np.int64) + 1)
+        seg = np.repeat(np.arange(len(b)), n)
+        begin = np.cumsum(n) - n
+        k = np.arange(seg.size) - begin[seg]
+        t = k * (1.0 / (n - 1))[seg]  # np.linspace(0, 1, n): k * step, the last exactly 1
+        t[begin + n - 1] = 1.0
+        col = np.floor((a[0] + t * d[seg, 0] - grid.x0) / grid.resolution).astype(np.int64)
+        row = np.floor((a[1] + t * d[seg, 1] - grid.y0) / grid.resolution).astype(np.int64)
+        # A segment's samples are monotonic along it: inside the grid if its two ends are.
+        ends = np.stack([col[begin], col[begin + n - 1], row[begin], row[begin + n - 1]])
+        inside = (ends >= 0).all(axis=0) & (ends[:2] < grid.cols).all(axis=0)
+        inside &= (ends[2:] < grid.rows).all(axis=0)
+        np.clip(col, 0, grid.cols - 1, out=col)
+        np.clip(row, 0, grid.rows - 1, out=row)
+        seen = np.logical_and.reduceat(free[row, col], begin) & inside
+        hits = np.flatnonzero(seen)
+        if len(hits):
+            return start + int(hits[-1])
+        stop = start
+    return None
 
 
 def region_path_length(
@@ -579,10 +617,10 @@ def region_path_length(
         return max(0.0, math.dist(pts[0], goal) - tolerance)
     # Pull taut: from each kept vertex, the farthest later point in sight.
     taut, i = [pts[0]], 0
+    stack = np.asarray(pts)
     while i < len(pts) - 1:
-        j = len(pts) - 1
-        while j > i + 1 and not _visible(free, grid, pts[i], pts[j]):
-            j -= 1
+        j = _farthest_visible(free, grid, stack[i], stack, i + 2)
+        j = i + 1 if j is None else j
         taut.append(pts[j])
         i = j
     # Move each bend to the cell corner near it (within REACH cells) that shortens the path
