@@ -17,6 +17,7 @@ the grid are in cells; world lengths in metres; angles in radians; speeds in m/s
 
 from __future__ import annotations
 
+import functools
 import heapq
 import itertools
 import math
@@ -672,8 +673,6 @@ class DistanceField:
     distance: np.ndarray
     """float64 ``(rows, cols)``: metres to the goal along free cells, ``inf`` where unreachable."""
     grid: Grid
-    nearest: np.ndarray
-    """int ``(2, rows, cols)``: the nearest reachable cell of every cell."""
 
     @classmethod
     def build(
@@ -698,22 +697,26 @@ class DistanceField:
             except ValueError:
                 field = None
         if field is not None:
-            _, nearest = scipy.ndimage.distance_transform_edt(~np.isfinite(field), return_indices=True)
             goal = (float(goal_xy[0]), float(goal_xy[1]))
-            return cls(field, grid, nearest, free, goal, float(tolerance))
-        if field is None:
-            goal = snap_free(free, grid.cell(float(goal_xy[0]), float(goal_xy[1])))
-            if goal is None:
-                raise ValueError("DistanceField: the grid has no free cell")
-            field = geodesic_distance(free, goal, grid.resolution, connectivity=connectivity)
-        _, nearest = scipy.ndimage.distance_transform_edt(~np.isfinite(field), return_indices=True)
-        return cls(field, grid, nearest)
+            return cls(field, grid, free, goal, float(tolerance))
+        goal = snap_free(free, grid.cell(float(goal_xy[0]), float(goal_xy[1])))
+        if goal is None:
+            raise ValueError("DistanceField: the grid has no free cell")
+        return cls(geodesic_distance(free, goal, grid.resolution, connectivity=connectivity), grid)
 
     free: np.ndarray | None = None
     """The free cells the field was built on (None when not kept)."""
     goal: tuple[float, float] | None = None
     tolerance: float | None = None
     """Radius (m) of the goal region when the field runs to one (:func:`region_distance`)."""
+
+    @functools.cached_property
+    def nearest(self) -> np.ndarray:
+        """int ``(2, rows, cols)``: the nearest reachable cell of every cell (itself where
+        :attr:`distance` is finite). Computed on first use, by a point off the reachable
+        cells: a whole-grid distance transform most episodes never need."""
+        _, nearest = scipy.ndimage.distance_transform_edt(~np.isfinite(self.distance), return_indices=True)
+        return nearest
 
     def route(self, x: float, y: float) -> float:
         """Metres from ``(x, y)`` to the goal region along the shortest path: the lesser of
@@ -723,7 +726,7 @@ class DistanceField:
         if self.tolerance is None or self.free is None or not math.isfinite(d):
             return d
         r, c = self.grid.cell(float(x), float(y))
-        if (int(self.nearest[0, r, c]), int(self.nearest[1, r, c])) != (r, c):
+        if not math.isfinite(self.distance[r, c]):  # off the reachable cells: not its own nearest
             return d
         return min(
             d, region_path_length(self.free, self.grid, self.distance, (x, y), self.goal, self.tolerance)
@@ -732,9 +735,10 @@ class DistanceField:
     def at(self, x: float, y: float) -> float:
         """Metres from ``(x, y)`` to the goal (see the class docstring)."""
         r, c = self.grid.cell(float(x), float(y))
+        d = float(self.distance[r, c])
+        if math.isfinite(d):  # a reachable cell is its own nearest
+            return d
         rr, cc = int(self.nearest[0, r, c]), int(self.nearest[1, r, c])
-        if (rr, cc) == (r, c):
-            return float(self.distance[r, c])
         cx, cy = self.grid.centre((rr, cc))
         return float(self.distance[rr, cc] + math.hypot(x - cx, y - cy))
 
