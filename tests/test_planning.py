@@ -374,3 +374,25 @@ def test_farthest_visible_is_the_last_segment_visible_tests_one_at_a_time():
         agreed += 1
         found += naive is not None
     assert agreed == 60 and 0 < found < 60  # both outcomes met
+
+
+def test_components_are_the_graph_searchs_regions_without_corner_cutting():
+    """``components`` labels as a graph search over the free cells' 8-neighbour steps with no
+    corner cutting labels (the same numbers, row-major by first cell), on random masks and
+    on a diagonal pair that must stay apart."""
+    import scipy.sparse.csgraph
+
+    from citygen.geometry.raster import _graph, components
+
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        free = rng.random((int(rng.integers(1, 40)), int(rng.integers(1, 40)))) < rng.uniform(0.3, 0.8)
+        want = np.zeros(free.shape, dtype=np.int32)
+        count = 0
+        if free.any():
+            count, parts = scipy.sparse.csgraph.connected_components(_graph(free)[0], directed=False)
+            want[free] = parts + 1
+        labels, n = components(free)
+        assert n == count and labels.dtype == np.int32 and np.array_equal(labels, want)
+    labels, n = components(_grid(".# #."))
+    assert n == 2 and labels[0, 0] != labels[1, 1]

@@ -170,14 +170,14 @@ _EIGHT = np.ones((3, 3), dtype=bool)
 
 def components(free: np.ndarray) -> tuple[np.ndarray, int]:
     """Label 8-connected regions of ``free`` (without cutting corners diagonally: a
-    diagonal step counts only when both cells beside it are free); 0 is not free."""
-    labels = np.zeros(free.shape, dtype=np.int32)
-    if not free.any():
-        return labels, 0
-    graph, _ = _graph(free)
-    count, parts = scipy.sparse.csgraph.connected_components(graph, directed=False)
-    labels[free] = parts + 1
-    return labels, int(count)
+    diagonal step counts only when both cells beside it are free); 0 is not free.
+
+    A diagonal step that both cells beside it allow joins cells those two already join, so
+    these are the 4-connected regions: :func:`scipy.ndimage.label` (numbered, as the graph
+    search over :func:`_graph` numbered them, in row-major order of their first cell; tens of
+    times faster)."""
+    labels, count = scipy.ndimage.label(np.asarray(free, dtype=bool))
+    return labels.astype(np.int32, copy=False), int(count)
 
 
 def _graph(free: np.ndarray) -> tuple[scipy.sparse.csr_matrix, np.ndarray]:
