@@ -16,7 +16,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 ROOT = Path(__file__).resolve().parent.parent
 
-#: Test files that take minutes (city-scale exports and traffic, the sixty-scene export,
+#: Test files that take minutes (city-scale exports and traffic, the every-split export,
 #: training runs), heaviest first. README's command (`-n 2 --dist loadfile
 #: --no-loadscope-reorder`) hands files to the two workers in collection order: these go
 #: first, so the many short files fill in behind them and both workers finish together.
@@ -36,6 +36,8 @@ HEAVY_FIRST = (
 def pytest_collection_modifyitems(config, items):
     rank = {name: i for i, name in enumerate(HEAVY_FIRST)}
     items.sort(key=lambda item: rank.get(item.path.name, len(rank)))  # stable: in-file order kept
+
+
 EXAMPLES = sorted((ROOT / "examples").glob("*.json"))
 MANIFESTS = sorted((ROOT / "seeds").glob("*.toml"))
 

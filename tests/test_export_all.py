@@ -2,10 +2,11 @@
 command line as a user runs it: MJCF compiles, USD validates, URDF loads in PyBullet, the
 occupancy files load, GLB and HTML are written, the PNG pictures exist.
 
-The sample: 48 Urban-Nav scenes (8 of each of the six parts), 2 of each Urban-Loc test part
+The sample: 24 Urban-Nav scenes (4 of each of the six parts), 2 of each Urban-Loc test part
 (flat, slope, stair, rough curriculum grids of 16 x 16 tiles), 2 of
 urban-tra-standard and 2 street networks with buildings, traffic and a traverse route standing
-in for urban-tra-city: 60 in all.
+in for urban-tra-city: 36 in all (8 of each Urban-Nav part made this the suite's longest
+test, 10 of its 28 minutes on one worker; 4 cover the same kinds).
 """
 
 from __future__ import annotations
@@ -38,7 +39,7 @@ def sample() -> list[tuple[str, GeneratorConfig, int]]:
     splits = citygen.splits()
     out = []
     for name in sorted(n for n in splits if n.startswith("urban-nav-")):
-        out += [(name, splits[name].config, i) for i in range(8)]
+        out += [(name, splits[name].config, i) for i in range(4)]
     # The test parts of Urban-Loc (16 x 16 tiles); the 30 x 30 train grids of rough tiles need
     # more triangles than the mesh exporters build at their default resolution.
     for name in sorted(n for n in splits if n.startswith("urban-loc-") and n.endswith("-test")):
@@ -90,7 +91,7 @@ def _check(out: Path, name: str) -> None:
 
 
 @pytest.mark.slow
-def test_sixty_scenes_export_to_every_format(tmp_path: Path) -> None:
+def test_a_sample_of_every_split_exports_to_every_format(tmp_path: Path) -> None:
     scenes = []
     for k, (split, config, index) in enumerate(sample()):
         seed = scene_seed(2025, split, index)
@@ -99,7 +100,7 @@ def test_sixty_scenes_export_to_every_format(tmp_path: Path) -> None:
             generate(config, seed, split=split if split.startswith("urban") else None, index=index), path
         )
         scenes.append(path)
-    assert len(scenes) == 60
+    assert len(scenes) == 36
     jobs = [(str(p), str(tmp_path / "out" / p.stem), "all") for p in scenes]
     with ProcessPoolExecutor(2) as pool:
         results = list(pool.map(_export, jobs))
