@@ -165,9 +165,6 @@ def mask(grid: Grid, geometry: BaseGeometry) -> np.ndarray:
     return rasterize(grid, [geometry], [True], fill=False, dtype=bool)
 
 
-_EIGHT = np.ones((3, 3), dtype=bool)
-
-
 def components(free: np.ndarray) -> tuple[np.ndarray, int]:
     """Label 8-connected regions of ``free`` (without cutting corners diagonally: a
     diagonal step counts only when both cells beside it are free); 0 is not free.

@@ -533,14 +533,21 @@ def _off_corner(free: np.ndarray, grid: Grid, q: np.ndarray, eps: float) -> np.n
     return q - eps * np.sign(np.array([sx, sy]))
 
 
+def _cells_along(grid: Grid, a: np.ndarray, dx, dy, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Columns and rows of the points ``a + t * (dx, dy)`` (m): the one formula both line-of-
+    sight tests sample with, so that they agree to the cell."""
+    col = np.floor((a[0] + t * dx - grid.x0) / grid.resolution).astype(np.int64)
+    row = np.floor((a[1] + t * dy - grid.y0) / grid.resolution).astype(np.int64)
+    return col, row
+
+
 def _visible(free: np.ndarray, grid: Grid, a: np.ndarray, b: np.ndarray) -> bool:
     """Whether the segment ``a``-``b`` (m) stays on free cells, sampled every quarter cell."""
     d = b - a
     n = max(2, math.ceil(math.hypot(d[0], d[1]) / (grid.resolution / 4)) + 1)
     t = np.arange(n) * (1.0 / (n - 1))  # np.linspace(0, 1, n), to the bit
     t[-1] = 1.0
-    col = np.floor((a[0] + t * d[0] - grid.x0) / grid.resolution).astype(np.int64)
-    row = np.floor((a[1] + t * d[1] - grid.y0) / grid.resolution).astype(np.int64)
+    col, row = _cells_along(grid, a, d[0], d[1], t)
     if min(col[0], col[-1]) < 0 or min(row[0], row[-1]) < 0:
         return False
     if max(col[0], col[-1]) >= grid.cols or max(row[0], row[-1]) >= grid.rows:
@@ -567,8 +574,7 @@ def _farthest_visible(free: np.ndarray, grid: Grid, a: np.ndarray, pts: np.ndarr
         k = np.arange(seg.size) - begin[seg]
         t = k * (1.0 / (n - 1))[seg]  # np.linspace(0, 1, n): k * step, the last exactly 1
         t[begin + n - 1] = 1.0
-        col = np.floor((a[0] + t * d[seg, 0] - grid.x0) / grid.resolution).astype(np.int64)
-        row = np.floor((a[1] + t * d[seg, 1] - grid.y0) / grid.resolution).astype(np.int64)
+        col, row = _cells_along(grid, a, d[seg, 0], d[seg, 1], t)
         # A segment's samples are monotonic along it: inside the grid if its two ends are.
         ends = np.stack([col[begin], col[begin + n - 1], row[begin], row[begin + n - 1]])
         inside = (ends >= 0).all(axis=0) & (ends[:2] < grid.cols).all(axis=0)

@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import contextlib
 import multiprocessing as mp
-import os
 import pickle
 import time
 import traceback
@@ -233,8 +232,9 @@ class VectorEnv(gymnasium.vector.VectorEnv):
             envs = [first] + [fn() for fn in env_fns[1:]]
             self._slots = [_Slot(e, i, self._bufs, step_infos, same) for i, e in enumerate(envs)]
             return
-        # the cores this process may run on (a container's or taskset's share, not the host's)
-        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+        from citygen.generate.dataset import default_jobs
+
+        cores = default_jobs()  # the cores this process may run on, not the host's
         if local is None:
             # Not an environment that renders: its renderers (a GL context each, 80-160 MB and
             # ~0.3 s to make, one per scene) would crowd this process's few (envs.RENDERERS).
