@@ -231,9 +231,34 @@ def test_drive_tracks_at_the_environments_drive_rate(name):
         assert handle.body_contacts(data).size == 0
 
 
-def test_ideal_locomotion_servo_runs_every_physics_step():
-    _, _, handle = on_flat("quadruped")
-    assert handle.robot.nav_mode == "base" and handle.drive_substeps == 1
+@pytest.mark.parametrize("name", [n for n in BUILTIN if load_robot(n).nav_mode == "base"])
+def test_ideal_locomotion_servo_held_at_the_drive_rate_stays_level_and_leaves_locomotion_undamped(name):
+    """The servo's forces are held for DRIVE_DT (its velocity feedback is the free joint's
+    damping, which MuJoCo applies implicitly every physics step): at full speed and turn
+    rate the trunk stays level at the hover height and tracks; a locomotion step after it
+    gives the free joint back its own damping."""
+    from citygen.runner.robots.handle import HOVER_CLEARANCE
+
+    model, data, handle = on_flat(name)
+    own = model.dof_damping[handle.dadr : handle.dadr + 6].copy()
+    assert handle.drive_substeps * model.opt.timestep == pytest.approx(robots.DRIVE_DT)
+    r = handle.robot
+    n = round(0.1 / model.opt.timestep)
+    ups, heights, vels = [], [], []
+    for i in range(40):  # 4 s: accelerate, then hold full speed while turning
+        handle.control(data, r.max_speed, r.max_yaw_rate * 0.5, n)
+        ups.append(data.xmat[handle.base_id][8])
+        heights.append(data.qpos[handle.qadr + 2])
+        if i >= 20:
+            vels.append(handle.velocity(data))
+    assert np.all(np.isfinite(data.qpos)) and min(ups) > 0.995
+    assert np.mean(heights[20:]) == pytest.approx(r.stand_height + HOVER_CLEARANCE, abs=0.02)
+    vel = np.mean(vels, axis=0)
+    assert vel[0] == pytest.approx(r.max_speed, rel=0.1)
+    assert vel[3] == pytest.approx(r.max_yaw_rate * 0.5, rel=0.15)
+    assert np.all(model.dof_damping[handle.dadr : handle.dadr + 6] > 0)
+    handle.joint_action(data, np.zeros(handle.n_joints))
+    assert np.array_equal(model.dof_damping[handle.dadr : handle.dadr + 6], own)
 
 
 MJCF_ROBOT = """<mujoco model="cart">

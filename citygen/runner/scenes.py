@@ -17,6 +17,7 @@ import hashlib
 import math
 import warnings
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -149,21 +150,36 @@ class Prepared:
         terrain costs hundreds."""
         return self.occupancy.grid.bilinear(self._raster, xs, ys)
 
-    def ground_at(self, x: float, y: float) -> float:
-        """:meth:`ground` at one point, as a float, in plain Python (a few microseconds: the
-        ideal-locomotion servo asks at every physics step)."""
-        h = self._raster
+    @functools.cached_property
+    def ground_at(self) -> Callable[[float, float], float]:
+        """:meth:`ground` at one point ``ground_at(x, y)``, as a float, in plain Python (~1
+        microsecond: the ideal-locomotion servo asks at every drive period and for every
+        foot): a function with the raster's constants bound, reading its cells through a
+        ``memoryview`` (a Python float each, where indexing the array makes numpy scalars).
+        The same arithmetic as :meth:`ground`, to the bit."""
+        h = np.ascontiguousarray(self._raster)
         g = self.occupancy.grid
         rows, cols = h.shape
-        fx = min(max((x - g.x0) / g.resolution - 0.5, 0.0), max(cols - 1 - 1e-9, 0.0))
-        fy = min(max((y - g.y0) / g.resolution - 0.5, 0.0), max(rows - 1 - 1e-9, 0.0))
-        ix, iy = int(fx), int(fy)
-        fx, fy = fx - ix, fy - iy
-        jx, jy = min(ix + 1, cols - 1), min(iy + 1, rows - 1)
-        a, b = float(h[iy, ix]), float(h[iy, jx])
-        c, d = float(h[jy, ix]), float(h[jy, jx])
-        top = a + fx * (b - a)
-        return top + fy * (c + fx * (d - c) - top)
+        cells = memoryview(h.reshape(-1))
+        x0, y0, res = g.x0, g.y0, g.resolution
+        xmax, ymax = max(cols - 1 - 1e-9, 0.0), max(rows - 1 - 1e-9, 0.0)
+        last_col, last_row = cols - 1, rows - 1
+
+        def ground_at(x: float, y: float) -> float:
+            fx = (x - x0) / res - 0.5
+            fy = (y - y0) / res - 0.5
+            fx = 0.0 if fx < 0.0 else xmax if fx > xmax else fx
+            fy = 0.0 if fy < 0.0 else ymax if fy > ymax else fy
+            ix, iy = int(fx), int(fy)
+            fx, fy = fx - ix, fy - iy
+            jx = ix + 1 if ix < last_col else last_col
+            row, below = iy * cols, (iy + 1 if iy < last_row else last_row) * cols
+            a, b = cells[row + ix], cells[row + jx]
+            c, d = cells[below + ix], cells[below + jx]
+            top = a + fx * (b - a)
+            return top + fy * (c + fx * (d - c) - top)
+
+        return ground_at
 
     @functools.cached_property
     def _raster(self) -> np.ndarray:

@@ -48,10 +48,11 @@ navigation drive (it is not precise enough to track a planner's commands).
 robots; :data:`TIMESTEP`, 2 ms, for a user's robot), implicit-fast
 integrator.
 :meth:`RobotHandle.drive` reads the base's state and is a feedback loop: the environments
-run a wheel drive at :data:`DRIVE_DT` (100 Hz, every :attr:`RobotHandle.drive_substeps`
-physics steps, its outputs held in between, as a real wheel controller does) and the
-ideal-locomotion servo at every physics step; called with no ``dt`` it assumes one call
-per physics step. :meth:`RobotHandle.control` runs a whole control step (the drive and
+run a wheel drive and the ideal-locomotion servo at :data:`DRIVE_DT` (100 Hz, every
+:attr:`RobotHandle.drive_substeps` physics steps, its outputs held in between, as a real
+wheel controller does; the servo's velocity feedback is the free joint's damping, which
+MuJoCo applies at every physics step); called with no ``dt`` it assumes one call per
+physics step. :meth:`RobotHandle.control` runs a whole control step (the drive and
 MuJoCo's steps) in one call, as the environments do. A composed robot's geoms are in geom
 group :data:`~citygen.runner.robots.handle.ROBOT_GROUP` (the scene's are 0-2), so the
 servo's ground rays ignore the robot in one ``mj_ray`` each; renderings turn that group on.

@@ -93,9 +93,11 @@ def render_option() -> Any:
 #: robots' 5 ms, every 5 of the default 2 ms (:attr:`Robot.timestep`); real wheel
 #: controllers run at 100-1000 Hz). The wheels' velocity actuators and the legs' PD act at
 #: every physics step inside MuJoCo. The ideal-locomotion servo (``nav_mode == "base"``)
-#: stands in for a locomotion policy with stiff force feedback and runs at every physics
-#: step (held several steps its attitude loop diverges); only its gain's composite inertia,
-#: which changes with the legs' pose alone, and its footprint's ground are recomputed every
+#: stands in for a locomotion policy with stiff force feedback and runs at the same rate:
+#: its velocity feedback is damping of the base's free joint, which MuJoCo applies
+#: implicitly at every physics step (held as explicit forces for 10 ms, its attitude loop
+#: diverged), and its springs and push are held; its gain's composite inertia, which
+#: changes with the legs' pose alone, and its footprint's ground are recomputed every
 #: :data:`SERVO_REFRESH_DT`.
 DRIVE_DT = 0.01
 #: Period (s) at which the ideal-locomotion servo recomputes its composite inertia and the
@@ -134,8 +136,7 @@ class RobotHandle:
 
     ``geom_ids``, ``body_ids``: all of the robot's; ``foot_geom_ids``: those allowed to
     touch the ground. Arrays are of MuJoCo ids in ``model``. ``drive_substeps``: physics
-    steps per call of :meth:`drive` in the environments (a :data:`DRIVE_DT` period for
-    wheels, 1 for the ideal-locomotion servo).
+    steps per call of :meth:`drive` in the environments (a :data:`DRIVE_DT` period).
     """
 
     def __init__(self, model: Any, robot: Robot, prefix: str = PREFIX) -> None:
@@ -172,8 +173,7 @@ class RobotHandle:
         self._is_robot_geom[self.geom_ids] = True
         self._not_foot = self._is_robot_geom.copy()
         self._not_foot[self.foot_geom_ids] = False
-        wheels = robot.nav_mode in ("wheels", "ackermann")
-        self.drive_substeps = max(1, round(DRIVE_DT / model.opt.timestep)) if wheels else 1
+        self.drive_substeps = max(1, round(DRIVE_DT / model.opt.timestep))
         # Drive state: the integral of the speed and yaw-rate errors, the ramped reference.
         self._integral = (0.0, 0.0)
         self._ref = (0.0, 0.0)
@@ -181,6 +181,9 @@ class RobotHandle:
         self._kturn_time = 0.0  # s of the current K-turn (Ackermann steering)
         self._servo_age = math.inf  # s since the servo's inertia was computed
         self._servo_inertia = 0.0  # kg m^2
+        # The servo's damping of the base's free joint (_damp) and the model's own.
+        self._free_damping = model.dof_damping[self.dadr : self.dadr + 6].copy()
+        self._damped = False
         # Constants of the drive, read once: plain floats and ids (the drive runs often).
         self._timestep = float(model.opt.timestep)
         self._left_ids = [int(a) for a in self.left]
@@ -226,6 +229,7 @@ class RobotHandle:
         self._kturn_time = 0.0
         self._footprint_ground = -math.inf
         self._servo_age = math.inf
+        self._undamp()
         self._mj.mj_forward(m, data)
 
     def pose(self, data: Any) -> tuple[float, float, float, float]:
@@ -252,12 +256,13 @@ class RobotHandle:
         period ``dt`` (s; default one physics step): it feeds back the base's measured
         motion (wheel robots: a PI correction of the wheel speeds, and the front wheels'
         Ackermann angles with ``nav_mode == "ackermann"``, which turns on the spot by
-        K-turns; ideal locomotion: the base servo's forces in ``data.xfrc_applied``) and its
-        outputs hold until the next call. The environments call it every :data:`DRIVE_DT`."""
+        K-turns; ideal locomotion: the base servo's forces in ``data.xfrc_applied`` and its
+        damping of the free joint) and its outputs hold until the next call. The
+        environments call it every :data:`DRIVE_DT`."""
         r = self.robot
         dt = self._timestep if dt is None else float(dt)
         if r.nav_mode == "base":
-            self._servo(data, v, w, 1, dt, step=False)
+            self._servo(data, v, w, (1,), dt, step=False)
             return
         self._wheels(data, v, w, (1,), dt, step=False)
 
@@ -266,11 +271,12 @@ class RobotHandle:
         same as calling :meth:`drive` (its ``dt`` the time until the next call) before every
         :attr:`drive_substeps` of them, in one Python call whose loop reads MuJoCo's arrays
         through views bound once (the environments' hot loop)."""
-        if self.robot.nav_mode == "base":
-            self._servo(data, v, w, nstep, self._timestep)
-            return
         k = self.drive_substeps
-        self._wheels(data, v, w, (k,) * (nstep // k) + ((nstep % k,) if nstep % k else ()), self._timestep)
+        periods = (k,) * (nstep // k) + ((nstep % k,) if nstep % k else ())
+        if self.robot.nav_mode == "base":
+            self._servo(data, v, w, periods, self._timestep)
+            return
+        self._wheels(data, v, w, periods, self._timestep)
 
     def _wheels(
         self, data: Any, v: float, w: float, periods: tuple[int, ...], h: float, step: bool = True
@@ -316,42 +322,53 @@ class RobotHandle:
                 mj.mj_step(model, data, nstep=m)
         self._ref, self._integral = (rv, rw), (iv, iw)
 
-    def _servo(self, data: Any, v: float, w: float, nstep: int, h: float, step: bool = True) -> None:
-        """Ideal locomotion for ``nstep`` periods of ``h`` s (a physics step each if
-        ``step``): base forces and torques (``data.xfrc_applied``) that carry the weight at
-        the hover height, keep the trunk level and track the ramped ``(v, w)``. The hover
+    def _servo(
+        self, data: Any, v: float, w: float, periods: tuple[int, ...], h: float, step: bool = True
+    ) -> None:
+        """Ideal locomotion for feedback periods of ``periods[i] * h`` s each (MuJoCo stepping
+        each period's physics steps of ``h`` s in one call if ``step``): base forces and
+        torques that carry the weight at the hover height, keep the trunk level and track the
+        ramped ``(v, w)``. The servo is a PD loop split in two: its velocity feedback is
+        damping of the base's free joint (``model.dof_damping``, which MuJoCo's integrator
+        applies implicitly at every physics step, so it stays stable however long the rest is
+        held), and the rest (weight, the height and attitude springs, the velocity
+        reference's push) are forces in ``data.xfrc_applied`` held for the period. The hover
         height stands on the highest of the ground under the base (every period: it must
         follow edges and objects as the base passes over them) and the ground under and
         beyond the feet (:meth:`_footprint_probe`, so that they clear a stair riser, a crest
         or a slope); the probe and the composite inertia are recomputed every
-        :data:`SERVO_REFRESH_DT`. Arithmetic on plain floats, MuJoCo's arrays read through views
-        bound once: it runs at every physics step."""
+        :data:`SERVO_REFRESH_DT`. Arithmetic on plain floats, MuJoCo's arrays read through
+        views bound once."""
         r, mj, model = self.robot, self._mj, self.model
         v = _clamp(float(v), r.max_speed)
         w = _clamp(float(w), r.max_yaw_rate)
         if self.leg_act.size:
             data.ctrl[self.leg_act] = self.default
-        av, aw = h * r.max_accel, h * r.max_yaw_accel
         rv, rw = self._ref
-        b, qa, da = self.base_id, self.qadr, self.dadr
-        qpos, qvel, xfrc = data.qpos, data.qvel, data.xfrc_applied
-        xmat, base_pos = data.xmat[b], data.xpos[b]
+        b, qa = self.base_id, self.qadr
+        qpos, xfrc = data.qpos, data.xfrc_applied
+        xmat, base_pos, base_com = data.xmat[b], data.xpos[b], data.xipos[b]
         ray, down, gid, mj_step = mj.mj_ray, self._ray_down, self._ray_geom, mj.mj_step
         m, stand = self.mass, r.stand_height
-        fv = m * _SERVO_V
+        fv, weight = m * _SERVO_V, m * _GRAVITY
         terrain = self.terrain
-        for _ in range(nstep):
-            rv += _clamp(v - rv, av)
-            rw += _clamp(w - rw, aw)
-            self._servo_age += h
+        ground_at = terrain.ground_at if terrain is not None else None
+        if not self._damped:
+            self._damp(self._servo_inertia)
+        for k in periods:
+            dt = k * h
+            rv += _clamp(v - rv, dt * r.max_accel)
+            rw += _clamp(w - rw, dt * r.max_yaw_accel)
+            self._servo_age += dt
             if self._servo_age >= SERVO_REFRESH_DT - 1e-9:
                 self._servo_age = 0.0
                 self._servo_inertia = self._inertia(data)
                 self._footprint_ground = self._footprint_probe(data)
+                self._damp(self._servo_inertia)
             inertia = self._servo_inertia
-            if terrain is not None:
+            if ground_at is not None:
                 bx, by, _ = base_pos.tolist()
-                self._ground = terrain.ground_at(bx, by)
+                self._ground = ground_at(bx, by)
             else:
                 dist = ray(model, data, base_pos, down, SCENE_GROUPS, 1, -1, gid)
                 if dist >= 0:
@@ -359,23 +376,47 @@ class RobotHandle:
             below = self._ground if self._ground is not None else 0.0
             fg = self._footprint_ground
             target = (below if below >= fg else fg) + stand + HOVER_CLEARANCE
-            r0, r1, r2, r3, r4, r5, r6, r7, r8 = xmat.tolist()
+            _, _, r2, _, _, r5, _, _, _ = xmat.tolist()
             z, qw, qx, qy, qz = qpos[qa + 2 : qa + 7].tolist()
-            lx, ly, lz, ax, ay, az = qvel[da : da + 6].tolist()
             yaw = math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
-            c, s = math.cos(yaw), math.sin(yaw)
-            # tilt = (base z axis) x (world z); the free joint's angular velocity is local
+            fx, fy = fv * rv * math.cos(yaw), fv * rv * math.sin(yaw)
+            # xfrc_applied acts at the base body's centre of mass, the free joint's damping at
+            # its origin: the reference's push acts at the origin too (the torque of the
+            # offset), so at speed push and damping cancel without tipping a tall trunk.
+            ox, oy, oz = base_pos.tolist()
+            cx, cy, cz = base_com.tolist()
+            dx, dy, dz = ox - cx, oy - cy, oz - cz
+            # tilt = (base z axis) x (world z); the damping (_damp) is the loop's D part
             xfrc[b] = (
-                fv * (rv * c - lx),
-                fv * (rv * s - ly),
-                m * (_GRAVITY + _SERVO_KP * (target - z) - _SERVO_KD * lz),
-                inertia * (_SERVO_KP * r5 - _SERVO_KD * (r0 * ax + r1 * ay + r2 * az)),
-                inertia * (_SERVO_KP * -r2 - _SERVO_KD * (r3 * ax + r4 * ay + r5 * az)),
-                inertia * _SERVO_W * (rw - (r6 * ax + r7 * ay + r8 * az)),
+                fx,
+                fy,
+                weight + m * _SERVO_KP * (target - z),
+                inertia * _SERVO_KP * r5 - dz * fy,
+                inertia * _SERVO_KP * -r2 + dz * fx,
+                inertia * _SERVO_W * rw + dx * fy - dy * fx,
             )
             if step:
-                mj_step(model, data)
+                mj_step(model, data, nstep=k)
         self._ref = (rv, rw)
+
+    def _damp(self, inertia: float) -> None:
+        """The servo's velocity feedback as damping of the base's free joint: its planar
+        velocity (gain ``_SERVO_V`` x mass), its height (``_SERVO_KD`` x mass; the free
+        joint's linear velocity is in the world frame), its roll and pitch rates
+        (``_SERVO_KD`` x ``inertia``) and its yaw rate (``_SERVO_W`` x ``inertia``; the
+        angular velocity is in the base's frame, which the servo keeps level)."""
+        m, a = self.mass, self.dadr
+        self.model.dof_damping[a : a + 6] = (
+            m * _SERVO_V, m * _SERVO_V, m * _SERVO_KD,
+            inertia * _SERVO_KD, inertia * _SERVO_KD, inertia * _SERVO_W,
+        )  # fmt: skip
+        self._damped = True
+
+    def _undamp(self) -> None:
+        """The base's free joint as the model had it (locomotion: no servo)."""
+        if self._damped:
+            self.model.dof_damping[self.dadr : self.dadr + 6] = self._free_damping
+            self._damped = False
 
     def _kturn(self, v: float, w: float, dt: float) -> float:
         """Ackermann steering cannot turn on the spot: a yaw rate ``w`` (rad/s) asked at a
@@ -425,12 +466,21 @@ class RobotHandle:
         yaw = math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
         c, s = math.cos(yaw), math.sin(yaw)
         feet = data.geom_xpos[self.foot_geom_ids].tolist()
+        if self.terrain is not None:
+            ground_at = self.terrain.ground_at
+        else:
+
+            def ground_at(x: float, y: float) -> float:
+                return self._ground_at(data, x, y, top)
+
         best = -math.inf
         for fx, fy, _ in feet:  # under the feet
-            best = max(best, self._ground_at(data, fx, fy, top))
+            g = ground_at(fx, fy)
+            best = g if g > best else best
         for fx, fy, _ in feet:  # ahead of the front feet, behind the rear ones
             ahead = SERVO_LOOKAHEAD if (fx - bx) * c + (fy - by) * s >= 0 else -SERVO_LOOKAHEAD
-            best = max(best, self._ground_at(data, fx + ahead * c, fy + ahead * s, top))
+            g = ground_at(fx + ahead * c, fy + ahead * s)
+            best = g if g > best else best
         return best
 
     def _inertia(self, data: Any) -> float:
@@ -457,6 +507,7 @@ class RobotHandle:
         a = np.asarray(action, dtype=float)
         if a.shape != (self.n_joints,):
             raise ValueError(f"joint_action: expected {self.n_joints} numbers, got shape {a.shape}")
+        self._undamp()
         data.ctrl[self.leg_act] = self.default + self.scale * np.clip(a, -1.0, 1.0)
         data.ctrl[self.wheel_act] = 0.0
 
