@@ -546,3 +546,17 @@ def test_a_critic_warmup_moves_the_critic_alone(run, tmp_path):
     assert all(float(r["train/value_loss"]) > 0.0 for r in rows)
     with np.load(npz) as base, np.load(out / "policy.npz") as tuned:
         assert not np.array_equal(tuned["w0"], base["w0"])
+
+
+@pytest.mark.slow
+def test_log_std_init_sets_the_starting_exploration_noise(run, tmp_path):
+    """``log_std_init`` reaches SB3's Gaussian: one rollout's update moves it by a few
+    hundredths at most, so the exported policy still carries the configured noise, where the
+    default run's starts at std 1."""
+    config = tmp_path / "narrow.toml"
+    config.write_text(run["config"].read_text() + "log_std_init = -1.5\n")
+    r = _train("--steps", 100, "--config", config, "--out", tmp_path / "narrow", "--seed", 4)
+    assert r.returncode == 0, r.stderr
+    with np.load(tmp_path / "narrow" / "policy.npz") as narrow, np.load(run["out"] / "policy.npz") as default:
+        assert np.allclose(narrow["log_std"], -1.5, atol=0.1), narrow["log_std"]
+        assert np.allclose(default["log_std"], 0.0, atol=0.3), default["log_std"]

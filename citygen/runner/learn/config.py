@@ -88,6 +88,13 @@ class TrainConfig(BaseModel):
         (128, 128), description="Hidden layer widths (actor and critic)."
     )
     activation: Literal["tanh", "relu", "elu"] = "tanh"
+    log_std_init: Annotated[float, Field(ge=-5, le=2)] = Field(
+        0.0,
+        description="Initial log standard deviation of the Gaussian actions (0: SB3's std 1 on "
+        "actions in [-1, 1]). PPO shrinks it slowly: after 300k steps from 0 the NavClear "
+        "baselines still sample with std 0.8, so what they were trained to do is the noisy "
+        "policy, not the mean a deterministic evaluation runs.",
+    )
     conv: tuple[tuple[PositiveInt, PositiveInt, PositiveInt], ...] = Field(
         ((16, 5, 2), (32, 3, 2)),
         description="CNN over image-like keys (local_map): (channels, kernel, stride) per layer, "

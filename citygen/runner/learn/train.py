@@ -465,6 +465,7 @@ def train(
             policy_kwargs={
                 "net_arch": {"pi": list(cfg.net_arch), "vf": list(cfg.net_arch)},
                 "activation_fn": activation,
+                "log_std_init": cfg.log_std_init,
                 **encoder,
             },
         )
