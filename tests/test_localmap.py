@@ -62,6 +62,39 @@ def test_moving_agents_are_discs_and_outside_the_scene_is_not_walkable():
     assert grid[1][~behind].mean() > 0.9
 
 
+def test_the_inside_layer_ends_where_the_scene_does_whichever_way_the_robot_faces():
+    """``local_map_inside``: 1 on the cells whose centre lies in the scene's bounds, 0 beyond
+    them, in the map's own frame (rows forward, columns leftward)."""
+    m = LocalMap()
+    bounds = ((0.0, 0.0), (15.0, 15.0))
+    u, v = m.u.reshape(m.shape), m.v.reshape(m.shape)
+    # 1 m from the left edge (x = 0) facing +x: the scene ends 1 m behind
+    (grid,) = m.inside(bounds, (1.0, 7.0, 0.0))
+    assert grid.dtype == np.float32 and np.array_equal(grid == 1, u >= -1.0)
+    # facing +y (yaw 90 degrees) the same edge is 1 m to the left (v = 1)
+    (grid,) = m.inside(bounds, (1.0, 7.0, math.pi / 2))
+    assert np.array_equal(grid == 1, v <= 1.0)
+    # in a corner facing it diagonally: the cells whose world centre is inside, one by one
+    x, y, yaw = 14.0, 14.5, math.pi / 4
+    wx = x + u * math.cos(yaw) - v * math.sin(yaw)
+    wy = y + u * math.sin(yaw) + v * math.cos(yaw)
+    (grid,) = m.inside(bounds, (x, y, yaw))
+    assert np.array_equal(grid == 1, (wx <= 15.0) & (wy <= 15.0)) and 0 < grid.mean() < 1
+    # far from every edge: all inside
+    assert m.inside(bounds, (7.5, 7.5, 1.0)).min() == 1.0
+
+
+def test_nav_observation_has_the_inside_layer():
+    env = make_env("nav-clear", robot="wheeled")
+    obs, _ = env.reset(seed=0, options={"index": 0})
+    assert env.observation_space.contains(obs)
+    x, y, _, yaw = env.unwrapped.handle.pose(env.unwrapped.data)
+    b = env.unwrapped.scene.bounds
+    expected = LocalMap().inside(((b.min[0], b.min[1]), (b.max[0], b.max[1])), (x, y, yaw))
+    assert np.array_equal(obs["local_map_inside"], expected)
+    env.close()
+
+
 def test_nav_static_observation_sees_the_scenes_objects():
     scene = citygen.generate("urban-nav-2-test", index=0)
     env = make_env("nav-static", scene, max_steps=3)

@@ -16,8 +16,9 @@ robot's frame) and ``height_map`` (ground heights relative to the robot's feet o
 1.6 m x 1.0 m grid around it, every 0.1 m, interpolated in the scene's 5 cm elevation
 raster of :func:`citygen.height_at`), plus ``depth``
 and ``rgb`` (MuJoCo renderer, ``image_size`` square, off unless asked) and ``rays``
-(ranges of :data:`RAY_COUNT` horizontal rays, off unless asked), and ``local_map``
-(elevation of everything and walkability around the robot, :mod:`citygen.runner.localmap`);
+(ranges of :data:`RAY_COUNT` horizontal rays, off unless asked), ``local_map``
+(elevation of everything and walkability around the robot, :mod:`citygen.runner.localmap`)
+and ``local_map_inside`` (which of its cells lie inside the scene's bounds);
 the last step's ``info["is_success"]`` says whether the goal was reached. Reward per step:
 ``+50`` on reaching the goal and ``-100`` on leaving the scene's bounds (both end the
 episode; a fall ends it like leaving the bounds), ``2.0 * [(1 - tanh(d / 1.0)) + 0.2 (1 -
@@ -488,6 +489,7 @@ class NavEnv(_CitygenEnv):
             "velocity": spaces.Box(-np.inf, np.inf, (3,), np.float32),
             "height_map": self._height_space(),
             "local_map": localmap.space(),
+            "local_map_inside": localmap.inside_space(),
         }
         obs.update(self._image_spaces())
         self.observation_space = spaces.Dict(obs)
@@ -685,6 +687,7 @@ class NavEnv(_CitygenEnv):
             "velocity": np.array([vel[0], vel[1], vel[3]], dtype=np.float32),
             "height_map": self._height_map(x, y, feet, yaw),
             "local_map": localmap.observe(self, x, y, yaw, feet),
+            "local_map_inside": localmap.observe_inside(self, x, y, yaw),
         }
         obs.update(self._images((x, y, z, yaw)))
         return obs

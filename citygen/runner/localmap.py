@@ -12,6 +12,10 @@ the robot first), column ``j`` the leftward distance ``v`` (ascending, right fir
 - channel 1, **walkability**: 1 where every part of the cell is walkable ground without an
   object or a moving agent on it, 0 elsewhere (also outside the scene).
 
+Its companion ``obs["local_map_inside"]`` (:meth:`LocalMap.inside`, ``(1, H, W)``) is 1 on
+the cells inside the scene's bounds and 0 beyond them: walkability is 0 on grass and past the
+scene's edge alike, but leaving the bounds ends an episode at -100.
+
 Cheap per step: :func:`static_layers` rasterises the scene once per compiled scene (the
 occupancy map's 0.05 m cells max-pooled to :data:`POOL_CELL`, so a thin pole is never lost
 between samples) and :class:`LocalMap` samples it at 2 x 2 points per output cell with the
@@ -122,6 +126,7 @@ class LocalMap:
         su = (np.array([-q, -q, q, q])[:, None] + self.u[None, :]).ravel()
         sv = (np.array([-q, q, -q, q])[:, None] + self.v[None, :]).ravel()
         self._sub = (su, sv)
+        self._reach = math.hypot(hx, hy) / 2  # m: the window's farthest cell centre, and more
 
     def __call__(
         self,
@@ -174,6 +179,29 @@ class LocalMap:
         flat_out[1] = walk
         return out
 
+    def inside(
+        self, bounds: tuple[tuple[float, float], tuple[float, float]], pose: tuple[float, float, float]
+    ) -> np.ndarray:
+        """The ``(1, H, W)`` float32 layer of the cells (their centres) that lie inside the
+        scene's ``bounds = ((x0, y0), (x1, y1))`` at ``pose = (x, y, yaw)``: 1 inside, 0
+        outside, where the robot may not go (leaving the bounds ends an episode). The map's
+        walkability is 0 on both sides of the edge, on grass as beyond it; this tells them
+        apart."""
+        x, y, yaw = pose
+        (x0, y0), (x1, y1) = bounds
+        reach = self._reach
+        if x - reach >= x0 and x + reach <= x1 and y - reach >= y0 and y + reach <= y1:
+            return np.ones((1, *self.shape), dtype=np.float32)  # no edge in any direction
+        c, s = math.cos(yaw), math.sin(yaw)
+        cx = self.u * c
+        cx -= self.v * s
+        cx += x
+        cy = self.u * s
+        cy += self.v * c
+        cy += y
+        inside = (cx >= x0) & (cx <= x1) & (cy >= y0) & (cy <= y1)
+        return inside.astype(np.float32).reshape(1, *self.shape)
+
 
 _LAYERS: Any = None
 _DEFAULT = LocalMap()
@@ -184,6 +212,19 @@ def space():
     from gymnasium import spaces
 
     return spaces.Box(-MAX_ELEVATION, MAX_ELEVATION, (2, *_DEFAULT.shape), np.float32)
+
+
+def inside_space():
+    """The Gymnasium space of ``obs["local_map_inside"]`` (:meth:`LocalMap.inside`)."""
+    from gymnasium import spaces
+
+    return spaces.Box(0.0, 1.0, (1, *_DEFAULT.shape), np.float32)
+
+
+def observe_inside(env: Any, x: float, y: float, yaw: float) -> np.ndarray:
+    """``obs["local_map_inside"]`` of a navigation environment at the robot's pose."""
+    b = env.scene.bounds
+    return _DEFAULT.inside(((b.min[0], b.min[1]), (b.max[0], b.max[1])), (x, y, yaw))
 
 
 def observe(env: Any, x: float, y: float, yaw: float, ground: float) -> np.ndarray:
