@@ -185,7 +185,7 @@ HANDOVER = 2
 #: (:class:`LearnedNavigator`). A baseline is listed only once it completed that robot's
 #: track (``citygen bench --task traverse --policy FILE.npz`` on urban-tra-standard, in
 #: ``learn/baselines/README.md``): the learned NavStatic quadruped completes the 1,200 m in
-#: 2,450 s with 23 attempts. Robots not listed are driven by the planner (:class:`PlannerPolicy`).
+#: 2,435 s with 25 attempts. Robots not listed are driven by the planner (:class:`PlannerPolicy`).
 TRAVERSE_AI: dict[str, str] = {"quadruped": "nav-static"}
 
 
