@@ -492,10 +492,9 @@ class RobotHandle:
         return total + self._half_inertia
 
     def _ground_at(self, data: Any, x: float, y: float, top: float) -> float:
-        """Height (m) of the first non-robot surface below ``(x, y, top)``; -inf if none
-        (:attr:`terrain`'s ground there when it is set)."""
-        if self.terrain is not None:
-            return self.terrain.ground_at(x, y)
+        """Height (m) of the first non-robot surface below ``(x, y, top)`` by a ray through
+        the scene; -inf if none (:meth:`_footprint_probe` reads :attr:`terrain` instead when
+        it is set)."""
         point = self._ray_point
         point[:] = (x, y, top)
         dist = self._mj.mj_ray(self.model, data, point, self._ray_down, SCENE_GROUPS, 1, -1, self._ray_geom)
