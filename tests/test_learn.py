@@ -549,6 +549,25 @@ def test_a_critic_warmup_moves_the_critic_alone(run, tmp_path):
 
 
 @pytest.mark.slow
+def test_log_std_final_narrows_the_noise_on_a_schedule(run, tmp_path):
+    """``log_std_final`` lowers a ceiling on the log std linearly over the run: the second
+    of two rollouts samples under half the way down, and the saved policy ends on it."""
+    from citygen.runner.learn.config import TrainConfig
+    from citygen.runner.learn.train import log_std_cap
+
+    cfg = TrainConfig(steps=200, log_std_init=0.5, log_std_final=-2.0)
+    assert [log_std_cap(cfg, n) for n in (0, 100, 200, 400)] == [0.5, -0.75, -2.0, -2.0]
+    assert log_std_cap(TrainConfig(steps=200), 100) is None
+    config = tmp_path / "anneal.toml"
+    config.write_text(run["config"].read_text() + "log_std_final = -2.0\n")
+    r = _train("--steps", 200, "--config", config, "--out", tmp_path / "anneal", "--seed", 4)
+    assert r.returncode == 0, r.stderr
+    with np.load(tmp_path / "anneal" / "policy.npz") as annealed:
+        assert np.all(annealed["log_std"] <= -2.0 + 1e-6), annealed["log_std"]
+    with np.load(run["out"] / "policy.npz") as default:
+        assert np.all(default["log_std"] > -0.5), default["log_std"]
+
+
 def test_log_std_init_sets_the_starting_exploration_noise(run, tmp_path):
     """``log_std_init`` reaches SB3's Gaussian: one rollout's update moves it by a few
     hundredths at most, so the exported policy still carries the configured noise, where the

@@ -95,6 +95,60 @@ def test_nav_observation_has_the_inside_layer():
     env.close()
 
 
+def test_the_crossable_layer_is_walkability_less_the_ground_the_robot_cannot_cross():
+    """``LocalMap.crossable``: walkable cells (objects and moving agents excluded, as in the
+    map) that the layers' ``crossable`` mask allows, turned with the robot like the map."""
+    base = _layers()
+    xs = -10 + (np.arange(200) + 0.5) * 0.1
+    cross = np.ones((200, 200), dtype=bool)
+    cross[:, (xs >= -2.0) & (xs <= -1.0)] = False  # a strip 1-2 m behind a robot at the origin facing +x
+    elev, walk = base.elevation[50:-50, 50:-50], base.walkable[50:-50, 50:-50]  # the margin off again
+    layers = with_margin(StaticLayers(elev, walk, -10.0, -10.0, 0.1, cross))
+    m = LocalMap()
+    u, v = m.u.reshape(m.shape), m.v.reshape(m.shape)
+    person = (np.array([[0.0, 2.0]]), np.array([0.3]))
+    grid = m(layers, (0.0, 0.0, 0.0), 0.0, agents=person)
+    (cr,) = m.crossable(layers, (0.0, 0.0, 0.0), agents=person)
+    strip = (u >= -1.95) & (u <= -1.05)
+    assert cr.dtype == np.float32 and not cr[strip].any() and grid[1][strip].all()
+    assert np.array_equal(cr[~strip] == 1, grid[1][~strip] == 1)  # the box and the person as walkability
+    assert not cr[(u >= 3.05) & (u <= 3.95) & (np.abs(v) <= 0.45)].any()
+    # Facing +y the strip lies to the right (v from 1 to 2), asked without a map made first.
+    (turned,) = LocalMap().crossable(layers, (0.0, 0.0, math.pi / 2))
+    assert not turned[(v >= 1.05) & (v <= 1.95)].any() and turned[(v <= 0.95) & (v >= -2.5)].all()
+    # Without a crossable mask it is walkability.
+    (plain,) = m.crossable(base, (0.0, 0.0, 0.0))
+    assert np.array_equal(plain, m(base, (0.0, 0.0, 0.0), 0.0)[1])
+
+
+@pytest.mark.parametrize("robot", ["wheeled", "quadruped"])
+def test_nav_observation_crossable_layer_follows_the_robots_mobility(robot):
+    """On a test scene where the robot starts on a slope the wheels cannot climb: the wheeled
+    robot's crossable layer drops part of the walkable ground, the quadruped's keeps it all,
+    and every dropped cell covers ground the scene's crossable mask excludes."""
+    env = make_env("nav-clear", robot=robot)
+    obs, _ = env.reset(seed=25, options={"index": 25})
+    assert env.observation_space.contains(obs)
+    (cross,), walk = obs["local_map_crossable"], obs["local_map"][1]
+    assert np.all(cross <= walk)
+    dropped = (walk == 1) & (cross == 0)
+    if robot == "quadruped":
+        assert not dropped.any()
+        return
+    assert dropped.mean() > 0.1
+    u = env.unwrapped
+    x, y, _, yaw = u.handle.pose(u.data)
+    m = LocalMap()
+    cu, cv = m.u.reshape(m.shape)[dropped], m.v.reshape(m.shape)[dropped]
+    wx = x + cu * math.cos(yaw) - cv * math.sin(yaw)
+    wy = y + cu * math.sin(yaw) + cv * math.cos(yaw)
+    occ, crossable = u.prepared.occupancy, u.prepared.crossable
+    for px, py in zip(wx, wy, strict=True):
+        near = [crossable[occ.cell(px + dx, py + dy)] for dx in (-0.1, 0.0, 0.1) for dy in (-0.1, 0.0, 0.1)]
+        assert not all(near), (px, py)
+    env.close()
+
+
 def test_nav_static_observation_sees_the_scenes_objects():
     scene = citygen.generate("urban-nav-2-test", index=0)
     env = make_env("nav-static", scene, max_steps=3)

@@ -18,7 +18,9 @@ raster of :func:`citygen.height_at`), plus ``depth``
 and ``rgb`` (MuJoCo renderer, ``image_size`` square, off unless asked) and ``rays``
 (ranges of :data:`RAY_COUNT` horizontal rays, off unless asked), ``local_map``
 (elevation of everything and walkability around the robot, :mod:`citygen.runner.localmap`)
-and ``local_map_inside`` (which of its cells lie inside the scene's bounds);
+``local_map_inside`` (which of its cells lie inside the scene's bounds) and
+``local_map_crossable`` (which it is walkable ground this robot can cross: no stairs for
+wheels, no slope steeper than it climbs);
 the last step's ``info["is_success"]`` says whether the goal was reached. Reward per step:
 ``+50`` on reaching the goal and ``-100`` on leaving the scene's bounds (both end the
 episode; a fall ends it like leaving the bounds), ``2.0 * [(1 - tanh(d / 1.0)) + 0.2 (1 -
@@ -490,6 +492,7 @@ class NavEnv(_CitygenEnv):
             "height_map": self._height_space(),
             "local_map": localmap.space(),
             "local_map_inside": localmap.inside_space(),
+            "local_map_crossable": localmap.crossable_space(),
         }
         obs.update(self._image_spaces())
         self.observation_space = spaces.Dict(obs)
@@ -688,6 +691,7 @@ class NavEnv(_CitygenEnv):
             "height_map": self._height_map(x, y, feet, yaw),
             "local_map": localmap.observe(self, x, y, yaw, feet),
             "local_map_inside": localmap.observe_inside(self, x, y, yaw),
+            "local_map_crossable": localmap.observe_crossable(self, x, y, yaw),
         }
         obs.update(self._images((x, y, z, yaw)))
         return obs

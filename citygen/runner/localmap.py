@@ -14,7 +14,13 @@ the robot first), column ``j`` the leftward distance ``v`` (ascending, right fir
 
 Its companion ``obs["local_map_inside"]`` (:meth:`LocalMap.inside`, ``(1, H, W)``) is 1 on
 the cells inside the scene's bounds and 0 beyond them: walkability is 0 on grass and past the
-scene's edge alike, but leaving the bounds ends an episode at -100.
+scene's edge alike, but leaving the bounds ends an episode at -100. And
+``obs["local_map_crossable"]`` (:meth:`LocalMap.crossable`, ``(1, H, W)``) is walkability
+for the robot at hand, as a traversability map gives it: 1 where the ground is walkable *and*
+the robot can cross it (:func:`citygen.runner.scenes.crossable_cells`: no edge higher than
+its step, no stairs for wheels, no slope steeper than it climbs), 0 elsewhere. The planner
+plans on that; the elevation layer alone leaves a policy to tell a slope it can drive from
+one it would tip over on.
 
 Cheap per step: :func:`static_layers` rasterises the scene once per compiled scene (the
 occupancy map's 0.05 m cells max-pooled to :data:`POOL_CELL`, so a thin pole is never lost
@@ -47,14 +53,16 @@ UNKNOWN_OBJECT_HEIGHT = 1.0
 
 
 class StaticLayers(NamedTuple):
-    """A scene's pooled static layers: absolute ``elevation`` (m, float32) and ``walkable``
-    (bool), ``(rows, cols)`` cells of ``cell`` m from ``(x0, y0)``."""
+    """A scene's pooled static layers: absolute ``elevation`` (m, float32), ``walkable``
+    (bool) and, when known, ``crossable`` (bool: walkable ground the robot can cross),
+    ``(rows, cols)`` cells of ``cell`` m from ``(x0, y0)``."""
 
     elevation: np.ndarray
     walkable: np.ndarray
     x0: float
     y0: float
     cell: float
+    crossable: np.ndarray | None = None
 
 
 def _object_heights(scene: Any, occ: Any) -> np.ndarray:
@@ -86,20 +94,33 @@ def _object_heights(scene: Any, occ: Any) -> np.ndarray:
     return out
 
 
-def static_layers(scene: Any, occ: Any, margin: float = 5.0) -> StaticLayers:
+def static_layers(
+    scene: Any, occ: Any, margin: float = 5.0, crossable: np.ndarray | None = None
+) -> StaticLayers:
     """The scene's static layers from its occupancy map ``occ``
     (:class:`~citygen.exporters.occupancy.OccupancyMap`), pooled to about :data:`POOL_CELL`:
-    the maximum elevation and "all walkable" of the fine cells in each pooled cell, with a
-    ``margin`` (m) of non-walkable cells around (the edge's elevation), so a window around
-    a robot inside the scene never reads outside the arrays."""
+    the maximum elevation and "all walkable" (and "all ``crossable``", a mask of ``occ``'s
+    cells, when given) of the fine cells in each pooled cell, with a ``margin`` (m) of
+    non-walkable cells around (the edge's elevation), so a window around a robot inside the
+    scene never reads outside the arrays."""
     k = max(1, round(POOL_CELL / occ.resolution))
     elev = occ.heights.astype(np.float32) + np.minimum(_object_heights(scene, occ), MAX_ELEVATION)
-    walk = occ.walkable_mask()
     rows, cols = -(-elev.shape[0] // k), -(-elev.shape[1] // k)
     pad = ((0, rows * k - elev.shape[0]), (0, cols * k - elev.shape[1]))
+
+    def all_of(mask: np.ndarray) -> np.ndarray:
+        return np.pad(mask, pad, constant_values=False).reshape(rows, k, cols, k).all(axis=(1, 3))
+
     elev = np.pad(elev, pad, mode="edge").reshape(rows, k, cols, k).max(axis=(1, 3))
-    walk = np.pad(walk, pad, constant_values=False).reshape(rows, k, cols, k).all(axis=(1, 3))
-    return with_margin(StaticLayers(elev, walk, occ.grid.x0, occ.grid.y0, occ.resolution * k), margin)
+    layers = StaticLayers(
+        elev,
+        all_of(occ.walkable_mask()),
+        occ.grid.x0,
+        occ.grid.y0,
+        occ.resolution * k,
+        None if crossable is None else all_of(crossable),
+    )
+    return with_margin(layers, margin)
 
 
 def with_margin(layers: StaticLayers, margin: float = 5.0) -> StaticLayers:
@@ -108,7 +129,9 @@ def with_margin(layers: StaticLayers, margin: float = 5.0) -> StaticLayers:
     m = math.ceil(margin / layers.cell)
     elev = np.pad(layers.elevation, m, mode="edge")
     walk = np.pad(layers.walkable, m, constant_values=False)
-    return StaticLayers(elev, walk, layers.x0 - m * layers.cell, layers.y0 - m * layers.cell, layers.cell)
+    cross = None if layers.crossable is None else np.pad(layers.crossable, m, constant_values=False)
+    x0, y0 = layers.x0 - m * layers.cell, layers.y0 - m * layers.cell
+    return StaticLayers(elev, walk, x0, y0, layers.cell, cross)
 
 
 class LocalMap:
@@ -153,6 +176,7 @@ class LocalMap:
         flat = row.astype(np.int64)
         flat *= cols
         flat += col.astype(np.int64)
+        self._last = (layers, pose, flat)
         e = np.take(layers.elevation, flat, mode="clip").reshape(4, -1)
         elev = np.maximum(e[0], e[1])
         np.maximum(elev, e[2], out=elev)
@@ -172,12 +196,35 @@ class LocalMap:
                 hit = np.any(d2 <= (radius[near, None] + self.step / 2) ** 2, axis=0)
                 elev[hit] = np.maximum(elev[hit], AGENT_HEIGHT)
                 walk[hit] = False
+        self._walk = walk
         out = np.empty((2, *self.shape), dtype=np.float32)
         flat_out = out.reshape(2, -1)
         np.maximum(elev, -MAX_ELEVATION, out=flat_out[0])
         np.minimum(flat_out[0], MAX_ELEVATION, out=flat_out[0])
         flat_out[1] = walk
         return out
+
+    def crossable(
+        self,
+        layers: StaticLayers,
+        pose: tuple[float, float, float],
+        agents: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> np.ndarray:
+        """The ``(1, H, W)`` float32 layer of the cells every part of which the robot can
+        cross (``layers.crossable``: walkable, off edges higher than its step and terrain it
+        cannot take) with no object or moving agent on it; walkability where ``layers``
+        holds no crossable mask. Reuses the samples of the map just made at the same pose."""
+        last = getattr(self, "_last", None)
+        if last is None or last[0] is not layers or last[1] != pose:
+            self(layers, pose, 0.0, agents)
+        walk = self._walk
+        if layers.crossable is not None:
+            c = np.take(layers.crossable, self._last[2], mode="clip").reshape(4, -1)
+            walk = walk & c[0]
+            walk &= c[1]
+            walk &= c[2]
+            walk &= c[3]
+        return walk.astype(np.float32).reshape(1, *self.shape)
 
     def inside(
         self, bounds: tuple[tuple[float, float], tuple[float, float]], pose: tuple[float, float, float]
@@ -221,6 +268,42 @@ def inside_space():
     return spaces.Box(0.0, 1.0, (1, *_DEFAULT.shape), np.float32)
 
 
+def crossable_space():
+    """The Gymnasium space of ``obs["local_map_crossable"]`` (:meth:`LocalMap.crossable`)."""
+    from gymnasium import spaces
+
+    return spaces.Box(0.0, 1.0, (1, *_DEFAULT.shape), np.float32)
+
+
+def observe_crossable(env: Any, x: float, y: float, yaw: float) -> np.ndarray:
+    """``obs["local_map_crossable"]`` at the robot's pose (after :func:`observe` at it)."""
+    return _DEFAULT.crossable(_layers_of(env), (x, y, yaw), _agents_of(env))
+
+
+def _layers_of(env: Any) -> StaticLayers:
+    """The static layers of ``env``'s compiled scene, built on first use and kept as long as
+    it (:class:`~citygen.runner.scenes.Prepared`) lives."""
+    import weakref
+
+    global _LAYERS
+    if _LAYERS is None:
+        _LAYERS = weakref.WeakKeyDictionary()
+    prepared = env.prepared
+    layers = _LAYERS.get(prepared)
+    if layers is None:
+        layers = _LAYERS[prepared] = static_layers(
+            prepared.scene, prepared.occupancy, crossable=getattr(prepared, "crossable", None)
+        )
+    return layers
+
+
+def _agents_of(env: Any) -> tuple[np.ndarray, np.ndarray] | None:
+    if env.crowd is None and env.traffic is None:
+        return None
+    xy, _, radius = env.others()
+    return (xy, radius)
+
+
 def observe_inside(env: Any, x: float, y: float, yaw: float) -> np.ndarray:
     """``obs["local_map_inside"]`` of a navigation environment at the robot's pose."""
     b = env.scene.bounds
@@ -231,17 +314,4 @@ def observe(env: Any, x: float, y: float, yaw: float, ground: float) -> np.ndarr
     """``obs["local_map"]`` of a navigation environment (:class:`~citygen.runner.envs.NavEnv`)
     at the robot's pose; the scene's static layers are built on first use and kept as long as
     its compiled scene (:class:`~citygen.runner.scenes.Prepared`) lives."""
-    import weakref
-
-    global _LAYERS
-    if _LAYERS is None:
-        _LAYERS = weakref.WeakKeyDictionary()
-    prepared = env.prepared
-    layers = _LAYERS.get(prepared)
-    if layers is None:
-        layers = _LAYERS[prepared] = static_layers(prepared.scene, prepared.occupancy)
-    agents = None
-    if env.crowd is not None or env.traffic is not None:
-        xy, _, radius = env.others()
-        agents = (xy, radius)
-    return _DEFAULT(layers, (x, y, yaw), ground, agents)
+    return _DEFAULT(_layers_of(env), (x, y, yaw), ground, _agents_of(env))

@@ -121,6 +121,9 @@ class Prepared:
     else (the occupancy map inflated by the robot's radius, negated)."""
     walkable: np.ndarray
     """Walkable cells of the occupancy map (no object on them)."""
+    crossable: np.ndarray
+    """Walkable cells this robot can cross (:func:`crossable_cells`): :attr:`free` before
+    the robot's radius is taken off."""
     obstacle_geoms: np.ndarray
     """bool per geom: an object or an agent (a contact with one is a collision)."""
     ground_geoms: np.ndarray
@@ -244,17 +247,27 @@ def mobility_of(robot: Any) -> Mobility:
     return dataclasses.replace(base, radius=robot.radius, max_step=robot.max_step)
 
 
-def free_cells(occ: Any, robot: Any, terrain: Terrain | None = None) -> np.ndarray:
-    """Where the robot's centre may be: walkable ground at least its radius from anything
-    else, from every edge higher than its :attr:`~citygen.runner.robots.Robot.max_step` and
-    from the tiles of ``terrain`` it cannot cross (stairs for wheels, slopes steeper than it
-    climbs, rough ground too bumpy: :func:`citygen.geometry.traversable.tile_crossable`)."""
-    from citygen.geometry.raster import erode
+def crossable_cells(occ: Any, robot: Any, terrain: Terrain | None = None) -> np.ndarray:
+    """The ground ``robot`` can cross: walkable cells off every edge higher than its
+    :attr:`~citygen.runner.robots.Robot.max_step` and off the tiles of ``terrain`` it cannot
+    cross (stairs for wheels, slopes steeper than it climbs, rough ground too bumpy:
+    :func:`citygen.geometry.traversable.tile_crossable`)."""
     from citygen.geometry.traversable import blocked_cells
 
     ok = occ.walkable_mask() & ~step_edges(occ.heights, robot.max_step)
     if terrain is not None:
         ok &= ~blocked_cells(terrain, mobility_of(robot), occ.grid.xs(), occ.grid.ys())
+    return ok
+
+
+def free_cells(
+    occ: Any, robot: Any, terrain: Terrain | None = None, crossable: np.ndarray | None = None
+) -> np.ndarray:
+    """Where the robot's centre may be: :func:`crossable_cells` (given, or computed) at
+    least its radius from anything else."""
+    from citygen.geometry.raster import erode
+
+    ok = crossable_cells(occ, robot, terrain) if crossable is None else crossable
     return erode(ok, robot.radius / occ.resolution)
 
 
@@ -309,12 +322,14 @@ def prepare(scene: Scene, robot: Any) -> Prepared:
     for a in scene.agents:
         body = model.body(f"agent:{a.id}")
         agents[a.id] = int(model.body_mocapid[body.id])
+    crossable = crossable_cells(occ, robot, scene.terrain)
     return Prepared(
         scene=scene,
         robot=robot,
         model=model,
         occupancy=occ,
-        free=free_cells(occ, robot, scene.terrain),
+        free=free_cells(occ, robot, crossable=crossable),
+        crossable=crossable,
         walkable=occ.walkable_mask(),
         obstacle_geoms=obstacle,
         ground_geoms=ground,

@@ -95,6 +95,14 @@ class TrainConfig(BaseModel):
         "baselines still sample with std 0.8, so what they were trained to do is the noisy "
         "policy, not the mean a deterministic evaluation runs.",
     )
+    log_std_final: Annotated[float, Field(ge=-5, le=2)] | None = Field(
+        None,
+        description="A ceiling on the actions' log standard deviation, lowered linearly from "
+        "log_std_init at step 0 to this at `steps` (None: PPO alone sets it). A deterministic "
+        "evaluation runs the mean action; a policy trained with wide noise until the end leans "
+        "on that noise to leave places where its mean stands still or circles. Narrowing it "
+        "late in the run trains the policy that is evaluated.",
+    )
     conv: tuple[tuple[PositiveInt, PositiveInt, PositiveInt], ...] = Field(
         ((16, 5, 2), (32, 3, 2)),
         description="CNN over image-like keys (local_map): (channels, kernel, stride) per layer, "

@@ -123,6 +123,13 @@ def _callbacks(cfg: TrainConfig, out: Path, venv: Any, tracker: _Tracker, bar: A
                 )
             return True
 
+        def _on_rollout_start(self) -> None:
+            cap_log_std(self.model.policy, log_std_cap(cfg, self.model.num_timesteps))
+
+        def _on_training_end(self) -> None:
+            # the last update may have widened it again: the policy saved ends on the schedule
+            cap_log_std(self.model.policy, log_std_cap(cfg, self.model.num_timesteps))
+
         def _on_rollout_end(self) -> None:
             n = self.model.num_timesteps
             # for the update of the rollout just ended
@@ -146,6 +153,25 @@ def _callbacks(cfg: TrainConfig, out: Path, venv: Any, tracker: _Tracker, bar: A
                 w.writerow(row)
 
     return Callback()
+
+
+def log_std_cap(cfg: TrainConfig, steps: int) -> float | None:
+    """The ceiling on the actions' log std at ``steps`` (``log_std_final``): linear from
+    ``log_std_init`` at 0 to ``log_std_final`` at ``cfg.steps``; None without one."""
+    if cfg.log_std_final is None:
+        return None
+    f = min(max(steps / cfg.steps, 0.0), 1.0)
+    return cfg.log_std_init + f * (cfg.log_std_final - cfg.log_std_init)
+
+
+def cap_log_std(policy: Any, cap: float | None) -> None:
+    """Lower ``policy.log_std`` to at most ``cap`` (nothing when None or the policy has none)."""
+    if cap is None or getattr(policy, "log_std", None) is None:
+        return
+    import torch
+
+    with torch.no_grad():
+        policy.log_std.clamp_(max=cap)
 
 
 def actor_parameters(policy: Any) -> list[Any]:
