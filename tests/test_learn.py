@@ -443,6 +443,34 @@ def test_driving_backwards_costs_what_it_moves_so_reversing_to_the_goal_earns_no
             assert abs(extra) < 0.2 * gained  # progress in reverse is taken back
 
 
+def test_backing_off_an_obstacle_is_not_charged_as_reversing():
+    """A step that starts in collision is not charged for moving backwards (the way off a pole
+    the robot drove into); the step after one that ended clear is."""
+    from citygen.runner.bench import make_env
+    from citygen.runner.learn.shaping import ProgressReward
+
+    def reverse_charges(touching: bool) -> list[float]:
+        env = make_env("nav-clear", split="urban-nav-1-train", robot="wheeled")
+        env.unwrapped._collision = lambda x, y: touching  # as if pressed against an object
+        shaped = ProgressReward(env, 0.0, 0.99, 1.0)
+        shaped.reset(seed=3, options={"index": 0})
+        plain = make_env("nav-clear", split="urban-nav-1-train", robot="wheeled")
+        plain.unwrapped._collision = env.unwrapped._collision
+        plain.reset(seed=3, options={"index": 0})
+        charges = []
+        for _ in range(10):
+            a = np.array([-0.8, 0.0], dtype=np.float32)
+            _, r, *_ = shaped.step(a)
+            _, r0, *_ = plain.step(a)
+            charges.append(r0 - r)
+        return charges
+
+    pinned, clear = reverse_charges(True), reverse_charges(False)
+    # The first step starts from the reset, clear of everything; every later one in contact.
+    assert max(abs(c) for c in pinned[1:]) < 1e-9
+    assert sum(clear) > 0.3  # 10 steps in reverse at up to 1.2 m/s: most of a metre charged
+
+
 def test_a_success_earns_holding_the_goal_so_hovering_never_pays_more():
     """Reaching the goal ends the episode; the shaping pays the discounted tracking reward of
     standing on the goal until the horizon, so finishing sooner is worth more than hovering

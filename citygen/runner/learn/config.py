@@ -131,7 +131,8 @@ class TrainConfig(BaseModel):
     reverse: Annotated[float, Field(ge=0)] = Field(
         1.0,
         description="Training-only shaping: reward taken per metre the robot moves backwards (at "
-        "1.0 progress in reverse earns nothing, so policies drive forwards as their sensors face).",
+        "1.0 progress in reverse earns nothing, so policies drive forwards as their sensors face); "
+        "not on a step that starts in collision, so backing off an obstacle is free.",
     )
     normalize: bool = Field(True, description="Running mean/std of observations (exported) and rewards.")
     norm_epsilon: Annotated[float, Field(gt=0)] = Field(
