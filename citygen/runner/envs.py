@@ -685,13 +685,14 @@ class NavEnv(_CitygenEnv):
         gu, gv = _yaw_rotate(np.float64(gx - x), np.float64(gy - y), yaw)
         vel = self.handle.velocity(self.data)
         feet, _ = self._terrain_around(x, y, yaw)
+        grid = localmap.observe(self, x, y, yaw, feet, crossable=True)
         obs = {
             "goal": np.array([gu, gv], dtype=np.float32),
             "velocity": np.array([vel[0], vel[1], vel[3]], dtype=np.float32),
             "height_map": self._height_map(x, y, feet, yaw),
-            "local_map": localmap.observe(self, x, y, yaw, feet),
+            "local_map": grid[:2],
             "local_map_inside": localmap.observe_inside(self, x, y, yaw),
-            "local_map_crossable": localmap.observe_crossable(self, x, y, yaw),
+            "local_map_crossable": grid[2:],
         }
         obs.update(self._images((x, y, z, yaw)))
         return obs

@@ -134,6 +134,16 @@ def with_margin(layers: StaticLayers, margin: float = 5.0) -> StaticLayers:
     return StaticLayers(elev, walk, x0, y0, layers.cell, cross)
 
 
+def _all_samples(mask: np.ndarray, flat: np.ndarray) -> np.ndarray:
+    """Per output cell, whether ``mask`` holds at all 4 of its sub-samples (``flat``: the
+    4 blocks of flat indices :class:`LocalMap` gathers)."""
+    m = np.take(mask, flat, mode="clip").reshape(4, -1)
+    out = m[0] & m[1]
+    out &= m[2]
+    out &= m[3]
+    return out
+
+
 class LocalMap:
     """Samples :class:`StaticLayers` (with a margin, :func:`with_margin`) around a pose (see
     the module docstring)."""
@@ -157,9 +167,12 @@ class LocalMap:
         pose: tuple[float, float, float],
         ground: float,
         agents: tuple[np.ndarray, np.ndarray] | None = None,
+        crossable: bool = False,
     ) -> np.ndarray:
         """The ``(2, H, W)`` map at ``pose = (x, y, yaw)``; elevations relative to ``ground``
-        (m); ``agents`` are ``(xy (n, 2), radius (n,))`` of moving people and vehicles."""
+        (m); ``agents`` are ``(xy (n, 2), radius (n,))`` of moving people and vehicles. With
+        ``crossable``, ``(3, H, W)``: the third channel is :meth:`crossable`'s layer, from
+        the same samples."""
         x, y, yaw = pose
         c, s = math.cos(yaw), math.sin(yaw)
         su, sv = self._sub
@@ -176,16 +189,12 @@ class LocalMap:
         flat = row.astype(np.int64)
         flat *= cols
         flat += col.astype(np.int64)
-        self._last = (layers, pose, flat)
         e = np.take(layers.elevation, flat, mode="clip").reshape(4, -1)
         elev = np.maximum(e[0], e[1])
         np.maximum(elev, e[2], out=elev)
         np.maximum(elev, e[3], out=elev)
         elev -= np.float32(ground)
-        w = np.take(layers.walkable, flat, mode="clip").reshape(4, -1)
-        walk = w[0] & w[1]
-        walk &= w[2]
-        walk &= w[3]
+        walk = _all_samples(layers.walkable, flat)
         if agents is not None and len(agents[0]):
             xy, radius = agents
             du, dv = xy[:, 0] - x, xy[:, 1] - y
@@ -196,12 +205,13 @@ class LocalMap:
                 hit = np.any(d2 <= (radius[near, None] + self.step / 2) ** 2, axis=0)
                 elev[hit] = np.maximum(elev[hit], AGENT_HEIGHT)
                 walk[hit] = False
-        self._walk = walk
-        out = np.empty((2, *self.shape), dtype=np.float32)
-        flat_out = out.reshape(2, -1)
+        out = np.empty((3 if crossable else 2, *self.shape), dtype=np.float32)
+        flat_out = out.reshape(len(out), -1)
         np.maximum(elev, -MAX_ELEVATION, out=flat_out[0])
         np.minimum(flat_out[0], MAX_ELEVATION, out=flat_out[0])
         flat_out[1] = walk
+        if crossable:
+            flat_out[2] = walk if layers.crossable is None else walk & _all_samples(layers.crossable, flat)
         return out
 
     def crossable(
@@ -213,18 +223,8 @@ class LocalMap:
         """The ``(1, H, W)`` float32 layer of the cells every part of which the robot can
         cross (``layers.crossable``: walkable, off edges higher than its step and terrain it
         cannot take) with no object or moving agent on it; walkability where ``layers``
-        holds no crossable mask. Reuses the samples of the map just made at the same pose."""
-        last = getattr(self, "_last", None)
-        if last is None or last[0] is not layers or last[1] != pose:
-            self(layers, pose, 0.0, agents)
-        walk = self._walk
-        if layers.crossable is not None:
-            c = np.take(layers.crossable, self._last[2], mode="clip").reshape(4, -1)
-            walk = walk & c[0]
-            walk &= c[1]
-            walk &= c[2]
-            walk &= c[3]
-        return walk.astype(np.float32).reshape(1, *self.shape)
+        holds no crossable mask."""
+        return self(layers, pose, 0.0, agents, crossable=True)[2:]
 
     def inside(
         self, bounds: tuple[tuple[float, float], tuple[float, float]], pose: tuple[float, float, float]
@@ -275,11 +275,6 @@ def crossable_space():
     return spaces.Box(0.0, 1.0, (1, *_DEFAULT.shape), np.float32)
 
 
-def observe_crossable(env: Any, x: float, y: float, yaw: float) -> np.ndarray:
-    """``obs["local_map_crossable"]`` at the robot's pose (after :func:`observe` at it)."""
-    return _DEFAULT.crossable(_layers_of(env), (x, y, yaw), _agents_of(env))
-
-
 def _layers_of(env: Any) -> StaticLayers:
     """The static layers of ``env``'s compiled scene, built on first use and kept as long as
     it (:class:`~citygen.runner.scenes.Prepared`) lives."""
@@ -292,7 +287,7 @@ def _layers_of(env: Any) -> StaticLayers:
     layers = _LAYERS.get(prepared)
     if layers is None:
         layers = _LAYERS[prepared] = static_layers(
-            prepared.scene, prepared.occupancy, crossable=getattr(prepared, "crossable", None)
+            prepared.scene, prepared.occupancy, crossable=prepared.crossable
         )
     return layers
 
@@ -310,8 +305,9 @@ def observe_inside(env: Any, x: float, y: float, yaw: float) -> np.ndarray:
     return _DEFAULT.inside(((b.min[0], b.min[1]), (b.max[0], b.max[1])), (x, y, yaw))
 
 
-def observe(env: Any, x: float, y: float, yaw: float, ground: float) -> np.ndarray:
+def observe(env: Any, x: float, y: float, yaw: float, ground: float, crossable: bool = False) -> np.ndarray:
     """``obs["local_map"]`` of a navigation environment (:class:`~citygen.runner.envs.NavEnv`)
-    at the robot's pose; the scene's static layers are built on first use and kept as long as
-    its compiled scene (:class:`~citygen.runner.scenes.Prepared`) lives."""
-    return _DEFAULT(_layers_of(env), (x, y, yaw), ground, _agents_of(env))
+    at the robot's pose, with ``obs["local_map_crossable"]`` as a third channel when
+    ``crossable``; the scene's static layers are built on first use and kept as long as its
+    compiled scene (:class:`~citygen.runner.scenes.Prepared`) lives."""
+    return _DEFAULT(_layers_of(env), (x, y, yaw), ground, _agents_of(env), crossable)
