@@ -16,7 +16,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
 
 #: Observation keys a navigation policy sees: the goal, its own velocity and the local map
 #: (through a CNN). The 1.6 m x 1.0 m ``height_map`` stays out: the local map's elevation
@@ -117,6 +117,13 @@ class TrainConfig(BaseModel):
         description="Observation keys the policy sees; default goal, velocity and local_map for "
         "navigation, the paper's proprioception and height map for locomotion.",
     )
+    stack: tuple[tuple[str, ...], ...] = Field(
+        (),
+        description="Groups of image-like keys one CNN reads as its input channels, e.g. "
+        '[["local_map", "local_map_crossable"]]; every other image-like key gets a CNN of its own. '
+        "A layer read beside the local map then shares its filters instead of bringing a second "
+        "encoder (and map_features more inputs) to train.",
+    )
     goal_range: Annotated[float, Field(gt=0)] | None = Field(
         5.0,
         description="Goal vectors longer than this (m) reach the policy scaled to this length, "
@@ -160,6 +167,20 @@ class TrainConfig(BaseModel):
     )
     checkpoint_every: Annotated[int, Field(ge=1)] = Field(50_000, description="Steps between checkpoints.")
     keep_checkpoints: Annotated[int, Field(ge=1)] = 3
+
+    @field_validator("stack")
+    @classmethod
+    def _stack_reads_observed_keys(cls, stack: tuple[tuple[str, ...], ...], info: ValidationInfo):
+        task, keys = info.data.get("task"), info.data.get("keys")
+        observed = tuple(keys) if keys else LOCO_KEYS if str(task).startswith("loco") else NAV_KEYS
+        seen: set[str] = set()
+        for group in stack:
+            if len(group) < 2 or not set(group) <= set(observed) or seen & set(group):
+                raise ValueError(
+                    f"groups of two or more of the observation keys {list(observed)}, each key in one group"
+                )
+            seen.update(group)
+        return stack
 
     @property
     def train_split(self) -> str:

@@ -15,6 +15,8 @@ An exported policy file holds (``np.load(path, allow_pickle=False)`` reads it):
 - for each key the CNN encodes (:mod:`citygen.runner.learn.nets`; listed in the meta's
   ``encoders`` with each layer's ``strides``): ``enc/<key>/conv<i>/w`` ``(out, in, k, k)``
   and ``.../b``, then its linear layer ``enc/<key>/fc/w`` and ``.../b`` (ReLU after each);
+  an encoder whose spec has a ``stack`` reads those keys as its input channels (``key`` the
+  first of them), and the others add no features of their own;
 - the meta's ``goal_range`` (metres, or absent): goal vectors longer than it reach the network
   scaled to that length (:func:`clip_goal`, as in training).
 
@@ -100,6 +102,9 @@ class NumpyPolicy:
             )
             for key, spec in meta.get("encoders", {}).items()
         }
+        specs = meta.get("encoders", {})
+        self.stacks = {key: tuple(spec.get("stack", (key,))) for key, spec in specs.items()}
+        self.stacked = {k for group in self.stacks.values() for k in group[1:]}
         self.activation = _ACTIVATIONS[meta["activation"]]
         self.low = np.asarray(meta["action_low"], dtype=np.float32)
         self.high = np.asarray(meta["action_high"], dtype=np.float32)
@@ -109,13 +114,20 @@ class NumpyPolicy:
         parts = []
         clip = float(self.meta["clip_obs"])
         obs = clip_goal(obs, self.meta.get("goal_range"))
+        inputs = {}
         for k in self.keys:
             x = np.asarray(obs[k], dtype=np.float32)
             x = x.reshape(-1, *self.shapes[k])
             if k in self.norm:
                 mean, std = self.norm[k]
                 x = np.clip((x - mean) / std.astype(np.float32), -clip, clip)
+            inputs[k] = x
+        for k in self.keys:
+            if k in self.stacked:
+                continue
+            x = inputs[k]
             if k in self.encoders:
+                x = np.concatenate([inputs[m] for m in self.stacks[k]], axis=1)
                 convs, w, b = self.encoders[k]
                 for cw, cb, stride in convs:
                     x = _relu(conv2d(x, cw, cb, stride))
@@ -187,6 +199,9 @@ def policy_arrays(
         arrays[f"enc/{key}/fc/w"] = fc.weight.detach().cpu().numpy().astype(np.float32)
         arrays[f"enc/{key}/fc/b"] = fc.bias.detach().cpu().numpy().astype(np.float32)
         encoders[key] = {"strides": [int(c.stride[0]) for c in convs]}
+        group = getattr(extractor, "stacks", {}).get(key, (key,))
+        if len(group) > 1:
+            encoders[key]["stack"] = list(group)
     if obs_rms is not None:
         for k in (k for k in keys if k in obs_rms):
             arrays[f"obs_mean/{k}"] = np.asarray(obs_rms[k].mean, dtype=np.float64)

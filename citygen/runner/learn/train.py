@@ -364,6 +364,12 @@ def _start_from_policy(model: Any, venv: Any, path: Path) -> None:
     for key, (convs, fc_w, fc_b) in policy.encoders.items():
         if key not in encoders:
             raise TrainError(f"--init: {path} encodes {key!r} with a CNN, this run does not")
+        mine_stack = getattr(p.features_extractor, "stacks", {}).get(key, (key,))
+        if tuple(policy.stacks[key]) != tuple(mine_stack):
+            raise TrainError(
+                f"--init: {path}'s {key!r} CNN reads {list(policy.stacks[key])}, "
+                f"this run's {list(mine_stack)}"
+            )
         mine = [m for m in encoders[key].modules() if isinstance(m, torch.nn.Conv2d)]
         (fc,) = [m for m in encoders[key].modules() if isinstance(m, torch.nn.Linear)]
         if len(mine) != len(convs):
@@ -466,7 +472,11 @@ def train(
         encoder = (
             {
                 "features_extractor_class": MapEncoder,
-                "features_extractor_kwargs": {"conv": cfg.conv, "map_features": cfg.map_features},
+                "features_extractor_kwargs": {
+                    "conv": cfg.conv,
+                    "map_features": cfg.map_features,
+                    "stack": cfg.stack,
+                },
             }
             if maps
             else {}
