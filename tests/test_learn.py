@@ -186,13 +186,41 @@ def test_the_training_env_gives_the_policy_clipped_goals():
         venv.close()
 
 
+def _numpy_policy_of(encoder, space, encoders: dict):
+    """A :class:`NumpyPolicy` whose features are ``encoder``'s: its ``local_map`` CNN's
+    weights, the meta's ``encoders`` as given, an all-zero 3-action head."""
+    import torch
+
+    from citygen.runner.learn.export import NumpyPolicy
+
+    seq = encoder.encoders["local_map"]
+    convs = [m for m in seq if isinstance(m, torch.nn.Conv2d)]
+    arrays = {"w0": np.zeros((3, encoder.features_dim), np.float32), "b0": np.zeros(3, np.float32)}
+    for i, c in enumerate(convs):
+        arrays[f"enc/local_map/conv{i}/w"] = c.weight.detach().numpy()
+        arrays[f"enc/local_map/conv{i}/b"] = c.bias.detach().numpy()
+    arrays["enc/local_map/fc/w"] = seq[-2].weight.detach().numpy()
+    arrays["enc/local_map/fc/b"] = seq[-2].bias.detach().numpy()
+    meta = {
+        "keys": list(space.spaces),
+        "shapes": [list(s.shape) for s in space.spaces.values()],
+        "encoders": encoders,
+        "activation": "tanh",
+        "action_low": [-1.0] * 3,
+        "action_high": [1.0] * 3,
+        "action_shape": [3],
+        "clip_obs": 10.0,
+        "epsilon": 1e-8,
+    }
+    return NumpyPolicy(meta, arrays)
+
+
 def test_the_map_encoder_exports_to_numpy_exactly():
     """The CNN that reads ``local_map`` (strided convolutions, then a linear layer) gives the
     same features in numpy as in PyTorch, for a batch of random maps."""
     import gymnasium
     import torch
 
-    from citygen.runner.learn.export import NumpyPolicy
     from citygen.runner.learn.nets import MapEncoder
 
     space = gymnasium.spaces.Dict(
@@ -204,26 +232,7 @@ def test_the_map_encoder_exports_to_numpy_exactly():
     torch.manual_seed(0)
     encoder = MapEncoder(space, conv=((8, 5, 2), (16, 3, 2)), map_features=24)
     assert encoder.features_dim == 2 + 24
-    seq = encoder.encoders["local_map"]
-    convs = [m for m in seq if isinstance(m, torch.nn.Conv2d)]
-    arrays = {"w0": np.zeros((3, encoder.features_dim), np.float32), "b0": np.zeros(3, np.float32)}
-    for i, c in enumerate(convs):
-        arrays[f"enc/local_map/conv{i}/w"] = c.weight.detach().numpy()
-        arrays[f"enc/local_map/conv{i}/b"] = c.bias.detach().numpy()
-    arrays["enc/local_map/fc/w"] = seq[-2].weight.detach().numpy()
-    arrays["enc/local_map/fc/b"] = seq[-2].bias.detach().numpy()
-    meta = {
-        "keys": ["goal", "local_map"],
-        "shapes": [[2], [2, 32, 32]],
-        "encoders": {"local_map": {"strides": [2, 2]}},
-        "activation": "tanh",
-        "action_low": [-1.0] * 3,
-        "action_high": [1.0] * 3,
-        "action_shape": [3],
-        "clip_obs": 10.0,
-        "epsilon": 1e-8,
-    }
-    policy = NumpyPolicy(meta, arrays)
+    policy = _numpy_policy_of(encoder, space, {"local_map": {"strides": [2, 2]}})
     rng = np.random.default_rng(1)
     obs = {
         "goal": rng.normal(size=(5, 2)).astype(np.float32),
@@ -243,7 +252,6 @@ def test_a_stacked_map_is_one_cnn_over_both_keys_and_exports_to_numpy_exactly():
     import gymnasium
     import torch
 
-    from citygen.runner.learn.export import NumpyPolicy
     from citygen.runner.learn.nets import MapEncoder
 
     space = gymnasium.spaces.Dict(
@@ -259,23 +267,8 @@ def test_a_stacked_map_is_one_cnn_over_both_keys_and_exports_to_numpy_exactly():
     assert list(encoder.encoders) == ["goal", "local_map"] and encoder.features_dim == 2 + 24
     seq = encoder.encoders["local_map"]
     assert seq[0].in_channels == 3
-    arrays = {"w0": np.zeros((3, encoder.features_dim), np.float32), "b0": np.zeros(3, np.float32)}
-    arrays["enc/local_map/conv0/w"] = seq[0].weight.detach().numpy()
-    arrays["enc/local_map/conv0/b"] = seq[0].bias.detach().numpy()
-    arrays["enc/local_map/fc/w"] = seq[-2].weight.detach().numpy()
-    arrays["enc/local_map/fc/b"] = seq[-2].bias.detach().numpy()
-    meta = {
-        "keys": ["goal", "local_map", "local_map_crossable"],
-        "shapes": [[2], [2, 32, 32], [1, 32, 32]],
-        "encoders": {"local_map": {"strides": [2], "stack": ["local_map", "local_map_crossable"]}},
-        "activation": "tanh",
-        "action_low": [-1.0] * 3,
-        "action_high": [1.0] * 3,
-        "action_shape": [3],
-        "clip_obs": 10.0,
-        "epsilon": 1e-8,
-    }
-    policy = NumpyPolicy(meta, arrays)
+    stacked = {"local_map": {"strides": [2], "stack": ["local_map", "local_map_crossable"]}}
+    policy = _numpy_policy_of(encoder, space, stacked)
     rng = np.random.default_rng(1)
     obs = {
         "goal": rng.normal(size=(5, 2)).astype(np.float32),

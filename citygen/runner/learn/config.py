@@ -171,8 +171,7 @@ class TrainConfig(BaseModel):
     @field_validator("stack")
     @classmethod
     def _stack_reads_observed_keys(cls, stack: tuple[tuple[str, ...], ...], info: ValidationInfo):
-        task, keys = info.data.get("task"), info.data.get("keys")
-        observed = tuple(keys) if keys else LOCO_KEYS if str(task).startswith("loco") else NAV_KEYS
+        observed = _observed(info.data.get("task", ""), info.data.get("keys"))
         seen: set[str] = set()
         for group in stack:
             if len(group) < 2 or not set(group) <= set(observed) or seen & set(group):
@@ -192,14 +191,19 @@ class TrainConfig(BaseModel):
 
     @property
     def obs_keys(self) -> tuple[str, ...]:
-        if self.keys:
-            return tuple(self.keys)
-        return LOCO_KEYS if self.task.startswith("loco") else NAV_KEYS
+        return _observed(self.task, self.keys)
 
     @property
     def batch_size(self) -> int:
         """SGD minibatch size (samples)."""
         return max(1, self.envs * self.n_steps // self.minibatches)
+
+
+def _observed(task: str, keys: tuple[str, ...] | None) -> tuple[str, ...]:
+    """The observation keys a run reads: ``keys``, or the task kind's default."""
+    if keys:
+        return tuple(keys)
+    return LOCO_KEYS if task.startswith("loco") else NAV_KEYS
 
 
 def load_config(path: str | Path | None, **overrides) -> TrainConfig:

@@ -87,6 +87,7 @@ class NumpyPolicy:
             for k in self.keys
             if f"obs_mean/{k}" in arrays
         }
+        specs = meta.get("encoders", {})
         self.encoders = {
             key: (
                 [
@@ -100,9 +101,8 @@ class NumpyPolicy:
                 arrays[f"enc/{key}/fc/w"].astype(np.float32),
                 arrays[f"enc/{key}/fc/b"].astype(np.float32),
             )
-            for key, spec in meta.get("encoders", {}).items()
+            for key, spec in specs.items()
         }
-        specs = meta.get("encoders", {})
         self.stacks = {key: tuple(spec.get("stack", (key,))) for key, spec in specs.items()}
         self.stacked = {k for group in self.stacks.values() for k in group[1:]}
         self.activation = _ACTIVATIONS[meta["activation"]]
@@ -122,9 +122,7 @@ class NumpyPolicy:
                 mean, std = self.norm[k]
                 x = np.clip((x - mean) / std.astype(np.float32), -clip, clip)
             inputs[k] = x
-        for k in self.keys:
-            if k in self.stacked:
-                continue
+        for k in (k for k in self.keys if k not in self.stacked):
             x = inputs[k]
             if k in self.encoders:
                 x = np.concatenate([inputs[m] for m in self.stacks[k]], axis=1)

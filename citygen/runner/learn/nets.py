@@ -59,12 +59,12 @@ class MapEncoder(BaseFeaturesExtractor):
             if is_map(space):
                 group = stacks.setdefault(key, (key,))
                 layers: list[torch.nn.Module] = []
-                channels = channels_in(spaces, group)
+                channels = sum(spaces[k].shape[0] for k in group)
+                probe = torch.zeros(1, channels, *space.shape[1:])
                 for out, kernel, stride in conv:
                     layers += [torch.nn.Conv2d(channels, out, kernel, stride), torch.nn.ReLU()]
                     channels = out
                 layers.append(torch.nn.Flatten())
-                probe = torch.zeros(1, channels_in(spaces, group), *space.shape[1:])
                 with torch.no_grad():
                     n = torch.nn.Sequential(*layers)(probe).shape[1]
                 layers += [torch.nn.Linear(n, map_features), torch.nn.ReLU()]
@@ -86,8 +86,3 @@ class MapEncoder(BaseFeaturesExtractor):
         if len(group) == 1:
             return observations[key]
         return torch.cat([observations[k] for k in group], dim=1)
-
-
-def channels_in(spaces: dict[str, gymnasium.spaces.Space], group: tuple[str, ...]) -> int:
-    """The input channels of a stacked group's CNN."""
-    return sum(spaces[k].shape[0] for k in group)
