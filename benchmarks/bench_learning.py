@@ -19,13 +19,14 @@ Full size: 9 runs of ``--steps`` (default 300,000) on 8 sub-environments: about 
 it checks the pipeline end to end, the steps are far too few to learn. Prints a table, and
 as its last line one JSON object of figures.
 
-The figures in the README (74 minutes on 2 cores) came from a shorter protocol than the
-paper's, stated beside it: every run starts from the NavClear wheeled run (``--init``; from
-scratch NavStatic learned nothing in 300k steps here) and trains 60,000 steps with the
-rate decaying linearly and ``target_kl`` 0.03 (``--config``), tested on 128 episodes::
+The figures in the README (73 minutes on 2 cores) came from a shorter protocol than the
+paper's, stated beside it: every run starts from the shipped wheeled NavClear run
+(``--init``; from scratch NavStatic learned nothing in 300k steps here with the old
+observation) and trains 60,000 steps with its observation (``keys`` and ``stack``), the rate
+decaying linearly and ``target_kl`` 0.03 (``--config``), tested on 256 episodes::
 
-    python benchmarks/bench_learning.py --init runs/nav-clear --steps 60000 --episodes 128 \
-        --config S.json   # {"lr_schedule": "linear", "target_kl": 0.03}
+    python benchmarks/bench_learning.py --init runs/w-clear-st2 --steps 60000 --episodes 256 \
+        --config STS.toml   # the baselines README's STS
 """
 
 from __future__ import annotations
