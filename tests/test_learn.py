@@ -605,6 +605,44 @@ def test_init_starts_from_another_runs_weights_and_a_misfit_is_one_line(run, tmp
 
 
 @pytest.mark.slow
+def test_init_adds_a_layer_to_a_stack_with_its_weights_at_zero(tmp_path, cli):
+    """A run that reads ``local_map_motion`` at the end of the local map's stack starts from
+    one that did not: the first convolution keeps the old channels' weights and gives the new
+    ones 0, so it starts as the old policy (a critic warm-up holds the actor still here); a
+    stack that puts the new layer first is a one-line error."""
+    keys = '"goal", "velocity", "local_map", "local_map_crossable"'
+    base = tmp_path / "base.toml"
+    base.write_text(TINY + f"keys = [{keys}]\nstack = [[{keys.split(', ', 2)[2]}]]\n")
+    r = _train("--steps", 100, "--config", base, "--out", tmp_path / "a", "--seed", 2)
+    assert r.returncode == 0, r.stderr
+    wide = tmp_path / "wide.toml"
+    stack = '"local_map", "local_map_crossable", "local_map_motion"'
+    wide.write_text(
+        TINY + f'keys = [{keys}, "local_map_motion"]\nstack = [[{stack}]]\ncritic_warmup = 1000\n'
+    )
+    r = _train(
+        "--steps", 100, "--config", wide, "--out", tmp_path / "b", "--seed", 2, "--init", tmp_path / "a"
+    )
+    assert r.returncode == 0, r.stderr
+    with np.load(tmp_path / "a" / "policy.npz") as a, np.load(tmp_path / "b" / "policy.npz") as b:
+        conv = "enc/local_map/conv0/w"
+        assert a[conv].shape[1] == 3 and b[conv].shape[1] == 5
+        np.testing.assert_array_equal(b[conv][:, :3], a[conv])
+        assert not b[conv][:, 3:].any()
+        for k in ("w0", "w1", "w2", "enc/local_map/conv1/w", "enc/local_map/fc/w"):
+            np.testing.assert_array_equal(a[k], b[k])
+    r = cli("bench", "--task", "nav-dynamic", "--policy", tmp_path / "b" / "policy.npz", "--episodes", "1")
+    assert r.code == 0 and "Success Rate" in r.out, r.err
+    first = tmp_path / "first.toml"
+    first.write_text(
+        TINY + f'keys = [{keys}, "local_map_motion"]\n'
+        'stack = [["local_map_motion", "local_map", "local_map_crossable"]]\n'
+    )
+    r = _train("--steps", 100, "--config", first, "--out", tmp_path / "c", "--init", tmp_path / "a")
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--init" in r.stderr, r.stderr
+
+
+@pytest.mark.slow
 def test_init_from_an_exported_policy_keeps_its_actor_and_statistics(run, tmp_path):
     """``--init policy.npz`` (a shipped baseline's kind of file) starts from its actor, encoder
     and observation statistics; a policy for another network is one line, exit 2."""

@@ -188,6 +188,57 @@ def test_nav_dynamic_local_map_marks_the_people():
     assert np.all(grid[0][near] >= AGENT_HEIGHT - 1e-6) and not grid[1][near].any()
 
 
+def test_the_motion_layer_gives_each_agents_velocity_in_the_robots_frame_on_its_disc():
+    """``local_map_motion``: a person walking +x at 1.2 m/s and a car driving -y at 8 m/s;
+    facing +x the person moves forward (u), facing +y it moves to the right (-v)."""
+    m = LocalMap()
+    layers = _layers()
+    xy, vel = np.array([[-6.0, 1.0], [-6.0, -2.0]]), np.array([[1.2, 0.0], [0.0, -8.0]])
+    agents = (xy, np.array([0.3, 0.9]), vel)
+    grid = m(layers, (-8.0, 0.0, 0.0), 0.0, agents=agents, crossable=True, motion=True)
+    assert grid.shape == (5, 32, 32)
+    person = grid[0] >= AGENT_HEIGHT - 1e-6
+    plain = m(layers, (-8.0, 0.0, 0.0), 0.0, agents=agents[:2], crossable=True)
+    np.testing.assert_array_equal(grid[:3], plain)  # the other layers are unchanged
+    moving = (grid[3] != 0) | (grid[4] != 0)
+    np.testing.assert_array_equal(moving, person)  # velocity exactly on the discs
+    near_person = np.hypot(m.u - 2.0, m.v - 1.0).reshape(m.shape) <= 0.3
+    near_car = np.hypot(m.u - 2.0, m.v + 2.0).reshape(m.shape) <= 0.9
+    np.testing.assert_allclose(grid[3][near_person], 1.2)
+    np.testing.assert_allclose(grid[4][near_person], 0.0, atol=1e-6)
+    np.testing.assert_allclose(grid[4][near_car], -8.0)
+    # Facing +y (yaw 90 degrees) from (-6, -1): the person, 2 m ahead, crosses to the right.
+    turned = m(layers, (-6.0, -1.0, math.pi / 2), 0.0, agents=agents, motion=True)
+    assert turned.shape == (4, 32, 32)
+    ahead = np.hypot(m.u - 2.0, m.v).reshape(m.shape) <= 0.3
+    np.testing.assert_allclose(turned[2][ahead], 0.0, atol=1e-6)
+    np.testing.assert_allclose(turned[3][ahead], -1.2, atol=1e-6)
+    # No agents: zeros.
+    assert not m(layers, (0.0, 0.0, 0.0), 0.0, motion=True)[2:].any()
+
+
+def test_nav_dynamic_observation_carries_the_people_s_motion():
+    env = make_env("nav-dynamic", split="urban-nav-3-test")
+    obs, _ = env.reset(seed=0, options={"index": 0})
+    assert env.observation_space["local_map_motion"].contains(obs["local_map_motion"])
+    for _ in range(5):
+        obs, *_ = env.step(np.zeros(2, dtype=np.float32))
+    xy, vel, _ = env.others()
+    x, y, _, yaw = env.handle.pose(env.data)
+    grid = localmap.observe(env, x, y, yaw, 0.0, crossable=True, motion=True)
+    np.testing.assert_array_equal(obs["local_map_motion"], grid[3:])
+    # Beside a walking person, the layer holds their velocity turned into the robot's frame.
+    k = int(np.argmax(np.hypot(vel[:, 0], vel[:, 1])))
+    assert np.hypot(*vel[k]) > 0.1
+    grid = localmap.observe(env, float(xy[k, 0]) - 1.0, float(xy[k, 1]), 0.0, 0.0, motion=True)
+    m = localmap.LocalMap()
+    centre = int(np.argmin(np.hypot(m.u - 1.0, m.v)))
+    np.testing.assert_allclose(grid[2:].reshape(2, -1)[:, centre], vel[k], atol=1e-5)
+    static = make_env("nav-static", split="urban-nav-2-test")
+    obs, _ = static.reset(seed=0, options={"index": 0})
+    assert not obs["local_map_motion"].any()
+
+
 def _reference_local_map(layers: StaticLayers, pose, ground, window=localmap.LOCAL_MAP):
     """The local map by its definition, one output cell at a time: the highest elevation and
     "all walkable" of the layers' cells under 2 x 2 sub-samples a quarter cell from the

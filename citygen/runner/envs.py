@@ -20,7 +20,8 @@ and ``rgb`` (MuJoCo renderer, ``image_size`` square, off unless asked) and ``ray
 (elevation of everything and walkability around the robot, :mod:`citygen.runner.localmap`)
 ``local_map_inside`` (which of its cells lie inside the scene's bounds) and
 ``local_map_crossable`` (which it is walkable ground this robot can cross: no stairs for
-wheels, no slope steeper than it climbs);
+wheels, no slope steeper than it climbs) and ``local_map_motion`` (the velocity of the moving
+agent on each cell, in the robot's frame);
 the last step's ``info["is_success"]`` says whether the goal was reached. Reward per step:
 ``+50`` on reaching the goal and ``-100`` on leaving the scene's bounds (both end the
 episode; a fall ends it like leaving the bounds), ``2.0 * [(1 - tanh(d / 1.0)) + 0.2 (1 -
@@ -493,6 +494,7 @@ class NavEnv(_CitygenEnv):
             "local_map": localmap.space(),
             "local_map_inside": localmap.inside_space(),
             "local_map_crossable": localmap.crossable_space(),
+            "local_map_motion": localmap.motion_space(),
         }
         obs.update(self._image_spaces())
         self.observation_space = spaces.Dict(obs)
@@ -685,14 +687,15 @@ class NavEnv(_CitygenEnv):
         gu, gv = _yaw_rotate(np.float64(gx - x), np.float64(gy - y), yaw)
         vel = self.handle.velocity(self.data)
         feet, _ = self._terrain_around(x, y, yaw)
-        grid = localmap.observe(self, x, y, yaw, feet, crossable=True)
+        grid = localmap.observe(self, x, y, yaw, feet, crossable=True, motion=True)
         obs = {
             "goal": np.array([gu, gv], dtype=np.float32),
             "velocity": np.array([vel[0], vel[1], vel[3]], dtype=np.float32),
             "height_map": self._height_map(x, y, feet, yaw),
             "local_map": grid[:2],
             "local_map_inside": localmap.observe_inside(self, x, y, yaw),
-            "local_map_crossable": grid[2:],
+            "local_map_crossable": grid[2:3],
+            "local_map_motion": grid[3:],
         }
         obs.update(self._images((x, y, z, yaw)))
         return obs

@@ -20,7 +20,11 @@ for the robot at hand, as a traversability map gives it: 1 where the ground is w
 the robot can cross it (:func:`citygen.runner.scenes.crossable_cells`: no edge higher than
 its step, no stairs for wheels, no slope steeper than it climbs), 0 elsewhere. The planner
 plans on that; the elevation layer alone leaves a policy to tell a slope it can drive from
-one it would tip over on.
+one it would tip over on. ``obs["local_map_motion"]`` (``(2, H, W)``, m/s) is what a
+tracker adds to the map: on the cells of each moving person's or vehicle's disc, its
+velocity in the robot's frame (forward, leftward), 0 elsewhere. One elevation frame shows
+where people are, not where they are going; a policy that must wait for or pass them
+needs both.
 
 Cheap per step: :func:`static_layers` rasterises the scene once per compiled scene (the
 occupancy map's 0.05 m cells max-pooled to :data:`POOL_CELL`, so a thin pole is never lost
@@ -48,6 +52,8 @@ POOL_CELL = 0.1
 MAX_ELEVATION = 2.0
 #: Height (m) of a moving agent's disc (a person; a vehicle blocks the same way).
 AGENT_HEIGHT = 1.7
+#: Speeds (m/s) in ``local_map_motion`` are clipped to this (a vehicle at speed).
+MAX_SPEED = 20.0
 #: Height (m) of an object whose height the catalog does not know (a mesh file).
 UNKNOWN_OBJECT_HEIGHT = 1.0
 
@@ -166,13 +172,17 @@ class LocalMap:
         layers: StaticLayers,
         pose: tuple[float, float, float],
         ground: float,
-        agents: tuple[np.ndarray, np.ndarray] | None = None,
+        agents: tuple[np.ndarray, ...] | None = None,
         crossable: bool = False,
+        motion: bool = False,
     ) -> np.ndarray:
         """The ``(2, H, W)`` map at ``pose = (x, y, yaw)``; elevations relative to ``ground``
-        (m); ``agents`` are ``(xy (n, 2), radius (n,))`` of moving people and vehicles. With
-        ``crossable``, ``(3, H, W)``: the third channel is :meth:`crossable`'s layer, from
-        the same samples."""
+        (m); ``agents`` are ``(xy (n, 2), radius (n,))`` of moving people and vehicles, or
+        ``(xy, radius, velocity (n, 2))``. With ``crossable``, a further channel:
+        :meth:`crossable`'s layer, from the same samples. With ``motion``, two more after
+        it: the velocity (m/s, robot frame: forward, leftward) of the agent whose disc
+        covers the cell (the one whose centre is deepest inside, where discs overlap), 0
+        elsewhere (``local_map_motion``)."""
         x, y, yaw = pose
         c, s = math.cos(yaw), math.sin(yaw)
         su, sv = self._sub
@@ -195,18 +205,28 @@ class LocalMap:
         np.maximum(elev, e[3], out=elev)
         elev -= np.float32(ground)
         walk = _all_samples(layers.walkable, flat)
+        out = np.empty((2 + crossable + 2 * motion, *self.shape), dtype=np.float32)
+        flat_out = out.reshape(len(out), -1)
+        if motion:
+            flat_out[-2:] = 0.0
         if agents is not None and len(agents[0]):
-            xy, radius = agents
+            xy, radius = agents[0], agents[1]
             du, dv = xy[:, 0] - x, xy[:, 1] - y
             au, av = c * du + s * dv, -s * du + c * dv
             near = (np.abs(au) < self.shape[0] * self.step) & (np.abs(av) < self.shape[1] * self.step)
             if np.any(near):
                 d2 = (self.u[None, :] - au[near, None]) ** 2 + (self.v[None, :] - av[near, None]) ** 2
-                hit = np.any(d2 <= (radius[near, None] + self.step / 2) ** 2, axis=0)
+                d2 -= (radius[near, None] + self.step / 2) ** 2  # <= 0 inside a disc
+                if motion:
+                    deepest = d2.argmin(axis=0)
+                    hit = d2[deepest, np.arange(d2.shape[1])] <= 0
+                    vx, vy = agents[2][near, 0], agents[2][near, 1]
+                    speed = np.stack([c * vx + s * vy, -s * vx + c * vy])[:, deepest]
+                    flat_out[-2:] = np.where(hit, np.clip(speed, -MAX_SPEED, MAX_SPEED), 0.0)
+                else:
+                    hit = np.any(d2 <= 0, axis=0)
                 elev[hit] = np.maximum(elev[hit], AGENT_HEIGHT)
                 walk[hit] = False
-        out = np.empty((3 if crossable else 2, *self.shape), dtype=np.float32)
-        flat_out = out.reshape(len(out), -1)
         np.maximum(elev, -MAX_ELEVATION, out=flat_out[0])
         np.minimum(flat_out[0], MAX_ELEVATION, out=flat_out[0])
         flat_out[1] = walk
@@ -275,6 +295,13 @@ def crossable_space():
     return spaces.Box(0.0, 1.0, (1, *_DEFAULT.shape), np.float32)
 
 
+def motion_space():
+    """The Gymnasium space of ``obs["local_map_motion"]`` (m/s)."""
+    from gymnasium import spaces
+
+    return spaces.Box(-MAX_SPEED, MAX_SPEED, (2, *_DEFAULT.shape), np.float32)
+
+
 def _layers_of(env: Any) -> StaticLayers:
     """The static layers of ``env``'s compiled scene, built on first use and kept as long as
     it (:class:`~citygen.runner.scenes.Prepared`) lives."""
@@ -292,11 +319,11 @@ def _layers_of(env: Any) -> StaticLayers:
     return layers
 
 
-def _agents_of(env: Any) -> tuple[np.ndarray, np.ndarray] | None:
+def _agents_of(env: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     if env.crowd is None and env.traffic is None:
         return None
-    xy, _, radius = env.others()
-    return (xy, radius)
+    xy, vel, radius = env.others()
+    return (xy, radius, vel)
 
 
 def observe_inside(env: Any, x: float, y: float, yaw: float) -> np.ndarray:
@@ -305,9 +332,12 @@ def observe_inside(env: Any, x: float, y: float, yaw: float) -> np.ndarray:
     return _DEFAULT.inside(((b.min[0], b.min[1]), (b.max[0], b.max[1])), (x, y, yaw))
 
 
-def observe(env: Any, x: float, y: float, yaw: float, ground: float, crossable: bool = False) -> np.ndarray:
+def observe(
+    env: Any, x: float, y: float, yaw: float, ground: float, crossable: bool = False, motion: bool = False
+) -> np.ndarray:
     """``obs["local_map"]`` of a navigation environment (:class:`~citygen.runner.envs.NavEnv`)
     at the robot's pose, with ``obs["local_map_crossable"]`` as a third channel when
-    ``crossable``; the scene's static layers are built on first use and kept as long as its
-    compiled scene (:class:`~citygen.runner.scenes.Prepared`) lives."""
-    return _DEFAULT(_layers_of(env), (x, y, yaw), ground, _agents_of(env), crossable)
+    ``crossable`` and ``obs["local_map_motion"]`` as the last two when ``motion``; the
+    scene's static layers are built on first use and kept as long as its compiled scene
+    (:class:`~citygen.runner.scenes.Prepared`) lives."""
+    return _DEFAULT(_layers_of(env), (x, y, yaw), ground, _agents_of(env), crossable, motion)

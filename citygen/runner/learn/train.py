@@ -319,10 +319,11 @@ def _start_from(model: Any, venv: Any, init: Path) -> None:
     try:
         model.set_parameters(str(zip_), exact_match=True, device="cpu")
     except Exception as exc:  # SB3 raises bare exceptions on mismatched state dicts
-        detail = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise TrainError(
-            f"--init: {zip_} does not fit this run's observation keys and action space ({detail})"
-        ) from None
+        if not _start_widened(model, zip_):
+            detail = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise TrainError(
+                f"--init: {zip_} does not fit this run's observation keys and action space ({detail})"
+            ) from None
     if stats.is_file():
         with open(stats, "rb") as f:
             saved = pickle.load(f)
@@ -332,6 +333,54 @@ def _start_from(model: Any, venv: Any, init: Path) -> None:
             )
         venv.obs_rms = saved.obs_rms
         venv.ret_rms = saved.ret_rms
+
+
+def _start_widened(model: Any, zip_: Path) -> bool:
+    """Start from ``zip_`` whose map CNNs read fewer stacked layers than this run's: a run
+    that adds a layer at the end of a ``stack`` group (``local_map_motion`` beside the local
+    map and the crossable layer) starts from one trained without it. The first convolution's
+    weights for the new input channels start at 0, so the new run begins as the old policy
+    and learns what the layer adds; every other weight must fit exactly. False (nothing
+    loaded) when the two networks differ in any other way."""
+    import torch
+    from stable_baselines3.common.save_util import load_from_zip_file
+
+    try:
+        data, params, _ = load_from_zip_file(str(zip_), device="cpu")
+        saved = params["policy"]
+        old_stack = data["policy_kwargs"].get("features_extractor_kwargs", {}).get("stack", ())
+    except Exception:
+        return False
+    extractor = model.policy.features_extractor
+    new_stack = getattr(extractor, "stacks", {})
+    old_groups = {g[0]: tuple(g) for g in map(tuple, old_stack)}
+    first_convs = set()
+    for key, group in new_stack.items():
+        old = old_groups.get(key, (key,))
+        if group[: len(old)] != old:
+            return False  # the old layers must lead the group, in the same order
+        if len(group) > len(old):
+            first_convs.add(f"encoders.{key}.0.weight")
+    mine = model.policy.state_dict()
+    if set(saved) != set(mine) or not first_convs:
+        return False
+    widened = {}
+    for name, value in saved.items():
+        want = mine[name]
+        if tuple(value.shape) == tuple(want.shape):
+            widened[name] = value
+        elif (
+            name.split("extractor.", 1)[-1] in first_convs
+            and value.shape[0] == want.shape[0]
+            and value.shape[2:] == want.shape[2:]
+        ):
+            w = torch.zeros_like(want)
+            w[:, : value.shape[1]] = value
+            widened[name] = w
+        else:
+            return False
+    model.policy.load_state_dict(widened)
+    return True
 
 
 def _start_from_policy(model: Any, venv: Any, path: Path) -> None:
