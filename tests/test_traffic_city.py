@@ -6,7 +6,7 @@ The 6,000 steps run the simulation the Traverse environment runs (:class:`Signal
 the env's :class:`Crowd` on its occupancy map, :class:`CityTraffic`, both at the env's 0.1 s
 step, the robot standing at the task's start) without MuJoCo: the city's env steps at about
 1 s each on the 2-core machine. A short run of the real :class:`TraverseEnv` checks the same
-invariants on its own agents.
+invariants on its own agents, in a town made by the city's config on a ninth of its area.
 
 The invariants are measured on the scene's zones, independently of the runner's bookkeeping:
 a signalised junction is the ground inside its stop lines (STOP_MARGIN beyond the far edge of
@@ -147,16 +147,42 @@ def test_ten_minutes_of_city_traffic_keep_every_rule_at_every_step(city):
     assert np.linalg.norm(traffic.pos - start, axis=1).min() > 0 or traffic.v.max() > 0
 
 
-def test_the_traverse_env_on_the_city_keeps_the_same_rules(city, tmp_path):
+@pytest.fixture(scope="module")
+def town():
+    """urban-tra-city's config on 400 m x 400 m (a ninth of its area, with a ninth of its
+    objects, people and vehicles and a 300 m traverse): the same streets, signals and agents
+    for the environment, whose MuJoCo model of the whole city takes minutes to compile (the
+    city's own MJCF is compiled and stepped in test_export_city)."""
+    from citygen.generate import generate
+    from citygen.seeding import scene_seed
+
+    config = citygen.splits()["urban-tra-city"].config
+    config = config.model_copy(
+        update={
+            "size": (400.0, 400.0),
+            "placement": config.placement.model_copy(update={"count": config.placement.count // 9}),
+            "agents": config.agents.model_copy(
+                update={"people": config.agents.people // 9, "vehicles": config.agents.vehicles // 9}
+            ),
+            "task": config.task.model_copy(update={"min_distance": 300.0}),
+        }
+    )
+    scene = generate(config, scene_seed(2025, "urban-tra-city", 0))
+    assert scene.signals and citygen.validate(scene) == []
+    return scene
+
+
+def test_the_traverse_env_on_a_town_keeps_the_same_rules(town, tmp_path):
     from citygen.io import save_scene
     from citygen.runner.envs import TraverseEnv
 
-    path = tmp_path / "city.json"
-    save_scene(city, path)
+    path = tmp_path / "town.json"
+    save_scene(town, path)
     env = TraverseEnv(scene=path, max_steps=40)
     env.reset(seed=0)
     assert isinstance(env.traffic, CityTraffic) and isinstance(env.crowd, SignalCrowd)
-    check = Invariants(city, env.crowd.crossings)
+    assert len(env.traffic.pos) >= 2 and len(env.crowd.pos) >= 10
+    check = Invariants(town, env.crowd.crossings)
     for _ in range(40):
         t, s = env.traffic.t, env.traffic.s.copy()
         *_, terminated, truncated, info = env.step(np.zeros(2))
