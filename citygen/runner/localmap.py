@@ -217,14 +217,13 @@ class LocalMap:
             if np.any(near):
                 d2 = (self.u[None, :] - au[near, None]) ** 2 + (self.v[None, :] - av[near, None]) ** 2
                 d2 -= (radius[near, None] + self.step / 2) ** 2  # <= 0 inside a disc
-                if motion:
-                    deepest = d2.argmin(axis=0)
-                    hit = d2[deepest, np.arange(d2.shape[1])] <= 0
-                    vx, vy = agents[2][near, 0], agents[2][near, 1]
-                    speed = np.stack([c * vx + s * vy, -s * vx + c * vy])[:, deepest]
-                    flat_out[-2:] = np.where(hit, np.clip(speed, -MAX_SPEED, MAX_SPEED), 0.0)
-                else:
-                    hit = np.any(d2 <= 0, axis=0)
+                hit = np.any(d2 <= 0, axis=0)
+                if motion and hit.any():
+                    cells = np.flatnonzero(hit)  # a few dozen: pick each one's agent there only
+                    deepest = d2[:, cells].argmin(axis=0)
+                    vx, vy = agents[2][near, 0][deepest], agents[2][near, 1][deepest]
+                    speed = np.clip(np.stack([c * vx + s * vy, -s * vx + c * vy]), -MAX_SPEED, MAX_SPEED)
+                    flat_out[-2:, cells] = speed
                 elev[hit] = np.maximum(elev[hit], AGENT_HEIGHT)
                 walk[hit] = False
         np.maximum(elev, -MAX_ELEVATION, out=flat_out[0])
