@@ -511,11 +511,13 @@ def _ground(b: _Builder) -> None:
     scene, terrain = b.scene, b.scene.terrain
     (bx0, by0), (bx1, by1) = scene.bounds.min, scene.bounds.max
     grid = None
+    shaped: list[int] = []
     plan: dict[int, int] = {}
     if terrain is not None:
         # The heightfields' plan first: a resolution too fine for the sample limit fails here,
         # before the city's slabs are built (the runner retries coarser on that error).
-        plan = _hfield_plan(b, [k for k, tile in enumerate(terrain.tiles) if not _level(tile)])
+        shaped = [k for k, tile in enumerate(terrain.tiles) if not _level(tile)]
+        plan = _hfield_plan(b, shaped)
         s = terrain.tile_size
         ox, oy = terrain.origin
         grid = rect(ox, oy, ox + terrain.cols * s, oy + terrain.rows * s)
@@ -578,7 +580,7 @@ def _ground(b: _Builder) -> None:
             ring = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
             _slab(b, b.world, name_of("zone:none:outside"), ring, 0.0, DEFAULT_FRICTION, mat)
     if terrain is not None:
-        _shaped_tiles(b, zones, tree, plan)
+        _shaped_tiles(b, zones, tree, shaped, plan)
         _features(b)
 
 
@@ -711,14 +713,15 @@ def _hfield_plan(b: _Builder, shaped: list[int]) -> dict[int, int]:
     return plan
 
 
-def _shaped_tiles(b: _Builder, zones: list[Polygon], tree: Any, plan: dict[int, int]) -> None:
-    """The non-level tiles: a heightfield of ``plan[k]`` cells a side for each slope and rough
-    tile (:func:`_hfield_plan`), boxes for stairs."""
+def _shaped_tiles(
+    b: _Builder, zones: list[Polygon], tree: Any, shaped: list[int], plan: dict[int, int]
+) -> None:
+    """The non-level tiles (indices ``shaped``): a heightfield of ``plan[k]`` cells a side for
+    each slope and rough tile (:func:`_hfield_plan`), boxes for stairs."""
     terrain = b.scene.terrain
     s = terrain.tile_size
     hfields: dict[tuple, tuple[str, float]] = {}
     mixed: list[int] = []
-    shaped = [k for k, tile in enumerate(terrain.tiles) if not _level(tile)]
     if not shaped:
         return
     ids = np.asarray(shaped)

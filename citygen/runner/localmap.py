@@ -221,9 +221,9 @@ class LocalMap:
                 if motion and hit.any():
                     cells = np.flatnonzero(hit)  # a few dozen: pick each one's agent there only
                     deepest = d2[:, cells].argmin(axis=0)
-                    vx, vy = agents[2][near, 0][deepest], agents[2][near, 1][deepest]
-                    speed = np.clip(np.stack([c * vx + s * vy, -s * vx + c * vy]), -MAX_SPEED, MAX_SPEED)
-                    flat_out[-2:, cells] = speed
+                    vx, vy = agents[2][near][deepest].T
+                    speed = np.stack([c * vx + s * vy, -s * vx + c * vy])
+                    flat_out[-2:, cells] = np.clip(speed, -MAX_SPEED, MAX_SPEED)
                 elev[hit] = np.maximum(elev[hit], AGENT_HEIGHT)
                 walk[hit] = False
         np.maximum(elev, -MAX_ELEVATION, out=flat_out[0])
