@@ -624,13 +624,23 @@ def test_init_adds_a_layer_to_a_stack_with_its_weights_at_zero(tmp_path, cli):
         "--steps", 100, "--config", wide, "--out", tmp_path / "b", "--seed", 2, "--init", tmp_path / "a"
     )
     assert r.returncode == 0, r.stderr
-    with np.load(tmp_path / "a" / "policy.npz") as a, np.load(tmp_path / "b" / "policy.npz") as b:
-        conv = "enc/local_map/conv0/w"
-        assert a[conv].shape[1] == 3 and b[conv].shape[1] == 5
-        np.testing.assert_array_equal(b[conv][:, :3], a[conv])
-        assert not b[conv][:, 3:].any()
-        for k in ("w0", "w1", "w2", "enc/local_map/conv1/w", "enc/local_map/fc/w"):
-            np.testing.assert_array_equal(a[k], b[k])
+    # the same from the exported file (a shipped baseline has no run folder)
+    r = _train(
+        "--steps", 100, "--config", wide, "--out", tmp_path / "n", "--seed", 2,
+        "--init", tmp_path / "a" / "policy.npz",
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    for run in ("b", "n"):
+        with np.load(tmp_path / "a" / "policy.npz") as a, np.load(tmp_path / run / "policy.npz") as b:
+            conv = "enc/local_map/conv0/w"
+            assert a[conv].shape[1] == 3 and b[conv].shape[1] == 5
+            np.testing.assert_array_equal(b[conv][:, :3], a[conv])
+            assert not b[conv][:, 3:].any()
+            for k in ("w0", "w1", "w2", "enc/local_map/conv1/w", "enc/local_map/fc/w"):
+                np.testing.assert_array_equal(a[k], b[k])
+            for k in a.files:  # the file's observation statistics, the new layer's its own
+                if k.startswith("obs_mean/") and run == "n":
+                    assert b[k] == pytest.approx(a[k], rel=1e-2, abs=1e-2)
     r = cli("bench", "--task", "nav-dynamic", "--policy", tmp_path / "b" / "policy.npz", "--episodes", "1")
     assert r.code == 0 and "Success Rate" in r.out, r.err
     first = tmp_path / "first.toml"
@@ -638,8 +648,9 @@ def test_init_adds_a_layer_to_a_stack_with_its_weights_at_zero(tmp_path, cli):
         TINY + f'keys = [{keys}, "local_map_motion"]\n'
         'stack = [["local_map_motion", "local_map", "local_map_crossable"]]\n'
     )
-    r = _train("--steps", 100, "--config", first, "--out", tmp_path / "c", "--init", tmp_path / "a")
-    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--init" in r.stderr, r.stderr
+    for init in (tmp_path / "a", tmp_path / "a" / "policy.npz"):
+        r = _train("--steps", 100, "--config", first, "--out", tmp_path / "c", "--init", init)
+        assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--init" in r.stderr, r.stderr
 
 
 @pytest.mark.slow

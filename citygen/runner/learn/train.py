@@ -398,10 +398,21 @@ def _start_from_policy(model: Any, venv: Any, path: Path) -> None:
         policy = read_policy(path)
     except (OSError, ValueError) as exc:
         raise TrainError(f"--init: {path}: expected {exc}") from None
-    keys = list(model.observation_space.spaces)
-    if list(policy.keys) != keys:
-        raise TrainError(f"--init: {path} reads the observation keys {list(policy.keys)}, this run {keys}")
     p = model.policy
+    stacks = getattr(p.features_extractor, "stacks", {})
+    # Layers this run adds at the end of a stack group the file's CNN reads (as in
+    # _start_widened): their first-convolution weights start at 0.
+    added = {
+        key: len(policy.stacks[key])
+        for key, group in stacks.items()
+        if key in policy.stacks
+        and len(group) > len(policy.stacks[key])
+        and tuple(group[: len(policy.stacks[key])]) == tuple(policy.stacks[key])
+    }
+    new_layers = {layer for key, n in added.items() for layer in stacks[key][n:]}
+    keys = list(model.observation_space.spaces)
+    if list(policy.keys) != [k for k in keys if k not in new_layers]:
+        raise TrainError(f"--init: {path} reads the observation keys {list(policy.keys)}, this run {keys}")
     layers = [m for m in p.mlp_extractor.policy_net if isinstance(m, torch.nn.Linear)] + [p.action_net]
     pairs = [(layer.weight, w) for layer, w in zip(layers, policy.weights, strict=False)]
     pairs += [(layer.bias, b) for layer, b in zip(layers, policy.biases, strict=False)]
@@ -413,8 +424,8 @@ def _start_from_policy(model: Any, venv: Any, path: Path) -> None:
     for key, (convs, fc_w, fc_b) in policy.encoders.items():
         if key not in encoders:
             raise TrainError(f"--init: {path} encodes {key!r} with a CNN, this run does not")
-        mine_stack = getattr(p.features_extractor, "stacks", {}).get(key, (key,))
-        if tuple(policy.stacks[key]) != tuple(mine_stack):
+        mine_stack = stacks.get(key, (key,))
+        if tuple(policy.stacks[key]) != tuple(mine_stack)[: added.get(key, len(mine_stack))]:
             raise TrainError(
                 f"--init: {path}'s {key!r} CNN reads {list(policy.stacks[key])}, "
                 f"this run's {list(mine_stack)}"
@@ -425,6 +436,13 @@ def _start_from_policy(model: Any, venv: Any, path: Path) -> None:
             raise TrainError(
                 f"--init: {path}'s {key!r} encoder has {len(convs)} convolutions, this run's {len(mine)}"
             )
+        if key in added:  # the new input channels of the first convolution start at 0
+            w0 = np.zeros(tuple(mine[0].weight.shape), dtype=np.float32)
+            w = convs[0][0]
+            if w.shape[0] != w0.shape[0] or w.shape[2:] != w0.shape[2:]:
+                raise TrainError(f"--init: {path}'s {key!r} encoder does not fit this run's")
+            w0[:, : w.shape[1]] = w
+            convs = [(w0, *convs[0][1:]), *convs[1:]]
         for conv, (w, b, _) in zip(mine, convs, strict=True):
             pairs += [(conv.weight, w), (conv.bias, b)]
         pairs += [(fc.weight, fc_w), (fc.bias, fc_b)]
