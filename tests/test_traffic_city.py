@@ -147,31 +147,6 @@ def test_ten_minutes_of_city_traffic_keep_every_rule_at_every_step(city):
     assert np.linalg.norm(traffic.pos - start, axis=1).min() > 0 or traffic.v.max() > 0
 
 
-@pytest.fixture(scope="module")
-def town():
-    """urban-tra-city's config on 400 m x 400 m (a ninth of its area, with a ninth of its
-    objects, people and vehicles and a 300 m traverse): the same streets, signals and agents
-    for the environment, whose MuJoCo model of the whole city takes minutes to compile (the
-    city's own MJCF is compiled and stepped in test_export_city)."""
-    from citygen.generate import generate
-    from citygen.seeding import scene_seed
-
-    config = citygen.splits()["urban-tra-city"].config
-    config = config.model_copy(
-        update={
-            "size": (400.0, 400.0),
-            "placement": config.placement.model_copy(update={"count": config.placement.count // 9}),
-            "agents": config.agents.model_copy(
-                update={"people": config.agents.people // 9, "vehicles": config.agents.vehicles // 9}
-            ),
-            "task": config.task.model_copy(update={"min_distance": 300.0}),
-        }
-    )
-    scene = generate(config, scene_seed(2025, "urban-tra-city", 0))
-    assert scene.signals and citygen.validate(scene) == []
-    return scene
-
-
 def test_the_traverse_env_on_a_town_keeps_the_same_rules(town, tmp_path):
     from citygen.io import save_scene
     from citygen.runner.envs import TraverseEnv
