@@ -28,9 +28,12 @@ import json
 import signal
 import sys
 import time
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from citygen.errors import CitygenError
 from citygen.runner.learn.config import TrainConfig
@@ -335,13 +338,42 @@ def _start_from(model: Any, venv: Any, init: Path) -> None:
         venv.ret_rms = saved.ret_rms
 
 
+def _added_layers(
+    new: Mapping[str, Sequence[str]], old: Mapping[str, Sequence[str]]
+) -> dict[str, int] | None:
+    """A run whose map CNNs read the ``stack`` groups ``new`` starting from one that read
+    ``old`` (both keyed by a group's first layer; a key missing from ``old`` read itself
+    alone): each group that adds layers at its end -> how many layers it had. None when an
+    old group does not lead its new one, in the same order."""
+    added = {}
+    for key, group in new.items():
+        before = tuple(old.get(key, (key,)))
+        if tuple(group[: len(before)]) != before:
+            return None
+        if len(group) > len(before):
+            added[key] = len(before)
+    return added
+
+
+def _widened(weight: Any, shape: tuple[int, ...]) -> np.ndarray | None:
+    """A first convolution's ``weight`` ``(out, in, k, k)`` for ``shape``, which has more input
+    channels: the old channels' weights, the new ones 0 (the widened run starts as the old
+    policy). None when the rest of the shape differs."""
+    weight = np.asarray(weight, dtype=np.float32)
+    if weight.shape[0] != shape[0] or weight.shape[2:] != tuple(shape[2:]) or weight.shape[1] > shape[1]:
+        return None
+    out = np.zeros(shape, dtype=np.float32)
+    out[:, : weight.shape[1]] = weight
+    return out
+
+
 def _start_widened(model: Any, zip_: Path) -> bool:
     """Start from ``zip_`` whose map CNNs read fewer stacked layers than this run's: a run
     that adds a layer at the end of a ``stack`` group (``local_map_motion`` beside the local
     map and the crossable layer) starts from one trained without it. The first convolution's
-    weights for the new input channels start at 0, so the new run begins as the old policy
-    and learns what the layer adds; every other weight must fit exactly. False (nothing
-    loaded) when the two networks differ in any other way."""
+    weights for the new input channels start at 0 (:func:`_widened`), so the new run begins
+    as the old policy and learns what the layer adds; every other weight must fit exactly.
+    False (nothing loaded) when the two networks differ in any other way."""
     import torch
     from stable_baselines3.common.save_util import load_from_zip_file
 
@@ -351,34 +383,22 @@ def _start_widened(model: Any, zip_: Path) -> bool:
         old_stack = data["policy_kwargs"].get("features_extractor_kwargs", {}).get("stack", ())
     except Exception:
         return False
-    extractor = model.policy.features_extractor
-    new_stack = getattr(extractor, "stacks", {})
-    old_groups = {g[0]: tuple(g) for g in map(tuple, old_stack)}
-    first_convs = set()
-    for key, group in new_stack.items():
-        old = old_groups.get(key, (key,))
-        if group[: len(old)] != old:
-            return False  # the old layers must lead the group, in the same order
-        if len(group) > len(old):
-            first_convs.add(f"encoders.{key}.0.weight")
+    new_stack = getattr(model.policy.features_extractor, "stacks", {})
+    added = _added_layers(new_stack, {g[0]: tuple(g) for g in old_stack})
     mine = model.policy.state_dict()
-    if set(saved) != set(mine) or not first_convs:
+    if not added or set(saved) != set(mine):
         return False
+    first_convs = {f"encoders.{key}.0.weight" for key in added}
     widened = {}
     for name, value in saved.items():
         want = mine[name]
         if tuple(value.shape) == tuple(want.shape):
             widened[name] = value
-        elif (
-            name.split("extractor.", 1)[-1] in first_convs
-            and value.shape[0] == want.shape[0]
-            and value.shape[2:] == want.shape[2:]
-        ):
-            w = torch.zeros_like(want)
-            w[:, : value.shape[1]] = value
-            widened[name] = w
-        else:
+            continue
+        w = _widened(value, tuple(want.shape)) if name.split("extractor.", 1)[-1] in first_convs else None
+        if w is None:
             return False
+        widened[name] = torch.as_tensor(w)
     model.policy.load_state_dict(widened)
     return True
 
@@ -400,15 +420,8 @@ def _start_from_policy(model: Any, venv: Any, path: Path) -> None:
         raise TrainError(f"--init: {path}: expected {exc}") from None
     p = model.policy
     stacks = getattr(p.features_extractor, "stacks", {})
-    # Layers this run adds at the end of a stack group the file's CNN reads (as in
-    # _start_widened): their first-convolution weights start at 0.
-    added = {
-        key: len(policy.stacks[key])
-        for key, group in stacks.items()
-        if key in policy.stacks
-        and len(group) > len(policy.stacks[key])
-        and tuple(group[: len(policy.stacks[key])]) == tuple(policy.stacks[key])
-    }
+    # Layers this run adds at the end of a stack group the file's CNN reads, as _start_widened.
+    added = _added_layers({k: g for k, g in stacks.items() if k in policy.stacks}, policy.stacks) or {}
     new_layers = {layer for key, n in added.items() for layer in stacks[key][n:]}
     keys = list(model.observation_space.spaces)
     if list(policy.keys) != [k for k in keys if k not in new_layers]:
@@ -436,12 +449,8 @@ def _start_from_policy(model: Any, venv: Any, path: Path) -> None:
             raise TrainError(
                 f"--init: {path}'s {key!r} encoder has {len(convs)} convolutions, this run's {len(mine)}"
             )
-        if key in added:  # the new input channels of the first convolution start at 0
-            w0 = np.zeros(tuple(mine[0].weight.shape), dtype=np.float32)
-            w = convs[0][0]
-            if w.shape[0] != w0.shape[0] or w.shape[2:] != w0.shape[2:]:
-                raise TrainError(f"--init: {path}'s {key!r} encoder does not fit this run's")
-            w0[:, : w.shape[1]] = w
+        w0 = _widened(convs[0][0], tuple(mine[0].weight.shape)) if key in added else None
+        if w0 is not None:  # else the shape check below names the misfit
             convs = [(w0, *convs[0][1:]), *convs[1:]]
         for conv, (w, b, _) in zip(mine, convs, strict=True):
             pairs += [(conv.weight, w), (conv.bias, b)]
