@@ -207,6 +207,35 @@ def test_drive_tracks_speed_and_yaw_rate(name):
     assert handle.body_contacts(data).size == 0  # drove on its feet or wheels only
 
 
+@pytest.mark.parametrize("name", [n for n in BUILTIN if load_robot(n).nav_mode == "base"])
+def test_ideal_locomotion_turns_with_its_nose_on_a_wall(name):
+    """A legged robot pushing into a wall at full speed still turns when asked (its yaw torque
+    is of the order of its push at the feet's lever): with the servo's old yaw gain the
+    contact's friction held it within 2 degrees for the 3 s, pinned, as learned policies
+    were on benches in NavDynamic."""
+    robot = load_robot(name)
+    wall = (
+        '<mujoco model="wall"><worldbody>'
+        '<geom name="zone:none:ground:0" type="box" size="20 20 0.5" pos="0 0 -0.5" contype="1" '
+        'conaffinity="0" priority="1" friction="0.75 0.005 0.0001"/>'
+        f'<body name="object:wall"><geom name="object:wall:0" type="box" size="0.2 3 0.6" '
+        f'pos="{robot.radius + 0.45} 0 0.6" contype="1" conaffinity="0" friction="0.75 0.005 0.0001"/></body>'
+        "</worldbody></mujoco>"
+    )
+    model = compose(mjcf.MJCF(wall, {}), robot, (0.0, 0.0, 0.0, 0.0))
+    data = mujoco.MjData(model)
+    handle = RobotHandle(model, robot)
+    handle.reset(data, (0.0, 0.0, 0.0, 0.0))
+    n = round(0.1 / model.opt.timestep)
+    touched = False
+    for _ in range(30):
+        handle.control(data, robot.max_speed, robot.max_yaw_rate, n)
+        touched |= handle.body_contacts(data).size > 0
+    yaw = handle.pose(data)[3]
+    assert touched  # it did reach the wall
+    assert abs(math.degrees(yaw)) > 20.0
+
+
 @pytest.mark.parametrize("name", [n for n in BUILTIN if load_robot(n).nav_mode in ("wheels", "ackermann")])
 def test_drive_tracks_at_the_environments_drive_rate(name):
     """The environments call a wheel drive once per DRIVE_DT and hold its targets between."""

@@ -40,7 +40,9 @@ torques on the base (``data.xfrc_applied``) carries the body's weight
 :data:`HOVER_CLEARANCE` above the stand height over the ground under the base (in the
 environments, the scene's 5 cm terrain raster, :attr:`RobotHandle.terrain`; otherwise a ray
 down through the scene), keeps the trunk level, and tracks the planar velocity ``(v, w)``. Feet then do not
-touch flat ground; legs and trunk still collide with obstacles, curbs and agents. The
+touch flat ground; legs and trunk still collide with obstacles, curbs and agents. Its yaw
+torque is of the order of its push at the feet's lever, as a walking robot's is, so a robot
+pushing its nose into a bench still turns away from it. The
 open-loop trot of :mod:`citygen.runner.gaits` is the locomotion baseline, not the
 navigation drive (it is not precise enough to track a planner's commands).
 

@@ -110,8 +110,13 @@ SERVO_REFRESH_DT = 0.02
 # Drive feedback: wheel speeds get the command plus these gains (1) times the error of the
 # measured forward speed and yaw rate, and these gains (1/s) times its integral.
 _WHEEL_P, _WHEEL_I = 0.5, 3.0
-# Ideal-locomotion servo: planar velocity (1/s), height (1/s^2, 1/s), attitude (1/s^2, 1/s).
-_SERVO_V, _SERVO_W, _SERVO_KP, _SERVO_KD = 10.0, 10.0, 400.0, 40.0
+# Ideal-locomotion servo: planar velocity (1/s), yaw rate (1/s), height (1/s^2, 1/s), attitude
+# (1/s^2, 1/s). A legged robot pushes and turns with the same feet, so its yaw torque matches
+# its push at the feet's lever: the quadruped's push at a 1 m/s error is 15 kg x 10/s =
+# 150 N, x ~0.2 m = 30 N m, and its yaw gain of 50/s gives 0.56 kg m^2 x 50/s = 28 N m at a
+# 1 rad/s error. At 10/s (6 N m) a robot with its nose on a bench could not turn while it
+# pushed (the contact's friction held it) and stayed pinned there for the rest of an episode.
+_SERVO_V, _SERVO_W, _SERVO_KP, _SERVO_KD = 10.0, 50.0, 400.0, 40.0
 #: Ackermann steering's K-turn (see :meth:`RobotHandle.drive`): top speed (m/s) and the
 #: time (s) of each forward or backward leg.
 KTURN_SPEED, KTURN_PERIOD = 0.6, 1.5
