@@ -238,6 +238,28 @@ def test_the_ai_sub_goal_follows_a_path_around_what_blocks_the_straight_leg(monk
     planner = policies.PlannerPolicy()
     planner.reset(env)
     np.testing.assert_allclose(nav.act({}), planner.act({}))
+    # wedged: it backs up, then samples from its Gaussian (the mean would wedge the same way
+    # again) until it reaches the next waypoint
+    monkeypatch.setattr(policies, "HANDOVER", 2)
+    sampled = []
+    nav.reset(env)
+
+    def predict(obs, rng):
+        sampled.append(rng is not None)
+        return np.ones(2), None
+
+    nav.policy = SimpleNamespace(predict=predict)
+    for _ in range(steps + 1):  # standing still at (4, 3) for STUCK[0] s
+        nav.act({})
+    assert sampled == [False] * steps  # the mean, until it is found stuck
+    back = round(policies.BACK_UP[0] / env.dt)
+    backing = [nav.act({}) for _ in range(back - 1)]
+    assert all(a[0] < 0 for a in backing) and sampled == [False] * steps
+    nav.act({})
+    assert sampled[-1] is True
+    env.waypoint = 2  # reached the next waypoint: the mean again
+    nav.act({})
+    assert sampled[-1] is False
 
 
 def test_the_learned_ai_waits_for_walk_as_the_planner_does(track, monkeypatch):

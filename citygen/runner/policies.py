@@ -221,13 +221,14 @@ class LearnedNavigator:
     At the edge of a signalised crosswalk that does not show walk it does not drive forwards
     (:func:`wait_for_walk`, as the planner). A navigator wedged against an object
     (:data:`STUCK`) backs up (:data:`BACK_UP`) and
-    tries again. It acts on the policy's mean, except after a failed attempt: put back at
-    the last waypoint, a deterministic policy would fail the same way again, so until it
-    reaches the next waypoint it draws its actions from the policy's trained Gaussian (as in
-    training; seeded by the episode). After :data:`HANDOVER` failed attempts at one
-    stretch, the classical planner (:class:`PlannerPolicy`) drives that stretch: the AI is
-    the learned navigator with a classical recovery, so it completes a route its learned
-    part alone would fail forever, and its attempts count every failure of the learned part."""
+    tries again. It acts on the policy's mean, except after a back-up or a failed attempt:
+    backed up from a wedge or put back at the last waypoint, a deterministic policy would
+    wedge or fail the same way again, so until it reaches the next waypoint it draws its
+    actions from the policy's trained Gaussian (as in training; seeded by the episode). After
+    :data:`HANDOVER` failed attempts at one stretch, the classical planner
+    (:class:`PlannerPolicy`) drives that stretch: the AI is the learned navigator with a
+    classical recovery, so it completes a route its learned part alone would fail forever,
+    and its attempts count every failure of the learned part."""
 
     def __init__(self, path: str, guide: str = "map"):
         from citygen.runner.learn.policy import load_policy
@@ -297,6 +298,7 @@ class LearnedNavigator:
         if self._backing == 0 and self.stuck(x, y):
             self._backing = max(1, round(BACK_UP[0] / env.dt))
             self._trail.clear()
+            self._explore = True  # the mean, backed up, would drive into the same wedge
         if self._backing > 0:
             self._backing -= 1
             return np.array([-BACK_UP[1], 0.0], dtype=np.float32)
