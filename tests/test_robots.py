@@ -214,15 +214,14 @@ def test_ideal_locomotion_turns_with_its_nose_on_a_wall(name):
     contact's friction held it within 2 degrees for the 3 s, pinned, as learned policies
     were on benches in NavDynamic."""
     robot = load_robot(name)
+    ground = flat_ground()
     wall = (
-        '<mujoco model="wall"><worldbody>'
-        '<geom name="zone:none:ground:0" type="box" size="20 20 0.5" pos="0 0 -0.5" contype="1" '
-        'conaffinity="0" priority="1" friction="0.75 0.005 0.0001"/>'
         f'<body name="object:wall"><geom name="object:wall:0" type="box" size="0.2 3 0.6" '
-        f'pos="{robot.radius + 0.45} 0 0.6" contype="1" conaffinity="0" friction="0.75 0.005 0.0001"/></body>'
-        "</worldbody></mujoco>"
+        f'pos="{robot.radius + 0.45} 0 0.6" contype="1" conaffinity="0" '
+        'friction="0.75 0.005 0.0001"/></body>\n'
     )
-    model = compose(mjcf.MJCF(wall, {}), robot, (0.0, 0.0, 0.0, 0.0))
+    scene = mjcf.MJCF(ground.xml.replace("  </worldbody>", wall + "  </worldbody>"), ground.assets)
+    model = compose(scene, robot, (0.0, 0.0, 0.0, 0.0))
     data = mujoco.MjData(model)
     handle = RobotHandle(model, robot)
     handle.reset(data, (0.0, 0.0, 0.0, 0.0))
