@@ -698,6 +698,42 @@ def test_a_critic_warmup_moves_the_critic_alone(run, tmp_path):
         assert not np.array_equal(tuned["w0"], base["w0"])
 
 
+THREADS_PROBE = """
+import json, sys, torch
+from stable_baselines3 import PPO
+from stable_baselines3.common.vec_env import VecNormalize
+from citygen.runner.learn.config import TrainConfig
+from citygen.runner.learn.train import train
+seen = {"update": set(), "rollout": set()}
+update, step = PPO.train, VecNormalize.step_wait
+def probe_update(self):
+    seen["update"].add(torch.get_num_threads())
+    return update(self)
+def probe_step(self):
+    seen["rollout"].add(torch.get_num_threads())
+    return step(self)
+PPO.train, VecNormalize.step_wait = probe_update, probe_step
+cfg = TrainConfig(task="nav-clear", steps=200, envs=2, processes=0, n_steps=50, minibatches=2,
+                  n_epochs=1, net_arch=(16,), torch_threads=1, update_threads=int(sys.argv[1]))
+train(cfg, sys.argv[2], progress=False)
+print(json.dumps({k: sorted(v) for k, v in seen.items()}))
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("update_threads", [2, 3])
+def test_the_update_gets_update_threads_and_the_rollout_torch_threads(tmp_path, update_threads):
+    """PPO's update runs while the sub-environments wait, so it takes ``update_threads`` of
+    PyTorch's threads; the rollout, sharing the cores with them, ``torch_threads``."""
+    r = subprocess.run(
+        [sys.executable, "-c", THREADS_PROBE, str(update_threads), str(tmp_path / "run")],
+        capture_output=True, text=True, cwd=ROOT, timeout=300,
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    seen = json.loads(r.stdout.strip().splitlines()[-1])
+    assert seen == {"update": [update_threads], "rollout": [1]}, seen
+
+
 @pytest.mark.slow
 def test_log_std_final_narrows_the_noise_on_a_schedule(run, tmp_path):
     """``log_std_final`` lowers a ceiling on the log std linearly over the run: the second

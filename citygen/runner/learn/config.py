@@ -163,7 +163,14 @@ class TrainConfig(BaseModel):
     )
     # CPU and bookkeeping
     torch_threads: Annotated[int, Field(ge=0, le=256)] = Field(
-        1, description="PyTorch threads (0: PyTorch's default); the sub-environments use the other cores."
+        1,
+        description="PyTorch threads while the sub-environments step (0: PyTorch's default); they "
+        "use the other cores.",
+    )
+    update_threads: Annotated[int, Field(ge=0, le=256)] = Field(
+        0,
+        description="PyTorch threads in PPO's update, while the sub-environments wait (0: every core "
+        "this process may use).",
     )
     checkpoint_every: Annotated[int, Field(ge=1)] = Field(50_000, description="Steps between checkpoints.")
     keep_checkpoints: Annotated[int, Field(ge=1)] = 3

@@ -103,7 +103,10 @@ class _Tracker:
 
 
 def _callbacks(cfg: TrainConfig, out: Path, venv: Any, tracker: _Tracker, bar: Any, seconds0: float):
+    import torch
     from stable_baselines3.common.callbacks import BaseCallback
+
+    from citygen.generate.dataset import default_jobs
 
     class Callback(BaseCallback):
         def _on_step(self) -> bool:
@@ -128,6 +131,8 @@ def _callbacks(cfg: TrainConfig, out: Path, venv: Any, tracker: _Tracker, bar: A
 
         def _on_rollout_start(self) -> None:
             cap_log_std(self.model.policy, log_std_cap(cfg, self.model.num_timesteps))
+            if cfg.torch_threads:
+                torch.set_num_threads(cfg.torch_threads)  # the sub-environments' turn
 
         def _on_training_end(self) -> None:
             # the last update may have widened it again: the policy saved ends on the schedule
@@ -135,6 +140,8 @@ def _callbacks(cfg: TrainConfig, out: Path, venv: Any, tracker: _Tracker, bar: A
 
         def _on_rollout_end(self) -> None:
             n = self.model.num_timesteps
+            # The update runs while the sub-environments wait: it may have every core.
+            torch.set_num_threads(cfg.update_threads or default_jobs())
             # for the update of the rollout just ended
             freeze_actor(self.model.policy, n <= cfg.critic_warmup)
             row = {
