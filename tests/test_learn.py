@@ -713,25 +713,32 @@ def probe_step(self):
     seen["rollout"].add(torch.get_num_threads())
     return step(self)
 PPO.train, VecNormalize.step_wait = probe_update, probe_step
+default = torch.get_num_threads()
 cfg = TrainConfig(task="nav-clear", steps=200, envs=2, processes=0, n_steps=50, minibatches=2,
-                  n_epochs=1, net_arch=(16,), torch_threads=1, update_threads=int(sys.argv[1]))
-train(cfg, sys.argv[2], progress=False)
-print(json.dumps({k: sorted(v) for k, v in seen.items()}))
+                  n_epochs=1, net_arch=(16,), torch_threads=int(sys.argv[1]),
+                  update_threads=int(sys.argv[2]))
+train(cfg, sys.argv[3], progress=False)
+print(json.dumps({"default": default, **{k: sorted(v) for k, v in seen.items()}}))
 """
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("update_threads", [2, 3])
-def test_the_update_gets_update_threads_and_the_rollout_torch_threads(tmp_path, update_threads):
+@pytest.mark.parametrize("torch_threads, update_threads", [(1, 2), (1, 3), (0, 3)])
+def test_the_update_gets_update_threads_and_the_rollout_torch_threads(
+    tmp_path, torch_threads, update_threads
+):
     """PPO's update runs while the sub-environments wait, so it takes ``update_threads`` of
-    PyTorch's threads; the rollout, sharing the cores with them, ``torch_threads``."""
+    PyTorch's threads; the rollout, sharing the cores with them, ``torch_threads`` (0:
+    PyTorch's own number), every rollout after an update too."""
     r = subprocess.run(
-        [sys.executable, "-c", THREADS_PROBE, str(update_threads), str(tmp_path / "run")],
+        [sys.executable, "-c", THREADS_PROBE, str(torch_threads), str(update_threads), str(tmp_path / "run")],
         capture_output=True, text=True, cwd=ROOT, timeout=300,
     )  # fmt: skip
     assert r.returncode == 0, r.stderr
     seen = json.loads(r.stdout.strip().splitlines()[-1])
-    assert seen == {"update": [update_threads], "rollout": [1]}, seen
+    rollout = torch_threads or seen["default"]
+    assert rollout != update_threads, seen  # else the test could not tell them apart
+    assert seen["update"] == [update_threads] and seen["rollout"] == [rollout], seen
 
 
 @pytest.mark.slow

@@ -108,6 +108,8 @@ def _callbacks(cfg: TrainConfig, out: Path, venv: Any, tracker: _Tracker, bar: A
 
     from citygen.generate.dataset import default_jobs
 
+    rollout_threads = torch.get_num_threads()  # train() has set torch_threads (0: PyTorch's own)
+
     class Callback(BaseCallback):
         def _on_step(self) -> bool:
             for done, info in zip(self.locals["dones"], self.locals["infos"], strict=True):
@@ -131,8 +133,7 @@ def _callbacks(cfg: TrainConfig, out: Path, venv: Any, tracker: _Tracker, bar: A
 
         def _on_rollout_start(self) -> None:
             cap_log_std(self.model.policy, log_std_cap(cfg, self.model.num_timesteps))
-            if cfg.torch_threads:
-                torch.set_num_threads(cfg.torch_threads)  # the sub-environments' turn
+            torch.set_num_threads(rollout_threads)  # the sub-environments' turn
 
         def _on_training_end(self) -> None:
             # the last update may have widened it again: the policy saved ends on the schedule
