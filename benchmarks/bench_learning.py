@@ -28,11 +28,11 @@ The figures in the README came from shorter protocols than the paper's, stated b
 every run starts from the shipped wheeled NavClear policy (from scratch, NavStatic with the
 crossable layer had 1-2 % training success after 92,800 steps on 1,024 scenes) and trains
 60,000 steps (the whole sweep, from that policy's run folder, 73 minutes), or 160,000 or
-300,000 steps (1 and 1,024 scenes) with its observation (``keys`` and ``stack``), the rate
+300,000 steps (1 and 1,024 scenes, and 64 at 300,000) with its observation (``keys`` and ``stack``), the rate
 decaying linearly and ``target_kl`` 0.03 (``--config``), tested on 256 episodes::
 
     python benchmarks/bench_learning.py --init citygen/runner/learn/baselines/nav-clear-wheeled.npz \
-        --steps 300000 --scenes 1,1024 --episodes 256 --config STSW.toml \
+        --steps 300000 --scenes 1,64,1024 --episodes 256 --config STSW.toml \
         --plot benchmarks/plots/learning_300k.png
 
 (``STSW``: the baselines README's ``STS`` with ``critic_warmup = 20000``, since an npz holds
