@@ -89,6 +89,7 @@ def evaluate(policy: Path, folder: Path, args: argparse.Namespace) -> dict:
     ``args.episodes`` scenes of urban-nav-2-test, kept in ``folder/test-<episodes>.json`` (the
     test is deterministic: a policy evaluated once is not evaluated again)."""
     from citygen.runner.bench import run_bench
+    from citygen.runner.metrics import summarise
 
     cached = folder / f"test-{args.episodes}.json"
     if cached.exists() and cached.stat().st_mtime >= policy.stat().st_mtime:
@@ -103,13 +104,11 @@ def evaluate(policy: Path, folder: Path, args: argparse.Namespace) -> dict:
         jobs=args.jobs,
         seed=args.seed,
     )
-    n = len(rows)
-    success = [r["success_rate"] for r in rows]
-    mean = sum(success) / n
+    summary = summarise([{k: r[k] for k in ("success_rate", "route_completion")} for r in rows])
     result = {
-        "success_rate": mean,
-        "success_se": (sum((x - mean) ** 2 for x in success) / max(n - 1, 1) / n) ** 0.5,
-        "route_completion": sum(r["route_completion"] for r in rows) / n,
+        "success_rate": summary["success_rate"]["mean"],
+        "success_se": summary["success_rate"]["sem"],
+        "route_completion": summary["route_completion"]["mean"],
         "eval_s": time.perf_counter() - t0,
     }
     folder.mkdir(parents=True, exist_ok=True)
