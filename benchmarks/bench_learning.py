@@ -195,7 +195,10 @@ def main() -> None:
     start = None
     if args.init is not None:
         # Where every run starts: the policy itself, before any NavStatic training.
-        npz = args.init if args.init.suffix == ".npz" else args.init / "policy.npz"
+        # (citygen bench reads an npz or a model.zip: a run folder's npz, else its model.zip)
+        npz = args.init if args.init.is_file() else args.init / "policy.npz"
+        if not npz.exists():
+            npz = args.init / "model.zip"
         if npz.exists():
             start = evaluate(npz, args.out / "start", args)
             print(
