@@ -1,4 +1,4 @@
-"""The paper's scaling experiment: NavStatic success on urban-nav-2-test after the same number of
+r"""The paper's scaling experiment: NavStatic success on urban-nav-2-test after the same number of
 PPO steps on 1, 8, 64, 256 and 1,024 distinct training scenes, with asynchronous scene sampling
 (each sub-environment its own scene) against synchronous (all sub-environments the same scene).
 
@@ -24,20 +24,22 @@ With ``--init`` the policy every run starts from is tested too, before any train
 kept in its folder (``test-<episodes>.json``), so a sweep stopped part way goes on where it
 stopped and a finished one prints its table again at once.
 
-The figures in the README came from shorter protocols than the paper's, stated beside them:
-every run starts from the shipped wheeled NavClear policy (from scratch, NavStatic with the
-crossable layer had 1-2 % training success after 92,800 steps on 1,024 scenes) and trains
-60,000 steps (the whole sweep, from that policy's run folder, 73 minutes), or 160,000 or
-300,000 steps (1 and 1,024 scenes, and 64 at 300,000) with its observation (``keys`` and ``stack``), the rate
-decaying linearly and ``target_kl`` 0.03 (``--config``), tested on 256 episodes::
+The README's figures come from shorter protocols than the paper's (from scratch, NavStatic
+with the crossable layer had 1-2 % training success after 92,800 steps on 1,024 scenes):
+every run starts from a wheeled NavClear policy, with ``--config`` giving its observation
+(``keys`` and ``stack``), the rate decaying linearly and ``target_kl`` 0.03, tested on 256
+episodes. From the first NavClear run (the one the shipped NavStatic baseline starts from,
+``citygen train --task nav-clear --robot wheeled --steps 400000 --envs 8 --config ST --out
+runs/w-clear-st``; 37.5 % at the start) success grows with the scenes, 21.9 % on one, 47.7 %
+on 64 and 1,024::
 
-    python benchmarks/bench_learning.py --init citygen/runner/learn/baselines/nav-clear-wheeled.npz \
-        --steps 300000 --scenes 1,64,1024 --episodes 256 --config STSW.toml \
-        --plot benchmarks/plots/learning_300k.png
+    python benchmarks/bench_learning.py --init runs/w-clear-st --steps 300000 \
+        --scenes 1,64,1024 --episodes 256 --config STS.toml \
+        --plot benchmarks/plots/learning_300k_first_navclear.png
 
-(``STSW``: the baselines README's ``STS`` with ``critic_warmup = 20000``, since an npz holds
-no critic.) That start already succeeds in 48.8 % of the test episodes, and no run ended
-above it.
+From the shipped NavClear file (``--init citygen/runner/learn/baselines/nav-clear-wheeled.npz
+--config STSW.toml``: ``STS`` with ``critic_warmup = 20000``, since an npz holds no critic)
+the start already succeeds in 48.8 % of the test episodes, and no run ended above it.
 """
 
 from __future__ import annotations
