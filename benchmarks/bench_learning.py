@@ -30,7 +30,7 @@ every run starts from a wheeled NavClear policy, with ``--config`` giving its ob
 (``keys`` and ``stack``), the rate decaying linearly and ``target_kl`` 0.03, tested on 256
 episodes. From the first NavClear run (the one the shipped NavStatic baseline starts from,
 ``citygen train --task nav-clear --robot wheeled --steps 400000 --envs 8 --config ST --out
-runs/w-clear-st``; 37.5 % at the start) success grows with the scenes, 21.9 % on one, 47.7 %
+runs/w-clear-st``; 37.5 % at the start) success grows with the scenes, 21.9 % on one, 24.6 % on 8, 47.7 %
 on 64 and 1,024::
 
     python benchmarks/bench_learning.py --init runs/w-clear-st --steps 300000 \
