@@ -59,6 +59,14 @@ def _ints(text: str) -> list[int]:
     return [int(x) for x in text.split(",") if x]
 
 
+def _start_policy(init: Path) -> Path | None:
+    """The file ``citygen bench`` tests for ``--init``: the file itself (an npz or a
+    ``model.zip``), else a run folder's ``policy.npz`` or ``model.zip``; None if it has neither."""
+    if init.is_file():
+        return init
+    return next((p for p in (init / "policy.npz", init / "model.zip") if p.exists()), None)
+
+
 def run_one(scenes: int, sampling: str, args: argparse.Namespace) -> dict:
     from citygen.runner.learn.config import load_config
     from citygen.runner.learn.train import train
@@ -197,15 +205,12 @@ def main() -> None:
     start = None
     if args.init is not None:
         # Where every run starts: the policy itself, before any NavStatic training.
-        # (citygen bench reads an npz or a model.zip: a run folder's npz, else its model.zip)
-        npz = args.init if args.init.is_file() else args.init / "policy.npz"
-        if not npz.exists():
-            npz = args.init / "model.zip"
-        if npz.exists():
-            start = evaluate(npz, args.out / "start", args)
+        policy = _start_policy(args.init)
+        if policy is not None:
+            start = evaluate(policy, args.out / "start", args)
             print(
                 f"start: success {start['success_rate']:5.1f} ± {start['success_se']:.1f} %, route "
-                f"completion {start['route_completion']:5.1f} % ({npz}, before any training)",
+                f"completion {start['route_completion']:5.1f} % ({policy}, before any training)",
                 flush=True,
             )
     results = []

@@ -109,6 +109,7 @@ def _callbacks(cfg: TrainConfig, out: Path, venv: Any, tracker: _Tracker, bar: A
     from citygen.generate.dataset import default_jobs
 
     rollout_threads = torch.get_num_threads()  # train() has set torch_threads (0: PyTorch's own)
+    update_threads = cfg.update_threads or default_jobs()
 
     class Callback(BaseCallback):
         def _on_step(self) -> bool:
@@ -142,7 +143,7 @@ def _callbacks(cfg: TrainConfig, out: Path, venv: Any, tracker: _Tracker, bar: A
         def _on_rollout_end(self) -> None:
             n = self.model.num_timesteps
             # The update runs while the sub-environments wait: it may have every core.
-            torch.set_num_threads(cfg.update_threads or default_jobs())
+            torch.set_num_threads(update_threads)
             # for the update of the rollout just ended
             freeze_actor(self.model.policy, n <= cfg.critic_warmup)
             row = {
