@@ -162,11 +162,22 @@ def plot(
     plt.close(fig)
 
 
+def _samplings(text: str) -> list[str]:
+    """``--sampling``: ``async``, ``sync``, ``both`` or a comma-separated list of them."""
+    names = [s.strip() for s in text.split(",") if s.strip()]
+    unknown = [s for s in names if s not in ("async", "sync", "both")]
+    if unknown or not names:
+        raise argparse.ArgumentTypeError(f"expected async, sync or both, got {text!r}")
+    return ["async", "sync"] if "both" in names else list(dict.fromkeys(names))
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--quick", action="store_true", help="1, 8, 64 scenes, 6,400 steps, 16 episodes")
     p.add_argument("--scenes", type=_ints, default=None, help="comma-separated scene counts")
-    p.add_argument("--sampling", default="async,sync", help="async, sync or both (comma-separated)")
+    p.add_argument(
+        "--sampling", type=_samplings, default="async,sync", help="async, sync or both (comma-separated)"
+    )
     p.add_argument("--steps", type=int, default=None, help="PPO steps per run (default 300,000)")
     p.add_argument("--envs", type=int, default=8, help="sub-environments")
     p.add_argument("--episodes", type=int, default=None, help="test episodes (default 256)")
@@ -197,7 +208,7 @@ def main() -> None:
     args.scenes = args.scenes or ([1, 8, 64] if args.quick else [1, 8, 64, 256, 1024])
     args.steps = args.steps or (6_400 if args.quick else 300_000)
     args.episodes = args.episodes or (16 if args.quick else 256)
-    samplings = [s for s in args.sampling.split(",") if s]
+    samplings = args.sampling
     if args.quick and args.out == HERE / "logs" / "learning":
         args.out = HERE / "logs" / "learning-quick"
 
