@@ -30,11 +30,13 @@ every run starts from a wheeled NavClear policy, with ``--config`` giving its ob
 (``keys`` and ``stack``), the rate decaying linearly and ``target_kl`` 0.03, tested on 256
 episodes. From the first NavClear run (the one the shipped NavStatic baseline starts from,
 ``citygen train --task nav-clear --robot wheeled --steps 400000 --envs 8 --config ST --out
-runs/w-clear-st``; 37.5 % at the start) success grows with the scenes, 21.9 % on one, 24.6 % on 8, 47.7 %
-on 64 and 1,024::
+runs/w-clear-st``; 37.5 % at the start) success grows with the scenes (asynchronous: 21.9 %
+on one, 24.6 % on 8, 47.7 % on 64, 54.7 % on 256, 47.7 % on 1,024) and asynchronous sampling
+leads synchronous at 64 and 256 scenes (by 10.2 and 7.4 points); synchronous leads at 8
+(40.6 %) and the two are level at 1,024 (49.2 % synchronous)::
 
     python benchmarks/bench_learning.py --init runs/w-clear-st --steps 300000 \
-        --scenes 1,64,1024 --episodes 256 --config STS.toml \
+        --scenes 1,8,64,256,1024 --episodes 256 --config STS.toml \
         --plot benchmarks/plots/learning_300k_first_navclear.png
 
 From the shipped NavClear file (``--init citygen/runner/learn/baselines/nav-clear-wheeled.npz
