@@ -7,7 +7,9 @@
    polling their pipe), beside Gymnasium's ``AsyncVectorEnv`` of the same 2 environments, the
    same :class:`~citygen.runner.vector.VectorEnv` with both in workers that sleep on their
    pipes (``local=0``, the previous default) and one environment at the old 2 ms physics
-   step. Steady state: the environments draw from the split's first :data:`POOL` scenes
+   step; and 8 sub-environments as ``citygen train`` runs them (a process per core, each
+   stepping a group of 4), beside a worker per sub-environment (the layout before groups).
+   Steady state: the environments draw from the split's first :data:`POOL` scenes
    (``scene_pool``), which every process has compiled before the measurement, so a reset
    swaps a cached scene; ``*_cold_*`` figures draw from the whole split, where most resets
    compile a new scene.
@@ -55,7 +57,8 @@ OBS = {
     "+ RGB 64x64": {"rgb": True, "image_size": 64},
     "+ depth 128x128": {"depth": True, "image_size": 128},
 }
-#: Vector environments: label -> (implementation, make_env keyword arguments).
+#: Vector environments of :data:`N_VEC` sub-environments: label -> (implementation,
+#: make_env keyword arguments).
 VECTORS = {
     "citygen 2 workers": ("citygen", {}),
     "gymnasium async 2 workers": ("gymnasium", {}),
@@ -64,6 +67,9 @@ VECTORS = {
     "citygen 2 workers, humanoid": ("citygen", {"robot": "humanoid"}),
     "citygen 2 workers, depth 64x64": ("citygen", {"depth": True, "image_size": 64}),
     "citygen 2 workers, cold": ("citygen", {"scene_pool": None}),
+    # What `citygen train` runs: N_TRAIN sub-environments on the machine's cores.
+    "citygen 8 envs": ("citygen", {"num_envs": 8}),
+    "citygen 8 envs, a worker each": ("citygen-each", {"num_envs": 8}),
 }
 N_VEC = 2
 
@@ -166,12 +172,14 @@ class EnvRun:
 
 
 class VectorRun:
-    """A vector env of :data:`N_VEC` NavStatic environments (``impl``: ``"citygen"``, the one
-    :func:`make_vector_env` returns, or ``"gymnasium"``'s ``AsyncVectorEnv`` of the same
-    environments) stepped in chunks; environment steps per wall second over all chunks,
+    """A vector env of ``num_envs`` NavStatic environments (``impl``: ``"citygen"``, the one
+    :func:`make_vector_env` returns; ``"citygen-workers"``, the same with every
+    sub-environment in a worker; ``"citygen-each"``, a worker per sub-environment, the
+    layout before workers stepped groups; or ``"gymnasium"``'s ``AsyncVectorEnv`` of the
+    same environments) stepped in chunks; environment steps per wall second over all chunks,
     resets included (a finished sub-environment resets on its next step)."""
 
-    def __init__(self, impl: str, **kwargs) -> None:
+    def __init__(self, impl: str, num_envs: int = N_VEC, **kwargs) -> None:
         import functools
 
         import gymnasium
@@ -179,14 +187,15 @@ class VectorRun:
         from citygen.runner.bench import make_env, make_vector_env
 
         kw = {"scene_pool": POOL, **kwargs}
-        self.n = N_VEC
+        self.n = num_envs
         fns = [functools.partial(make_env, TASK, split=SPLIT, **kw) for _ in range(self.n)]
         if impl == "citygen":
             self.venv = make_vector_env(TASK, split=SPLIT, num_envs=self.n, **kw)
-        elif impl == "citygen-workers":  # every sub-environment in a worker, none polled
+        elif impl in ("citygen-workers", "citygen-each"):
             from citygen.runner.vector import VectorEnv
 
-            self.venv = VectorEnv(fns, local=0)
+            # every sub-environment in a worker: none polled; or a worker each, none here
+            self.venv = VectorEnv(fns, local=0, workers=self.n if impl == "citygen-each" else None)
         else:
             self.venv = gymnasium.vector.AsyncVectorEnv(fns, shared_memory=False)
         if kw["scene_pool"] is not None:
@@ -326,7 +335,7 @@ def main(argv: list[str] | None = None) -> int:
     mj: list[tuple[float, float]] = []
     for _ in range(rounds):
         for label, v in vectors.items():
-            v.run(max(10, per_round // 3) if "depth" in label else per_round // N_VEC)
+            v.run(max(10, per_round // 3) if "depth" in label else max(10, per_round // v.n))
         for label, run in list(runs.items()):
             images = "depth" in label or "RGB" in label
             try:
@@ -359,6 +368,7 @@ def main(argv: list[str] | None = None) -> int:
     quad2, depth2 = vec["citygen 2 workers, quadruped"], vec["citygen 2 workers, depth 64x64"]
     human2 = vec["citygen 2 workers, humanoid"]
     cold2 = vec["citygen 2 workers, cold"]
+    v8, each8 = vec["citygen 8 envs"], vec["citygen 8 envs, a worker each"]
     over_mj = 1.0 / state["mj_cpu_share"]
     depth = obs["+ depth 64x64"]
 
@@ -382,6 +392,7 @@ def main(argv: list[str] | None = None) -> int:
         ("  humanoid", human2, "steps/s", f"wheeled: {human2 / v2:.2f}x"),
         ("  depth 64x64", depth2, "steps/s", f"state only: {depth2 / v2:.2f}x"),
         ("  cold: whole split", cold2, "steps/s", "most resets compile a new scene"),
+        ("make_vector_env, 8 envs", v8, "steps/s", f"a worker each: {each8:.1f} ({v8 / each8:.2f}x)"),
         (
             "reset to a cached scene",
             resets["reset_cached_ms"],
@@ -421,6 +432,9 @@ def main(argv: list[str] | None = None) -> int:
         "navstatic_2proc_over_all_workers": round(v2 / workers2, 3),
         "navstatic_2proc_speedup": round(v2 / one, 3),
         "navstatic_2proc_cold_steps_per_s": round(cold2, 1),
+        "navstatic_8env_steps_per_s": round(v8, 1),
+        "navstatic_8env_worker_each_steps_per_s": round(each8, 1),
+        "navstatic_8env_over_worker_each": round(v8 / each8, 3),
         "quadruped_2proc_steps_per_s": round(quad2, 1),
         "humanoid_2proc_steps_per_s": round(human2, 1),
         "depth64_2proc_steps_per_s": round(depth2, 1),
@@ -436,8 +450,8 @@ def main(argv: list[str] | None = None) -> int:
         "runner_over_physics": _r(obs_ratios[0], 3),
         "depth64_steps_per_s": None if depth is None else round(depth["steps_per_s"], 1),
         "depth64_over_state": None if depth is None else round(depth["steps_per_s"] / obs_rates[0], 3),
-        "runner_envs": [1, N_VEC],
-        "runner_envs_steps_per_s": [round(one, 1), round(v2, 1)],
+        "runner_envs": [1, N_VEC, 8],
+        "runner_envs_steps_per_s": [round(one, 1), round(v2, 1), round(v8, 1)],
         "runner_obs": labels,
         "runner_obs_steps_per_s": [_r(r, 1) for r in obs_rates],
         "runner_obs_physics_floor_ratio": [_r(q, 3) for q in obs_ratios],

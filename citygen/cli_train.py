@@ -49,7 +49,7 @@ def train(
         int | None,
         typer.Option(
             "--processes",
-            help="1: a process per sub-environment, 0: all in this one.  "
+            help="1: a process per core (a group of sub-environments each), 0: all in this one.  "
             "[default: 1 on a multi-core machine]",
         ),
     ] = None,

@@ -28,16 +28,23 @@ def _rollout(venv, actions):
 
 @pytest.mark.slow
 def test_worker_processes_give_the_same_batches_as_one_process():
-    """Every sub-environment in this process, each in a worker, and the first here with the
-    others in workers (what ``make_vector_env`` does when each process has a core)."""
+    """Every sub-environment in this process, each in a worker, the first here with the
+    others in workers (what ``make_vector_env`` does when each process has a core), and
+    workers stepping groups of them (what it does with more sub-environments than cores)."""
     actions = _actions(3, 8)
     fns = [functools.partial(make_env, "nav-static", split=SPLIT, max_steps=3) for _ in range(3)]
     runs = []
-    for processes, local in ((False, None), (True, 0), (True, 1), (True, 2)):
-        venv = VectorEnv(fns, processes=processes, local=local)
+    layouts = ((False, None, None), (True, 0, 3), (True, 1, 2), (True, 2, 1), (True, 0, 1), (True, 1, 1))
+    for processes, local, workers in layouts:
+        venv = VectorEnv(fns, processes=processes, local=local, workers=workers)
         assert venv.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
         assert len(venv._slots) == (3 if not processes else local)
+        if processes:
+            assert venv._counts == ([3 - local] if workers == 1 else [1] * workers)
         runs.append(_rollout(venv, actions))
+        # Per-sub-environment attributes reach the right one, in order, in any layout.
+        venv.set_attr("probe", [10, 11, 12])
+        assert venv.get_attr("probe") == (10, 11, 12)
         venv.close()
     for other in runs[1:]:
         for (o1, r1, t1, u1, _), (o2, r2, t2, u2, _) in zip(runs[0], other, strict=True):
@@ -157,3 +164,29 @@ def test_same_step_autoreset_matches_gymnasiums():
     assert ended >= 4
     ours.close()
     theirs.close()
+
+
+def test_more_sub_envs_than_cores_step_in_one_process_per_core():
+    """Beyond the cores, each process (this one and a worker per other core) steps a group:
+    no more processes than cores, the groups as even as can be, and the pipes stay in step
+    when a group's sub-environment fails."""
+    from citygen.generate.dataset import default_jobs
+
+    cores = default_jobs()
+    n = 2 * cores + 1
+    venv = make_vector_env("nav-static", split=SPLIT, num_envs=n, max_steps=3)
+    sizes = [len(venv._slots), *venv._counts]
+    assert len(sizes) == cores if cores > 1 else sizes == [n]
+    assert sum(sizes) == n and max(sizes) - min(sizes) <= 1
+    obs, _ = venv.reset(seed=2)
+    assert len(set(venv.get_attr("_index"))) > 1  # each sub-environment its own scene
+    ended = np.zeros(n, dtype=int)
+    for a in _actions(n, 8):
+        obs, reward, term, trunc, _ = venv.step(a)
+        assert venv.observation_space.contains(obs) and reward.shape == (n,)
+        ended += term | trunc
+    assert (ended >= 2).all()  # three-step episodes: every group's members ended and reset
+    with pytest.raises(AttributeError):
+        venv.call("no_such_method")
+    assert venv.call("task_kind") == ("nav-static",) * n
+    venv.close()

@@ -54,8 +54,9 @@ class TrainConfig(BaseModel):
     envs: Annotated[int, Field(ge=1, le=4096)] = Field(8, description="Parallel sub-environments.")
     processes: Annotated[int, Field(ge=0, le=1)] | None = Field(
         None,
-        description="0 runs every sub-environment in this process, 1 one process per "
-        "sub-environment; default 1 when the machine has more than one core and envs > 1.",
+        description="0 runs every sub-environment in this process, 1 spreads them over a "
+        "process per core (a group each beyond the cores; see citygen.runner.vector); default 1 "
+        "when the machine has more than one core and envs > 1.",
     )
     seed: Annotated[int, Field(ge=0)] = 0
     scenes: Annotated[int, Field(ge=1, le=100_000)] | None = Field(

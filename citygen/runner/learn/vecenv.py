@@ -180,7 +180,7 @@ class Sb3VecEnv(VecEnv):
 
 def make_training_env(cfg: TrainConfig) -> Sb3VecEnv:
     """The SB3 vector environment of a training run: ``cfg.envs`` sub-environments of
-    ``cfg.task`` on ``cfg.train_split``, one process each or all in this one
+    ``cfg.task`` on ``cfg.train_split``, spread over a process per core or all in this one
     (:attr:`TrainConfig.processes`)."""
     from gymnasium.vector import AutoresetMode
 
