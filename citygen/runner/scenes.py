@@ -34,8 +34,16 @@ from citygen.spec.terrain import Terrain
 MAP_RESOLUTION = 0.05
 #: Largest occupancy map (cells) of a scene; bigger scenes get coarser cells.
 MAX_MAP_CELLS = 2**24
-#: Compiled scenes a process keeps (a 15 m scene with its model is a few MB).
-CACHE_SIZE = 64
+#: Most compiled scenes a process keeps, whatever their size.
+CACHE_SIZE = 4096
+#: Memory (MiB) the compiled scenes a process keeps may take, by :meth:`Prepared.footprint`
+#: (1.3 MiB for a 10 m Urban-Nav training scene, 2.7 MiB for a 15 m test scene; the process's
+#: resident memory grows by 2.3 and 4.4 MiB per scene kept, caches of assets and the
+#: allocator's slack included): some 800 training scenes, so that a run on a few hundred
+#: compiles each once per process (it kept 64 before, whatever their size). The environment
+#: variable :data:`CACHE_ENV` overrides it (0 keeps only the scene in use).
+CACHE_MB = 1024
+CACHE_ENV = "CITYGEN_SCENE_CACHE_MB"
 
 
 class SceneSource:
@@ -132,6 +140,14 @@ class Prepared:
     """agent id -> mocap id."""
     _fields: dict = field(default_factory=dict)
     _routes: dict = field(default_factory=dict)
+
+    def footprint(self) -> int:
+        """Bytes this scene holds, estimated: its model's buffer, its maps' arrays, and the
+        float64 ground raster and distance field to the goal every environment running it
+        builds (not counted: the scene spec and the MjData of the environments running it)."""
+        occ = self.occupancy
+        arrays = (occ.labels, occ.heights, occ.terrain, self.free, self.walkable, self.crossable)
+        return int(self.model.nbuffer) + sum(a.nbytes for a in arrays) + 16 * occ.heights.size
 
     @functools.cached_property
     def obstacle_ids(self) -> frozenset[int]:
@@ -337,12 +353,34 @@ def prepare(scene: Scene, robot: Any) -> Prepared:
     )
 
 
-class SceneCache:
-    """A bounded LRU of :class:`Prepared` scenes keyed by (source key, robot)."""
+def cache_budget() -> int:
+    """Bytes of compiled scenes a process keeps: :data:`CACHE_MB`, or the environment
+    variable :data:`CACHE_ENV` (MiB, a number >= 0)."""
+    import os
 
-    def __init__(self, size: int = CACHE_SIZE):
+    text = os.environ.get(CACHE_ENV)
+    if text is None:
+        return CACHE_MB << 20
+    try:
+        mb = float(text)
+    except ValueError:
+        mb = -1.0
+    if not (mb >= 0 and math.isfinite(mb)):
+        raise SpecError([Problem(CACHE_ENV, "a size in MiB >= 0", repr(text))])
+    return int(mb * 2**20)
+
+
+class SceneCache:
+    """An LRU of :class:`Prepared` scenes keyed by (source key, robot), bounded by count
+    (``size``) and by memory (``budget`` bytes, default :func:`cache_budget`, by
+    :meth:`Prepared.footprint`); the scene most recently asked for always stays."""
+
+    def __init__(self, size: int = CACHE_SIZE, budget: int | None = None):
         self.size = size
+        self.budget = cache_budget() if budget is None else int(budget)
         self._items: OrderedDict[tuple, Prepared] = OrderedDict()
+        self._bytes: dict[tuple, int] = {}
+        self.bytes = 0
         self.hits = 0
         self.misses = 0
 
@@ -356,8 +394,11 @@ class SceneCache:
         self.misses += 1
         item = prepare(source.scene(index), robot)
         self._items[key] = item
-        while len(self._items) > self.size:
-            self._items.popitem(last=False)
+        self._bytes[key] = item.footprint()
+        self.bytes += self._bytes[key]
+        while len(self._items) > 1 and (len(self._items) > self.size or self.bytes > self.budget):
+            old, _ = self._items.popitem(last=False)
+            self.bytes -= self._bytes.pop(old)
         return item
 
 

@@ -277,7 +277,7 @@ class VectorEnv(gymnasium.vector.VectorEnv):
             workers = rest if n <= cores else max(min(rest, cores - (local > 0)), min(rest, 1))
         if not (min(1, n - local) <= workers <= n - local):
             raise ValueError(
-                f"VectorEnv: workers: expected 1 to {n - local} processes for the "
+                f"VectorEnv: workers: expected {min(1, n - local)} to {n - local} processes for the "
                 f"{n - local} sub-environments not in this one, got {workers}"
             )
         # Polling pays only when no process has to wait for a core another one polls on.
