@@ -99,3 +99,13 @@ def _fresh(budget: int) -> scenes.SceneCache:
     if not _CACHES:
         _CACHES.append(scenes.SceneCache(budget=budget))
     return _CACHES[0]
+
+
+def test_a_bad_budget_is_one_line_from_train_and_bench_and_writes_nothing(cli, monkeypatch, tmp_path):
+    monkeypatch.setenv(scenes.CACHE_ENV, "lots")
+    r = cli("train", "--task", "nav-clear", "--steps", "10", "--out", tmp_path / "run")
+    assert r.code == 2 and r.err.count("\n") == 1 and scenes.CACHE_ENV in r.err and "'lots'" in r.err
+    assert not (tmp_path / "run").exists()
+    r = cli("bench", "--task", "nav-static", "--episodes", "1", "--output", tmp_path / "b.json")
+    assert r.code == 2 and r.err.count("\n") == 1 and scenes.CACHE_ENV in r.err
+    assert not (tmp_path / "b.json").exists()

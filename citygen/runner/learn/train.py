@@ -513,7 +513,9 @@ def train(
 
     from citygen.runner.learn.export import policy_arrays, write_policy
     from citygen.runner.learn.vecenv import make_training_env
+    from citygen.runner.scenes import cache_budget
 
+    cache_budget()  # a bad CITYGEN_SCENE_CACHE_MB fails here, before the run folder is written
     out = Path(out)
     ckpt = latest_checkpoint(out)
     if resume:
