@@ -57,8 +57,8 @@ OBS = {
     "+ RGB 64x64": {"rgb": True, "image_size": 64},
     "+ depth 128x128": {"depth": True, "image_size": 128},
 }
-#: Vector environments of :data:`N_VEC` sub-environments: label -> (implementation,
-#: make_env keyword arguments).
+#: Vector environments (of :data:`N_VEC` sub-environments unless ``num_envs`` says): label ->
+#: (implementation, VectorRun keyword arguments).
 VECTORS = {
     "citygen 2 workers": ("citygen", {}),
     "gymnasium async 2 workers": ("gymnasium", {}),
@@ -67,7 +67,7 @@ VECTORS = {
     "citygen 2 workers, humanoid": ("citygen", {"robot": "humanoid"}),
     "citygen 2 workers, depth 64x64": ("citygen", {"depth": True, "image_size": 64}),
     "citygen 2 workers, cold": ("citygen", {"scene_pool": None}),
-    # What `citygen train` runs: N_TRAIN sub-environments on the machine's cores.
+    # What `citygen train` runs by default: 8 sub-environments on the machine's cores.
     "citygen 8 envs": ("citygen", {"num_envs": 8}),
     "citygen 8 envs, a worker each": ("citygen-each", {"num_envs": 8}),
 }

@@ -378,27 +378,25 @@ class SceneCache:
     def __init__(self, size: int = CACHE_SIZE, budget: int | None = None):
         self.size = size
         self.budget = cache_budget() if budget is None else int(budget)
-        self._items: OrderedDict[tuple, Prepared] = OrderedDict()
-        self._bytes: dict[tuple, int] = {}
+        self._items: OrderedDict[tuple, tuple[Prepared, int]] = OrderedDict()  # with its footprint
         self.bytes = 0
         self.hits = 0
         self.misses = 0
 
     def get(self, source: SceneSource, index: int, robot: Any) -> Prepared:
         key = (source.key(index), robot.name, robot.timestep, hashlib.sha256(robot.xml.encode()).hexdigest())
-        item = self._items.get(key)
-        if item is not None:
+        hit = self._items.get(key)
+        if hit is not None:
             self.hits += 1
             self._items.move_to_end(key)
-            return item
+            return hit[0]
         self.misses += 1
         item = prepare(source.scene(index), robot)
-        self._items[key] = item
-        self._bytes[key] = item.footprint()
-        self.bytes += self._bytes[key]
+        size = item.footprint()
+        self._items[key] = (item, size)
+        self.bytes += size
         while len(self._items) > 1 and (len(self._items) > self.size or self.bytes > self.budget):
-            old, _ = self._items.popitem(last=False)
-            self.bytes -= self._bytes.pop(old)
+            self.bytes -= self._items.popitem(last=False)[1][1]
         return item
 
 

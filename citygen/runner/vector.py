@@ -260,11 +260,11 @@ class VectorEnv(gymnasium.vector.VectorEnv):
         from citygen.generate.dataset import default_jobs
 
         cores = default_jobs()  # the cores this process may run on, not the host's
-        # Not an environment that renders: its renderers (a GL context each, 80-160 MB and
-        # ~0.3 s to make, one per scene) would crowd this process's few (envs.RENDERERS).
-        unwrapped = getattr(first, "unwrapped", first)
-        renders = getattr(unwrapped, "use_depth", False) or getattr(unwrapped, "use_rgb", False)
         if local is None:
+            # Not an environment that renders: its renderers (a GL context each, 80-160 MB and
+            # ~0.3 s to make, one per scene) would crowd this process's few (envs.RENDERERS).
+            unwrapped = getattr(first, "unwrapped", first)
+            renders = getattr(unwrapped, "use_depth", False) or getattr(unwrapped, "use_rgb", False)
             # Every process its core: this one steps its share (a core's) beside the workers.
             local = 0 if n == 1 or renders else 1 if n <= cores else -(-n // cores)
         if not 0 <= local <= n:
@@ -274,7 +274,7 @@ class VectorEnv(gymnasium.vector.VectorEnv):
             # per core, each stepping its group in turn: a step wakes a process per core,
             # not one per sub-environment (8 on 2 cores: 640 -> 810-890 steps/s).
             rest = n - local
-            workers = rest if n <= cores else max(min(rest, cores - (local > 0)), min(rest, 1))
+            workers = rest if n <= cores else min(rest, max(cores - (local > 0), 1))
         if not (min(1, n - local) <= workers <= n - local):
             raise ValueError(
                 f"VectorEnv: workers: expected {min(1, n - local)} to {n - local} processes for the "
