@@ -109,8 +109,10 @@ def run_bench(
     robot or policy that do not fit together is a one-line :class:`SpecError` before any
     episode runs (:mod:`citygen.runner.tasks`)."""
     from citygen.runner.learn.policy import is_model
+    from citygen.runner.scenes import cache_budget
     from citygen.runner.tasks import check_policy, check_robot, check_split, check_task
 
+    cache_budget()  # a bad CITYGEN_SCENE_CACHE_MB fails here, even when this process's cache exists
     check_task(task)
     check_split(task, split)
     if not is_model(policy):  # a learned model's file is checked against the env when loaded
