@@ -123,8 +123,9 @@ def _rough(key: np.ndarray, scale: np.ndarray, s: float, u: np.ndarray, v: np.nd
 def _rough_grid(key: np.uint64, scale: float, s: float, u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """:func:`_rough` of one tile on the grid ``u[None, :], v[:, None]`` (1-d arrays of local
     coordinates in ``[0, s]``, m), bit for bit: every factor that depends on one axis is
-    computed once along it and the lattice hashed once per node, then the same products
-    are formed in the same order."""
+    computed once along it, the lattice hashed once per node and interpolated along x once
+    per lattice row (``a * (1 - fx) + b * fx`` depends on a sample's row only through its
+    lattice row), then the same products are formed in the same order."""
     kx = u.size
     spacing = scale / 2.0
     g = np.concatenate([u, v]) / spacing
@@ -142,10 +143,8 @@ def _rough_grid(key: np.uint64, scale: float, s: float, u: np.ndarray, v: np.nda
     nodes_j = j0 + np.arange(span_j, dtype=np.uint64)
     # Node values of the lattice around the grid: rows along j, columns along i.
     table = _node(_mix64(key ^ nodes_i)[None, :], nodes_j[:, None])
-    south, north = table[rj], table[rj + 1]
-    a, b = south[:, ri], south[:, ri + 1]
-    c, d = north[:, ri], north[:, ri + 1]
-    n = (a * (1.0 - fx) + b * fx) * (1.0 - fy) + (c * (1.0 - fx) + d * fx) * fy
+    along_x = table[:, ri] * (1.0 - fx) + table[:, ri + 1] * fx  # [lattice row, sample column]
+    n = along_x[rj] * (1.0 - fy) + along_x[rj + 1] * fy
     w = min(scale, s / 4.0)
     r = _ramp(np.concatenate([u / w, (s - u) / w, v / w, (s - v) / w]))
     ky = v.size
