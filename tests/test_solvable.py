@@ -76,6 +76,34 @@ def test_tile_crossable_by_capability():
     assert tile_crossable(gentle, 2.5, wheeled) and not tile_crossable(bumpy, 2.5, wheeled)
 
 
+def test_rough_tiles_settled_by_their_slope_bound_answer_as_rough_step_does():
+    """tile_crossable skips sampling a rough tile when rough_slope_bound already allows the
+    step: the bound must hold on every tile (any scale, size, amplitude), and the answer must
+    be rough_step's for every robot and for steps right around the tile's own rise."""
+    import numpy as np
+
+    from citygen.geometry.terrain import rough_slope_bound
+    from citygen.geometry.traversable import _ALLOWANCE, rough_step
+    from citygen.spec.task import STEP_RUN, Mobility
+
+    rng = np.random.default_rng(5)
+    settled = 0
+    for k in range(150):
+        size = float(rng.choice([2.0, 2.5, 5.0]))
+        tile = RoughTile(
+            kind="rough", amplitude=float(rng.uniform(0.0, 0.2)), scale=float(rng.uniform(0.1, 3.0)), seed=k
+        )
+        step = rough_step(tile, size)
+        bound = rough_slope_bound(tile, size) * STEP_RUN
+        assert step <= bound, (tile, size)
+        steps = {m.max_step for m in ROBOTS.values()} | {step * _ALLOWANCE, step * _ALLOWANCE * (1 + 1e-12)}
+        for max_step in steps:
+            mobility = Mobility(radius=0.3, max_step=max_step, max_slope=1.0, stairs=True)
+            assert tile_crossable(tile, size, mobility) == (step * _ALLOWANCE <= max_step), (tile, max_step)
+            settled += bound * 1.2 <= max_step
+    assert settled > 50  # the shortcut is taken, not only the sampled path
+
+
 def test_terrain_corridor_holds_only_tiles_the_robot_crosses():
     """A corridor across a grid where stair-only terraces are likely: every tile it reaches
     is one the wheeled robot crosses, whatever WFC draws elsewhere."""

@@ -19,17 +19,20 @@ import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
+from typing import TYPE_CHECKING
 
 import manifold3d
 import numpy as np
 import shapely
-import trimesh
 from shapely.geometry import Polygon
 
 from citygen.assets import furniture, outdoor, street
 from citygen.assets.category import Category
 from citygen.assets.parts import Box, Capsule, ConvexMesh, Cylinder, Part, footprints, release
 from citygen.spec.placements import CATALOG_ID
+
+if TYPE_CHECKING:  # imported where used: generation never needs trimesh
+    import trimesh
 
 _ID = re.compile(f"^{CATALOG_ID}$")
 BASE_HEIGHT = 2.0
@@ -109,6 +112,8 @@ class Asset:
 
         Built once per asset and cached; each call returns a copy the caller may change.
         """
+        import trimesh
+
         mesh = _union_mesh(self.parts)
         # Not mesh.copy(): trimesh would derive vertex colours, which needs scipy.
         return trimesh.Trimesh(
@@ -183,6 +188,8 @@ def _outline(prints: Sequence[Polygon]) -> Polygon:
 
 @functools.lru_cache(maxsize=256)
 def _union_mesh(parts: tuple[Part, ...]) -> trimesh.Trimesh:
+    import trimesh
+
     solids = [p.to_manifold().as_original() for p in parts]
     colour = {s.original_id(): p.material.rgba for s, p in zip(solids, parts, strict=True)}
     union = manifold3d.Manifold.batch_boolean(solids, manifold3d.OpType.Add).to_mesh64()

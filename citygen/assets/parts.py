@@ -22,12 +22,15 @@ import functools
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import manifold3d
 import numpy as np
 import shapely
-import trimesh
 from shapely.geometry import Polygon
+
+if TYPE_CHECKING:  # trimesh (and scipy.spatial) takes a third of a second to import: not for generation
+    import trimesh
 
 #: Sides of the polygon that stands for a circle in meshes and footprints.
 SEGMENTS = 24
@@ -186,6 +189,8 @@ def release(parts: Iterable[_Convex]) -> None:
 
 def manifold_to_trimesh(solid: manifold3d.Manifold, rgba: RGBA | None = None) -> trimesh.Trimesh:
     """A trimesh of a manifold3d solid (float64 vertices), optionally with one face colour."""
+    import trimesh
+
     mesh = solid.to_mesh64()
     vertices = np.asarray(mesh.vert_properties, dtype=np.float64)[:, :3]
     faces = np.asarray(mesh.tri_verts, dtype=np.int64)

@@ -358,6 +358,33 @@ def tile_height(tile: AnyTile, tile_size: float, u, v) -> np.ndarray:
     return z.reshape(shape)
 
 
+#: Largest slope of the fade curve ``6t^5 - 15t^4 + 10t^3`` on [0, 1] (at t = 1/2).
+_FADE_SLOPE = 1.875
+
+
+def rough_slope_bound(tile: RoughTile, tile_size: float) -> float:
+    """An upper bound on the slope (m per m, along x or y) of a rough tile's surface, from its
+    lattice alone: the noise changes by at most ``1.875 * max |node step| / spacing`` per
+    metre inside a lattice cell (``1.875``, the fade's steepest slope; ``node step``, the
+    difference of two neighbouring node values), and the taper by at most ``1.875 / w``
+    (its ramps, of width ``w <= tile_size / 4``, never overlap) on a noise of at most
+    ``max |node|``. So two points ``d`` m apart differ by at most ``d`` times this (plus
+    rounding), for a few hundred node hashes instead of a tile's samples.
+
+    >>> tile = RoughTile(kind="rough", amplitude=0.05, scale=1.0, seed=3)
+    >>> g = np.linspace(0.0, 2.5, 201)
+    >>> z = tile_grid(tile, 2.5, g, g)
+    >>> bool(np.abs(np.diff(z, axis=1)).max() <= rough_slope_bound(tile, 2.5) * (g[1] - g[0]))
+    True
+    """
+    spacing = float(tile.scale) / 2.0
+    w = min(float(tile.scale), tile_size / 4.0)
+    nodes = np.arange(math.floor(tile_size / spacing) + 2, dtype=np.uint64)
+    table = _node(_mix64(noise_key(tile.seed)[0] ^ nodes)[None, :], nodes[:, None])
+    step = max(np.abs(np.diff(table, axis=0)).max(), np.abs(np.diff(table, axis=1)).max())
+    return abs(float(tile.amplitude)) * _FADE_SLOPE * (float(step) / spacing + float(np.abs(table).max()) / w)
+
+
 def tile_grid(tile: AnyTile, tile_size: float, us, vs) -> np.ndarray:
     """Heights (m) of one tile on a grid: ``z[i, j]`` is ``tile_height(tile, tile_size, us[j],
     vs[i])`` bit for bit (``us``, ``vs``: 1-d local coordinates in m, each clipped to
