@@ -68,6 +68,41 @@ def test_a_seeded_episode_replays_identically():
     assert rc != ra
 
 
+@pytest.mark.parametrize(
+    ("task", "robot", "keys"),
+    [
+        ("nav-static", "wheeled", ["goal", "velocity", "local_map", "local_map_crossable"]),
+        ("nav-dynamic", "quadruped", ["goal", "local_map_motion", "local_map_inside"]),
+        ("nav-static", "wheeled", ["height_map"]),
+        ("loco-rough", "quadruped", ["command", "joint_pos"]),
+    ],
+)
+def test_observing_some_keys_gives_those_keys_bit_for_bit(task, robot, keys):
+    """observations=[...] computes only those pieces; each is what the full observation
+    holds, every step, and rewards and endings do not change."""
+    full = make_env(task, robot=robot)
+    some = make_env(task, robot=robot, observations=keys)
+    assert set(some.observation_space.spaces) == set(keys)
+    actions = np.random.default_rng(1).uniform(-1, 1, (60, *full.action_space.shape)).astype(np.float32)
+    ta, ra = _rollout(full, 4, actions)
+    tb, rb = _rollout(some, 4, actions)
+    assert ra == rb and len(ta) == len(tb) > 1
+    for x, y in zip(ta, tb, strict=True):
+        assert set(y) == set(keys) and some.observation_space.contains(y)
+        for key in keys:
+            assert x[key].dtype == y[key].dtype
+            np.testing.assert_array_equal(x[key], y[key])
+
+
+def test_observing_an_unknown_key_is_a_one_line_error():
+    from citygen.errors import SpecError
+
+    with pytest.raises(SpecError) as err:
+        make_env("nav-static", observations=["goal", "depth"])  # depth only with depth=True
+    assert "observations" in str(err.value) and "'depth'" in str(err.value) and "local_map" in str(err.value)
+    assert "\n" not in str(err.value)
+
+
 def test_reward_is_the_papers_formula(nav2):
     env = make_env("nav-static", nav2[0])
     obs, info = env.reset(seed=0)

@@ -179,6 +179,8 @@ def test_the_training_env_gives_the_policy_clipped_goals():
     venv = make_training_env(TrainConfig(task="nav-clear", envs=2, processes=0, goal_range=2.0))
     try:
         obs = venv.reset()
+        # The sub-environments compute only the keys the policy reads.
+        assert set(venv.venv.single_observation_space.spaces) == set(TrainConfig(task="nav-clear").obs_keys)
         assert np.linalg.norm(obs["goal"], axis=1).max() == pytest.approx(2.0, abs=1e-5)
         obs, _, _, _ = venv.step(np.zeros((2, 2), dtype=np.float32))
         assert np.linalg.norm(obs["goal"], axis=1).max() <= 2.0 + 1e-5

@@ -65,7 +65,7 @@ class SceneSchedule(gymnasium.Wrapper):
 
 def _sub_env(
     task: str, split: str, robot: str, scenes: int | None, sampling: str, seed: int, rank: int, period: int,
-    progress: float = 0.0, gamma: float = 0.99, reverse: float = 0.0,
+    progress: float = 0.0, gamma: float = 0.99, reverse: float = 0.0, keys: tuple[str, ...] | None = None,
 ) -> gymnasium.Env:  # fmt: skip
     import multiprocessing
     import signal
@@ -76,7 +76,7 @@ def _sub_env(
         # A worker of the vector env: Ctrl-C is the trainer's to handle (it saves a checkpoint
         # and closes the workers), not a traceback in every worker.
         signal.signal(signal.SIGINT, signal.SIG_IGN)
-    env = make_env(task, split=split, robot=robot)
+    env = make_env(task, split=split, robot=robot, observations=keys)  # only what the policy reads
     if (progress or reverse) and task.startswith("nav"):
         from citygen.runner.learn.shaping import ProgressReward
 
@@ -200,6 +200,7 @@ def make_training_env(cfg: TrainConfig) -> Sb3VecEnv:
             cfg.progress,
             cfg.gamma,
             cfg.reverse,
+            tuple(cfg.obs_keys),
         )
         for rank in range(cfg.envs)
     ]
