@@ -177,6 +177,7 @@ def _finish(scene: Scene, config: GeneratorConfig, seed: int, *, keep: int) -> S
         ends = choose_endpoints(
             bounds, scene.zones, config.task, stage_rng(seed, "task"), seed=seed, walkable=walkable
         )
+    crossed = None  # the ground the task's robot crosses on the terrain, when found on the way
     if keep >= 1:
         terrain = scene.terrain
     else:
@@ -190,14 +191,16 @@ def _finish(scene: Scene, config: GeneratorConfig, seed: int, *, keep: int) -> S
             bounds, zones, config.terrain, stage_rng(seed, "terrain"), seed=seed, flat_at=pins
         )
         if track is None and ends is not None and ends.needs_path:
-            terrain = keep_crossable(bounds, zones, terrain, walkable, ends, config, seed, pins)
+            terrain, crossed = keep_crossable(bounds, zones, terrain, walkable, ends, config, seed, pins)
         if config.layout == "city":
             rng = child(stage_rng(seed, "terrain"), 3)
-            terrain = city_features(zones, terrain, rng, keep_clear=_corridor(ends))
+            terrain, crossed = city_features(zones, terrain, rng, keep_clear=_corridor(ends)), None
     # The ground the task's robot can cross: walkable zones less the tiles it cannot cross.
     passable = walkable
     if ends is not None and ends.needs_path:
-        passable = passable_ground(walkable, terrain, ROBOTS[config.task.robot])
+        passable = (
+            crossed if crossed is not None else passable_ground(walkable, terrain, ROBOTS[config.task.robot])
+        )
     if keep >= 2:
         placements = scene.placements
     elif track is not None:
@@ -253,25 +256,26 @@ def keep_crossable(
     config: GeneratorConfig,
     seed: int,
     pins: Sequence[tuple[float, float]],
-) -> Terrain | None:
+) -> tuple[Terrain | None, BaseGeometry | None]:
     """The terrain, or when it cuts the task's start from its goal for the task's robot
     (a flight of stairs across the scene for wheels, a slope steeper than it climbs, rough
     ground too bumpy), the terrain made again with a corridor of ground that robot crosses
     along a shortest walkable path between them (:func:`build_terrain`'s ``corridor``): the
     rest of the terrain keeps its stairs, slopes and rough tiles. The same seed gives the
-    same corridor and terrain."""
+    same corridor and terrain. Also the ground the robot can cross on the terrain returned
+    (:func:`passable_ground`) where it was found on the way, else None."""
     mobility = ROBOTS[config.task.robot]
     passable = passable_ground(walkable, terrain, mobility)
     if terrain is None or connects(passable, ends.radius, ends.start, ends.goal):
-        return terrain
+        return terrain, passable
     piece = next(
         (p for p in pieces(free_space(walkable, (), ends.radius)) if p.covers(Point(ends.start))), None
     )
     path = grid_path(piece, ends.start, ends.goal) if piece is not None else None
     if path is None:  # not connected on walkable ground either: placement reports it
-        return terrain
+        return terrain, passable
     corridor = LineString(path).buffer(ends.radius, quad_segs=4)
-    return build_terrain(
+    terrain = build_terrain(
         bounds,
         zones,
         config.terrain,
@@ -281,6 +285,7 @@ def keep_crossable(
         corridor=corridor,
         mobility=mobility,
     )
+    return terrain, None
 
 
 def _corridor(ends: Endpoints | None) -> BaseGeometry | None:
