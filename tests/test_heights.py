@@ -681,3 +681,22 @@ def test_the_runners_ground_raster_is_height_at_within_a_cell():
         cy = np.tile(grid.ys()[7::37], grid.xs()[7::37].size)
         assert p.ground(cx, cy) == pytest.approx(height_at(p.scene, cx, cy), abs=1e-6)
     env.close()
+
+
+def test_bilinear_at_one_point_is_the_array_version_to_the_bit():
+    """The environments read the ground under the base every step with Grid.bilinear_point
+    (plain Python); observations equal bit for bit only if it is Grid.bilinear's float,
+    inside the grid, past its edges and on grids of one row or column."""
+    from citygen.geometry.raster import Grid
+
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        rows, cols = int(rng.integers(1, 40)), int(rng.integers(1, 40))
+        res = float(rng.choice([0.05, 0.1, 0.37]))
+        grid = Grid(float(rng.uniform(-30, 30)), float(rng.uniform(-30, 30)), res, rows, cols)
+        values = rng.normal(size=(rows, cols))
+        xs = rng.uniform(grid.x0 - 1, grid.x0 + cols * res + 1, 500)
+        ys = rng.uniform(grid.y0 - 1, grid.y0 + rows * res + 1, 500)
+        points = zip(xs.tolist(), ys.tolist(), strict=True)
+        one = np.array([grid.bilinear_point(values, x, y) for x, y in points])
+        np.testing.assert_array_equal(one.view(np.int64), grid.bilinear(values, xs, ys).view(np.int64))

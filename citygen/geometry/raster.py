@@ -121,6 +121,30 @@ class Grid:
         bottom += top
         return bottom
 
+    def bilinear_point(self, values: np.ndarray, x: float, y: float) -> float:
+        """:meth:`bilinear` at the one point ``(x, y)``, in plain Python: the same operations
+        in the same order, so the same float to the bit (a few microseconds, where the array
+        version's numpy calls cost fifty for one point).
+
+        >>> g = Grid(0.0, 0.0, 1.0, 2, 2)
+        >>> g.bilinear_point(np.array([[0.0, 1.0], [2.0, 3.0]]), 1.0, 1.0)
+        1.5
+        """
+        rows, cols = self.shape
+        flat = np.asarray(values, dtype=np.float64).ravel()
+        inv = 1.0 / self.resolution
+        fx = min(max(x * inv - (self.x0 * inv + 0.5), 0.0), max(cols - 1 - 1e-9, 0.0))
+        fy = min(max(y * inv - (self.y0 * inv + 0.5), 0.0), max(rows - 1 - 1e-9, 0.0))
+        ix, iy = int(fx), int(fy)
+        fx -= ix
+        fy -= iy
+        i = iy * cols + ix
+        dx, dy = (1 if cols > 1 else 0), (cols if rows > 1 else 0)
+        a, b = float(flat[i]), float(flat[i + dy])
+        top = (float(flat[i + dx]) - a) * fx + a
+        bottom = (float(flat[i + (dy + dx)]) - b) * fx + b
+        return (bottom - top) * fy + top
+
     def window(self, bounds: Sequence[float]) -> tuple[slice, slice]:
         """Rows and columns whose centres can lie in ``(xmin, ymin, xmax, ymax)``."""
         xmin, ymin, xmax, ymax = bounds

@@ -331,12 +331,15 @@ class _CitygenEnv(gymnasium.Env):
         same = c is not None and c.scene is self.scene and (c.x, c.y, c.yaw) == (x, y, yaw)
         if same and (c.grid is not None or not grid):
             return c.ground, c.grid
+        prepared = self.prepared
+        if not grid and prepared.fine_ground:
+            self._around = _Around(self.scene, x, y, yaw, prepared.ground_point(x, y), None)
+            return self._around.ground, None
         u, v, _ = self._hm_local if grid else (np.empty(0), np.empty(0), None)
         cs, sn = math.cos(yaw), math.sin(yaw)
         xs, ys = np.empty(u.size + 1), np.empty(u.size + 1)
         xs[:-1], ys[:-1] = x + cs * u - sn * v, y + sn * u + cs * v
         xs[-1], ys[-1] = x, y
-        prepared = self.prepared
         z = prepared.ground(xs, ys) if prepared.fine_ground else height_at(self.scene, xs, ys)
         self._around = _Around(self.scene, x, y, yaw, float(z[-1]), z[:-1] if grid else None)
         return self._around.ground, self._around.grid

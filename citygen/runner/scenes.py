@@ -169,6 +169,11 @@ class Prepared:
         terrain costs hundreds."""
         return self.occupancy.grid.bilinear(self._raster, xs, ys)
 
+    def ground_point(self, x: float, y: float) -> float:
+        """:meth:`ground` at one point, to the bit (:meth:`Grid.bilinear_point`; the
+        environments' ground under the base, every step)."""
+        return self.occupancy.grid.bilinear_point(self._raster, x, y)
+
     @functools.cached_property
     def ground_at(self) -> Callable[[float, float], float]:
         """:meth:`ground` at one point ``ground_at(x, y)``, as a float, in plain Python (~1
