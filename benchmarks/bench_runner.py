@@ -8,7 +8,9 @@
    same :class:`~citygen.runner.vector.VectorEnv` with both in workers that sleep on their
    pipes (``local=0``, the previous default) and one environment at the old 2 ms physics
    step; and 8 sub-environments as ``citygen train`` runs them (a process per core, each
-   stepping a group of 4), beside a worker per sub-environment (the layout before groups).
+   stepping a group of 4), beside a worker per sub-environment (the layout before groups),
+   and with ``observations=`` the keys the shipped policies read (:data:`POLICY_KEYS`), which
+   is what ``citygen train`` asks for (``*_policy_keys_*``: nothing else is computed).
    Steady state: the environments draw from the split's first :data:`POOL` scenes
    (``scene_pool``), which every process has compiled before the measurement, so a reset
    swaps a cached scene; ``*_cold_*`` figures draw from the whole split, where most resets
@@ -50,8 +52,12 @@ TASK, SPLIT = "nav-static", "urban-nav-2-test"
 #: Scenes of the split the steady-state runs draw from (every process compiles them first).
 POOL = 8
 #: Observation options of the ``runner_obs`` series: label -> make_env keyword arguments.
+#: The keys the shipped NavStatic policies read (``citygen train``'s default config), which
+#: ``citygen train`` asks its environments for (``observations=``): nothing else is computed.
+POLICY_KEYS = ["goal", "velocity", "local_map", "local_map_crossable"]
 OBS = {
     "state + height map": {},
+    "policy's keys only": {"observations": POLICY_KEYS},
     "+ rays": {"rays": True},
     "+ depth 64x64": {"depth": True, "image_size": 64},
     "+ RGB 64x64": {"rgb": True, "image_size": 64},
@@ -70,6 +76,7 @@ VECTORS = {
     # What `citygen train` runs by default: 8 sub-environments on the machine's cores.
     "citygen 8 envs": ("citygen", {"num_envs": 8}),
     "citygen 8 envs, a worker each": ("citygen-each", {"num_envs": 8}),
+    "citygen 8 envs, policy's keys": ("citygen", {"num_envs": 8, "observations": POLICY_KEYS}),
 }
 N_VEC = 2
 
@@ -369,6 +376,8 @@ def main(argv: list[str] | None = None) -> int:
     human2 = vec["citygen 2 workers, humanoid"]
     cold2 = vec["citygen 2 workers, cold"]
     v8, each8 = vec["citygen 8 envs"], vec["citygen 8 envs, a worker each"]
+    v8_keys = vec["citygen 8 envs, policy's keys"]
+    keys_one = None if obs["policy's keys only"] is None else obs["policy's keys only"]["steps_per_s"]
     over_mj = 1.0 / state["mj_cpu_share"]
     depth = obs["+ depth 64x64"]
 
@@ -393,6 +402,7 @@ def main(argv: list[str] | None = None) -> int:
         ("  depth 64x64", depth2, "steps/s", f"state only: {depth2 / v2:.2f}x"),
         ("  cold: whole split", cold2, "steps/s", "most resets compile a new scene"),
         ("make_vector_env, 8 envs", v8, "steps/s", f"a worker each: {each8:.1f} ({v8 / each8:.2f}x)"),
+        ("  policy's keys only (citygen train)", v8_keys, "steps/s", f"every key: {v8_keys / v8:.2f}x"),
         (
             "reset to a cached scene",
             resets["reset_cached_ms"],
@@ -435,6 +445,9 @@ def main(argv: list[str] | None = None) -> int:
         "navstatic_8env_steps_per_s": round(v8, 1),
         "navstatic_8env_worker_each_steps_per_s": round(each8, 1),
         "navstatic_8env_over_worker_each": round(v8 / each8, 3),
+        "navstatic_8env_policy_keys_steps_per_s": round(v8_keys, 1),
+        "navstatic_8env_policy_keys_over_every_key": round(v8_keys / v8, 3),
+        "navstatic_policy_keys_steps_per_s": _r(keys_one, 1),
         "quadruped_2proc_steps_per_s": round(quad2, 1),
         "humanoid_2proc_steps_per_s": round(human2, 1),
         "depth64_2proc_steps_per_s": round(depth2, 1),
