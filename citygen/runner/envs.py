@@ -213,7 +213,6 @@ class _CitygenEnv(gymnasium.Env):
         self.render_mode = render_mode
         self.max_steps = max_steps
         self._observations = None if observations is None else tuple(observations)
-        self._observed: frozenset[str] = frozenset()  # the keys observed (_set_observation_space)
         self.prepared: Prepared | None = None
         self.model = None
         self.data = None
@@ -264,7 +263,6 @@ class _CitygenEnv(gymnasium.Env):
                 )
             every = {k: v for k, v in every.items() if k in keys}
         self.observation_space = spaces.Dict(every)
-        self._observed = frozenset(every)
 
     # --- scenes and the model ------------------------------------------------------------
 
@@ -332,22 +330,26 @@ class _CitygenEnv(gymnasium.Env):
         if same and (c.grid is not None or not grid):
             return c.ground, c.grid
         prepared = self.prepared
-        if not grid and prepared.fine_ground:
-            self._around = _Around(self.scene, x, y, yaw, prepared.ground_point(x, y), None)
-            return self._around.ground, None
-        u, v, _ = self._hm_local if grid else (np.empty(0), np.empty(0), None)
+        if not grid:
+            if prepared.fine_ground:
+                ground = prepared.ground_point(x, y)
+            else:
+                ground = float(height_at(self.scene, np.array([x]), np.array([y]))[0])
+            self._around = _Around(self.scene, x, y, yaw, ground, None)
+            return ground, None
+        u, v, _ = self._hm_local
         cs, sn = math.cos(yaw), math.sin(yaw)
         xs, ys = np.empty(u.size + 1), np.empty(u.size + 1)
         xs[:-1], ys[:-1] = x + cs * u - sn * v, y + sn * u + cs * v
         xs[-1], ys[-1] = x, y
         z = prepared.ground(xs, ys) if prepared.fine_ground else height_at(self.scene, xs, ys)
-        self._around = _Around(self.scene, x, y, yaw, float(z[-1]), z[:-1] if grid else None)
+        self._around = _Around(self.scene, x, y, yaw, float(z[-1]), z[:-1])
         return self._around.ground, self._around.grid
 
     def _ground_under(self, x: float, y: float, yaw: float) -> float:
         """The ground (m) under the base at the pose, by :meth:`_terrain_around`, with the
         height map's grid only when the height map is observed (it is then needed anyway)."""
-        return self._terrain_around(x, y, yaw, grid="height_map" in self._observed)[0]
+        return self._terrain_around(x, y, yaw, grid="height_map" in self.observation_space.spaces)[0]
 
     def _spawn(self, x: float, y: float, yaw: float) -> float:
         """Put the robot standing at ``(x, y, yaw)`` (:meth:`RobotHandle.reset`) with its feet
@@ -725,7 +727,7 @@ class NavEnv(_CitygenEnv):
 
     def _observation(self) -> dict[str, np.ndarray]:
         x, y, z, yaw = self.handle.pose(self.data)
-        want = self._observed
+        want = self.observation_space.spaces
         obs: dict[str, np.ndarray] = {}
         if "goal" in want:
             gx, gy = self._goal()
@@ -1062,7 +1064,7 @@ class LocoEnv(_CitygenEnv):
             "joint_vel": np.asarray(self.handle.joint_velocities(self.data), dtype=np.float32),
             "last_action": self.last_action.astype(np.float32),
         }
-        if "height_map" in self._observed:
+        if "height_map" in self.observation_space.spaces:
             obs["height_map"] = self._height_map(x, y, self._terrain_around(x, y, yaw)[0], yaw)
         obs.update(self._images((x, y, z, yaw)))
         return {k: obs[k] for k in self.observation_space.spaces}
