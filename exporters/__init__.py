@@ -73,6 +73,8 @@ ZONE_COLORS = MappingProxyType(
         "water": "#7fb4e0",
     }
 )
+#: The colour of placed objects in the drawn maps (the PNG map, the occupancy picture).
+OBJECT_COLOR = "#c0622d"
 
 
 def output_name(scene: Scene | str | Path, name: object, fmt: str) -> str:

@@ -38,12 +38,11 @@ import warnings
 from collections.abc import Sequence
 from pathlib import Path, PurePosixPath
 from types import MappingProxyType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import manifold3d
 import numpy as np
 import shapely
-import trimesh
 from shapely.geometry import Polygon
 
 from citygen.assets import Asset, UnknownAsset, resolve
@@ -62,6 +61,9 @@ from citygen.spec.placements import Placement
 from citygen.spec.scene import Scene
 from citygen.spec.task import NavTask, TraverseTask
 from citygen.spec.terrain import RoughTile, SlopeTile, StairTile
+
+if TYPE_CHECKING:  # trimesh is imported where a mesh is made: the occupancy map and the runner
+    import trimesh  # use this module's scene helpers and never need it
 
 RGBA = tuple[float, float, float, float]
 
@@ -263,6 +265,8 @@ def mesh_file(placement: Placement, index: int, scene_dir: Path | None) -> Path:
 
 def load_mesh_file(placement: Placement, index: int, scene_dir: Path | None) -> trimesh.Trimesh:
     """A mesh placement's geometry in its own frame (m), before the placement's transform."""
+    import trimesh
+
     path = mesh_file(placement, index, scene_dir)
     try:
         mesh = trimesh.load(path, force="mesh", process=False)
@@ -275,6 +279,8 @@ def load_mesh_file(placement: Placement, index: int, scene_dir: Path | None) -> 
 
 def flat_coloured(vertices: np.ndarray, faces: np.ndarray, colour: RGBA) -> trimesh.Trimesh:
     """A mesh of one colour (vertex colours, 8 bits per channel)."""
+    import trimesh
+
     mesh = trimesh.Trimesh(np.asarray(vertices, dtype=np.float64), np.asarray(faces, np.int64), process=False)
     c = np.round(np.asarray(colour) * 255).astype(np.uint8)
     mesh.visual = trimesh.visual.ColorVisuals(mesh, vertex_colors=np.tile(c, (len(mesh.vertices), 1)))
@@ -302,6 +308,8 @@ def submesh(mesh: trimesh.Trimesh, faces: np.ndarray) -> tuple[np.ndarray, np.nd
 def vertex_coloured(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     """The mesh with its face colours as exact vertex colours: vertices are split where
     faces of different colours meet (glTF and WebGL colour vertices, not faces)."""
+    import trimesh
+
     parts_v, parts_f, parts_c, count = [], [], [], 0
     for colour, faces in colour_groups(mesh):
         v, f = submesh(mesh, faces)
@@ -528,12 +536,16 @@ def ground_plane(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
 
 def _unit_cylinder() -> trimesh.Trimesh:
     """Radius 1, height 1, base at z = 0."""
+    import trimesh
+
     mesh = trimesh.creation.cylinder(radius=1.0, height=1.0, sections=24)
     return trimesh.Trimesh(mesh.vertices + np.array([0.0, 0.0, 0.5]), mesh.faces, process=False)
 
 
 def _unit_box() -> trimesh.Trimesh:
     """1 x 1 x 1, centred on x and y, base at z = 0."""
+    import trimesh
+
     mesh = trimesh.creation.box((1.0, 1.0, 1.0))
     return trimesh.Trimesh(mesh.vertices + np.array([0.0, 0.0, 0.5]), mesh.faces, process=False)
 
@@ -569,6 +581,8 @@ class _Graph:
     """A trimesh scene under :data:`ROOT`, adding each geometry once however many nodes use it."""
 
     def __init__(self, y_up: bool) -> None:
+        import trimesh
+
         self.scene = trimesh.Scene()
         turn = Z_UP_TO_Y_UP if y_up else np.eye(4)
         self.scene.graph.update(frame_from=self.scene.graph.base_frame, frame_to=ROOT, matrix=turn)
@@ -643,6 +657,8 @@ def terrain_solid(
     colour, and cracks between the zones' surfaces never show another), else
     :data:`TERRAIN_RGBA` (vertex colours). ``zones`` are the zones' shapes if already made
     (:func:`zone_polygons`)."""
+    import trimesh
+
     solid = terrain_mesh(scene, resolution=resolution) if mesh is None else mesh
     colours = np.tile(np.round(np.asarray(TERRAIN_RGBA) * 255).astype(np.uint8), (len(solid.faces), 1))
     if scene.zones:
@@ -699,6 +715,8 @@ def catalog_asset(pl: Placement, index: int) -> Asset:
 def file_mesh(pl: Placement, index: int, folder: Path | None) -> trimesh.Trimesh:
     """A mesh placement's geometry with face colours: its own where the file has colours,
     else :data:`MESH_RGBA`. A texture cannot be kept: an :class:`ExportWarning` says so."""
+    import trimesh
+
     mesh = load_mesh_file(pl, index, folder)
     visual = mesh.visual
     out = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)

@@ -82,19 +82,14 @@ import zipfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, get_args
+from typing import TYPE_CHECKING, Any, get_args
 
 import numpy as np
 import shapely
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
-from matplotlib.font_manager import FontProperties
-from matplotlib.patches import Patch
-from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 from shapely.geometry import Polygon
 
 from citygen.errors import ExportError, Problem, SpecError
-from citygen.exporters import ExportWarning
+from citygen.exporters import OBJECT_COLOR, ZONE_COLORS, ExportWarning
 from citygen.exporters.glb import (
     catalog_asset,
     check_options,
@@ -104,15 +99,6 @@ from citygen.exporters.glb import (
     scene_dir_of,
     zone_polygons,
 )
-from citygen.exporters.picture import (
-    _FONT_PT,
-    _OBJECT,
-    ZONE_COLORS,
-    _check_size,
-    _layout,
-    _style,
-    scale_bar_length,
-)
 from citygen.geometry.features import feature_mask
 from citygen.geometry.raster import Grid, erode, paint
 from citygen.geometry.terrain import height_at
@@ -120,6 +106,9 @@ from citygen.io import write_atomic
 from citygen.spec.scene import Scene
 from citygen.spec.surfaces import WALKABLE_ZONES, ZONE_KINDS
 from citygen.spec.terrain import TILE_TYPES
+
+if TYPE_CHECKING:  # matplotlib (and the picture module) only where a picture is drawn: the
+    from matplotlib.figure import Figure  # runner builds maps and never draws them
 
 FORMAT = "citygen.occupancy/1"
 """The ``format`` entry of the npz; a reader checks it before trusting the keys."""
@@ -149,7 +138,7 @@ OCCUPIED_THRESH, FREE_THRESH = 0.65, 0.196
 
 #: Colour of each class in the PNG (hex RGB): zone kinds as in the PNG map.
 #: Uncovered ground gets its own colour here: in the map's palette it is close to sidewalk's.
-CLASS_COLORS = {"out_of_bounds": "#ffffff", "ground": "#e9c9c9", "obstacle": _OBJECT, **ZONE_COLORS}
+CLASS_COLORS = {"out_of_bounds": "#ffffff", "ground": "#e9c9c9", "obstacle": OBJECT_COLOR, **ZONE_COLORS}
 #: Tint (hex RGB, alpha) of non-flat terrain kinds laid over the classes in the PNG.
 TERRAIN_TINTS = {"slope": ("#1f5fd1", 0.35), "stair": ("#6a1b9a", 0.45), "rough": ("#b8860b", 0.4)}
 
@@ -536,6 +525,8 @@ def figure(m: OccupancyMap, *, size_px: int = 1600, legend: bool = True, title: 
     """The map as a matplotlib :class:`~matplotlib.figure.Figure` (Agg canvas, no pyplot):
     classes in colour, non-flat terrain tinted, a legend of what the map holds, a scale bar;
     axes in metres. ``size_px`` is the larger side of the picture in pixels."""
+    from citygen.exporters.picture import _check_size, _style
+
     size_px = _check_size(size_px)
     with _style():
         return _figure(m, size_px, legend, title)
@@ -552,6 +543,14 @@ def _values(a: np.ndarray) -> np.ndarray:
 
 
 def _figure(m: OccupancyMap, size_px: int, legend: bool, title: str) -> Figure:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.font_manager import FontProperties
+    from matplotlib.patches import Patch
+    from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
+
+    from citygen.exporters.picture import _FONT_PT, _layout, scale_bar_length
+
     g = m.grid
     width_m, height_m = g.cols * g.resolution, g.rows * g.resolution
     # At most about one cell per pixel: sample every k-th cell at the middle of its block.
@@ -614,6 +613,8 @@ def _figure(m: OccupancyMap, size_px: int, legend: bool, title: str) -> Figure:
 
 def png_bytes(m: OccupancyMap, *, size_px: int = 1600, legend: bool = True, title: str = "") -> bytes:
     """The picture of :func:`figure` as PNG bytes, the same for the same map and options."""
+    from citygen.exporters.picture import _check_size, _style
+
     size_px = _check_size(size_px)
     buf = io.BytesIO()
     with _style():
@@ -634,6 +635,8 @@ def export(scene: Scene | str | Path, out_dir: str | Path, **options: object) ->
     larger side, default 1600) and ``legend`` (default True). Agents and the task are not
     part of a static map: an :class:`~citygen.exporters.ExportWarning` says so.
     """
+    from citygen.exporters.picture import _check_size
+
     check_options(dict(options), _OPTIONS, "occupancy")
     name = output_name(scene, dict(options), "occupancy")
     size_px = _check_size(options.get("size_px", 1600))

@@ -57,7 +57,7 @@ from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 
 from citygen.assets import UnknownAsset, resolve
 from citygen.errors import ExportError, Problem, SpecError
-from citygen.exporters import ZONE_COLORS, as_scene, output_name
+from citygen.exporters import OBJECT_COLOR, ZONE_COLORS, as_scene, output_name
 from citygen.geometry.features import feature_polygon
 from citygen.geometry.roads import block_outline
 from citygen.geometry.terrain import height_at
@@ -87,7 +87,6 @@ MAX_BLOCK_LABELS = 60
 
 _BACKGROUND = "#f4f1ea"  # ground inside the bounds that no zone covers
 _OUTSIDE = "#ffffff"
-_OBJECT = "#c0622d"
 _MESH_OBJECT = "#7a3e9d"
 _ROAD_EDGE = "#f2b600"
 _JOINED = "#b8b8b8"
@@ -564,10 +563,10 @@ def _draw_placements(ax: Axes, scene: Scene, file: str | None, legend: _Legend) 
         shapes.extend(np.stack([c * x - s * y, s * x + c * y], axis=-1) + pos[:, None, :])
     if shapes:
         ax.add_collection(
-            PolyCollection(shapes, facecolors=_OBJECT, edgecolors="black", linewidths=0.4, zorder=5),
+            PolyCollection(shapes, facecolors=OBJECT_COLOR, edgecolors="black", linewidths=0.4, zorder=5),
             autolim=False,
         )
-        legend.add(Patch(facecolor=_OBJECT, edgecolor="black", label="object"))
+        legend.add(Patch(facecolor=OBJECT_COLOR, edgecolor="black", label="object"))
     if meshes:
         xy = np.array([scene.placements[i].position[:2] for i in meshes])
         ax.scatter(xy[:, 0], xy[:, 1], s=28, marker="s", c=_MESH_OBJECT, edgecolors="black", zorder=5)

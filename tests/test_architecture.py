@@ -137,6 +137,26 @@ def test_importing_loads_no_generator_runner_or_engine(module, tmp_path):
     assert [m for m in loaded if m.split(".")[0] not in allowed_engines] == []
 
 
+def test_an_environment_process_never_loads_mesh_or_plotting_libraries(tmp_path):
+    """Every sub-environment process pays for what a reset imports: the runner builds a
+    scene's MJCF and occupancy map and never draws or meshes it, so trimesh and matplotlib
+    (about 1.2 s of imports together) stay out of it."""
+    code = (
+        "import sys\n"
+        "from citygen.runner.bench import make_env\n"
+        "env = make_env('nav-dynamic', split='urban-nav-2-test', robot='quadruped')\n"
+        "env.reset(seed=0, options={'index': 3})\n"
+        "for _ in range(3):\n"
+        "    env.step(env.action_space.sample())\n"
+        "print(','.join(sorted(m for m in sys.modules if m.split('.')[0] in ('trimesh', 'matplotlib'))))\n"
+    )
+    proc = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, timeout=300
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == ""
+
+
 def exporters_file(cwd: Path, env: dict | None = None) -> Path:
     """Where a fresh interpreter started in ``cwd`` imports ``citygen.exporters`` from."""
     proc = subprocess.run(
