@@ -36,8 +36,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
-import networkx as nx
 import numpy as np
 import shapely
 from shapely.geometry import Point, Polygon
@@ -53,6 +53,9 @@ from citygen.spec.blocks import (
     Straight,
     TIntersection,
 )
+
+if TYPE_CHECKING:  # networkx takes 0.17 s to import: only where a road graph is made
+    import networkx as nx
 
 #: Length of a roundabout's arms beyond the ring's outer edge, plus the road's half width, in metres.
 ROUNDABOUT_APPROACH = 8.0
@@ -243,6 +246,8 @@ def block_sockets(block) -> tuple[Socket, ...]:
 def road_graph(blocks) -> nx.Graph:
     """The road network: blocks as nodes (with their ``kind``), connections as edges (with
     the two sockets they join). Nodes and edges are added in the blocks' order."""
+    import networkx as nx
+
     graph = nx.Graph()
     for block in blocks:
         graph.add_node(block.id, kind=block.kind)
