@@ -16,12 +16,17 @@
    swaps a cached scene; ``*_cold_*`` figures draw from the whole split, where most resets
    compile a new scene.
 2. *Runner cost over physics cost*: CPU time of an environment step over the CPU time of the
-   ``mj_step`` calls inside it (``runner_over_mj_step``, timed around each call), and over
-   the raw ``mj_step`` rate of the same model with the robot at rest
-   (``runner_over_physics``).
+   ``mj_step`` calls inside it (``runner_over_mj_step``, timed around each call; the same
+   for one quadruped environment, ``quadruped_over_mj_step``), and over the raw ``mj_step``
+   rate of the same model with the robot at rest (``runner_over_physics``). The steps per
+   CPU second of the ``mj_step`` calls alone (``*_physics_steps_per_s``) are what an
+   environment would reach if nothing but its physics cost anything.
 3. Resets: to a scene of the process's cache (``reset_cached_ms``, median) and to a scene
    never seen by the process (``first_visit_ms``, median; ``scene_generate_ms``: the
-   generation part of it, the scene spec from the seed).
+   generation part of it, the scene spec from the seed); and a fresh process's way to its
+   first observation, imports included (``fresh_process_first_reset_ms``, what each
+   sub-environment worker and each ``citygen run`` pays once), beside importing the
+   libraries it cannot do without (``import_floor_ms``).
 4. One environment with each observation option (``runner_obs``): the default;
    ``rays=True``; depth and RGB at 64 x 64 and depth at 128 x 128 (MuJoCo's offscreen
    renderer, ``MUJOCO_GL=egl``, one per process and model, reused).
@@ -159,8 +164,10 @@ class EnvRun:
     def rates(self) -> dict:
         """``steps_per_s``, ``cpu_steps_per_s``: medians over the chunks of steps per wall and
         CPU second of ``step`` calls; ``mj_cpu_share``: the ``mj_step`` calls' share of their
-        CPU time; ``with_resets_per_s``, ``cpu_with_resets_per_s``: all steps over all time,
-        resets included; ``resets``, ``reset_ms``: their number and mean wall time."""
+        CPU time; ``physics_steps_per_s``: steps per CPU second of the ``mj_step`` calls alone
+        (what the runner would reach if nothing but its physics cost anything);
+        ``with_resets_per_s``, ``cpu_with_resets_per_s``: all steps over all time, resets
+        included; ``resets``, ``reset_ms``: their number and mean wall time."""
         n, wall, cpu, mj, resets, rwall, rcpu = (
             np.array(c, dtype=float) for c in zip(*self.chunks, strict=True)
         )
@@ -168,6 +175,7 @@ class EnvRun:
             "steps_per_s": float(np.median(n / wall)),
             "cpu_steps_per_s": float(np.median(n / cpu)),
             "mj_cpu_share": float(mj.sum() / cpu.sum()),
+            "physics_steps_per_s": float(n.sum() / mj.sum()),
             "with_resets_per_s": float(n.sum() / (wall.sum() + rwall.sum())),
             "cpu_with_resets_per_s": float(n.sum() / (cpu.sum() + rcpu.sum())),
             "resets": int(resets.sum()),
@@ -262,6 +270,43 @@ def reset_times(new: int = 6, cached: int = 30) -> dict:
     }
 
 
+#: What a fresh process runs to its first observation (a sub-environment worker, ``citygen
+#: run``, ``citygen bench``): import the runner, make a NavStatic environment on the split and
+#: reset it to a scene (a first visit); and the floor: importing the libraries it cannot do
+#: without. Each prints its wall milliseconds from its first line on (interpreter start apart).
+_FRESH = (
+    "import time; t0 = time.perf_counter()\n"
+    "from citygen.runner.bench import make_env\n"
+    f"env = make_env({TASK!r}, split={SPLIT!r})\n"
+    "env.reset(seed=0, options={'index': 0})\n"
+    "print(1e3 * (time.perf_counter() - t0))\n"
+)
+_FLOOR = (
+    "import time; t0 = time.perf_counter()\n"
+    "import numpy, scipy.ndimage, shapely, pydantic, mujoco, gymnasium\n"
+    "print(1e3 * (time.perf_counter() - t0))\n"
+)
+
+
+def fresh_process_times(repeats: int = 3) -> dict:
+    """Median wall ms of a fresh process's way to its first observation (:data:`_FRESH`) and
+    of its import floor (:data:`_FLOOR`), each run ``repeats`` times in turn."""
+    import subprocess
+
+    def once(code: str) -> float:
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+        return float(out.stdout.strip().splitlines()[-1])
+
+    fresh, floor = [], []
+    for _ in range(repeats):
+        fresh.append(once(_FRESH))
+        floor.append(once(_FLOOR))
+    return {
+        "fresh_process_first_reset_ms": float(np.median(fresh)),
+        "import_floor_ms": float(np.median(floor)),
+    }
+
+
 def mj_rate(model, steps: int) -> tuple[float, float]:
     """Raw ``mj_step`` calls per second of ``model`` (the robot at rest at its start), per
     wall second and per CPU second."""
@@ -326,6 +371,7 @@ def main(argv: list[str] | None = None) -> int:
     runs: dict[str, EnvRun | None] = {
         "state + height map": base,
         "old 2 ms physics step": EnvRun(timestep=0.002),
+        "quadruped": EnvRun(robot="quadruped"),
     }
     vectors = {label: VectorRun(impl, **kw) for label, (impl, kw) in VECTORS.items()}
     notes: list[str] = []
@@ -359,6 +405,7 @@ def main(argv: list[str] | None = None) -> int:
         if run is not None:
             run.close()
     resets = reset_times()
+    fresh = fresh_process_times()
     state, old = obs["state + height map"], obs["old 2 ms physics step"]
     substeps = base.substeps
     raw, raw_cpu = float(np.median([m[0] for m in mj])), float(np.median([m[1] for m in mj]))
@@ -366,7 +413,7 @@ def main(argv: list[str] | None = None) -> int:
     md, md_note = metadrive_rate()
     orca = orca_figures()
 
-    labels = [k for k in obs if k != "old 2 ms physics step"]
+    labels = [k for k in obs if k in OBS]
     obs_rates = [None if obs[k] is None else obs[k]["steps_per_s"] for k in labels]
     obs_ratios = [None if obs[k] is None else (1.0 / obs[k]["cpu_steps_per_s"]) / physics_cpu for k in labels]
     one = state["with_resets_per_s"]  # like the vector environments: resets included
@@ -379,6 +426,7 @@ def main(argv: list[str] | None = None) -> int:
     v8_keys = vec["citygen 8 envs, policy's keys"]
     keys_one = None if obs["policy's keys only"] is None else obs["policy's keys only"]["steps_per_s"]
     over_mj = 1.0 / state["mj_cpu_share"]
+    quad = obs["quadruped"]
     depth = obs["+ depth 64x64"]
 
     old_one = old["with_resets_per_s"]
@@ -415,7 +463,25 @@ def main(argv: list[str] | None = None) -> int:
             "ms",
             f"generating its spec alone: {resets['scene_generate_ms']:.0f} ms",
         ),
+        (
+            "fresh process to its first reset",
+            fresh["fresh_process_first_reset_ms"],
+            "ms",
+            f"importing the libraries it needs: {fresh['import_floor_ms']:.0f} ms",
+        ),
         ("step CPU over its mj_step calls", over_mj, "x", "1.0 = nothing but physics"),
+        (
+            "  physics alone (runner free)",
+            state["physics_steps_per_s"],
+            "steps/s",
+            f"the step: {state['cpu_steps_per_s']:.1f} steps/CPU s",
+        ),
+        (
+            "  quadruped, step over mj_step",
+            1.0 / quad["mj_cpu_share"],
+            "x",
+            f"{quad['cpu_steps_per_s']:.1f} steps/CPU s, physics alone {quad['physics_steps_per_s']:.1f}",
+        ),
         ("step CPU over raw mj_step at rest", floor_ratio, "x", f"{substeps} x {ms:g} ms steps, {raw:.0f}/s"),
     ]
     for label, value, unit, baseline in rows:
@@ -460,6 +526,15 @@ def main(argv: list[str] | None = None) -> int:
         "mj_step_cpu_per_s": round(raw_cpu, 0),
         "substeps_per_env_step": substeps,
         "runner_over_mj_step": round(over_mj, 3),
+        "navstatic_physics_steps_per_s": round(state["physics_steps_per_s"], 1),
+        "quadruped_steps_per_s": round(quad["with_resets_per_s"], 1),
+        "quadruped_over_mj_step": round(1.0 / quad["mj_cpu_share"], 3),
+        "quadruped_physics_steps_per_s": round(quad["physics_steps_per_s"], 1),
+        "fresh_process_first_reset_ms": round(fresh["fresh_process_first_reset_ms"], 1),
+        "import_floor_ms": round(fresh["import_floor_ms"], 1),
+        "fresh_process_over_import_floor": round(
+            fresh["fresh_process_first_reset_ms"] / fresh["import_floor_ms"], 3
+        ),
         "runner_over_physics": _r(obs_ratios[0], 3),
         "depth64_steps_per_s": None if depth is None else round(depth["steps_per_s"], 1),
         "depth64_over_state": None if depth is None else round(depth["steps_per_s"] / obs_rates[0], 3),
