@@ -23,7 +23,8 @@
    environment would reach if nothing but its physics cost anything.
 3. Resets: to a scene of the process's cache (``reset_cached_ms``, median) and to a scene
    never seen by the process (``first_visit_ms``, median; ``scene_generate_ms``: the
-   generation part of it, the scene spec from the seed); and a fresh process's way to its
+   generation part of it, the scene spec from the seed; ``scene_mjcf_ms`` and
+   ``scene_compile_ms``: writing its MJCF and MuJoCo's compile of it); and a fresh process's way to its
    first observation, imports included (``fresh_process_first_reset_ms``, what each
    sub-environment worker and each ``citygen run`` pays once), beside importing the
    libraries it cannot do without (``import_floor_ms``).
@@ -240,8 +241,11 @@ class VectorRun:
 
 def reset_times(new: int = 6, cached: int = 30) -> dict:
     """Median wall ms of a reset to a cached scene and of a first visit (a scene this process
-    never compiled), and of generating such a scene's spec alone."""
+    never compiled), and of three parts of one on other new scenes: generating the scene's
+    spec, writing its MJCF and MuJoCo's compile of it with the robot."""
     from citygen.runner.bench import make_env
+    from citygen.runner.robots import compose
+    from citygen.runner.scenes import _scene_mjcf
 
     env = make_env(TASK, split=SPLIT)
     size = env.unwrapped.source.size
@@ -257,16 +261,24 @@ def reset_times(new: int = 6, cached: int = 30) -> dict:
         t0 = time.perf_counter()
         env.reset(seed=k, options={"index": i})
         hits.append(time.perf_counter() - t0)
-    gen = []
+    gen, mjcf, compiled = [], [], []
     for i in fresh[new:]:
         t0 = time.perf_counter()
-        env.unwrapped.source.scene(i)
-        gen.append(time.perf_counter() - t0)
+        scene = env.unwrapped.source.scene(i)
+        t1 = time.perf_counter()
+        xml = _scene_mjcf(scene)
+        t2 = time.perf_counter()
+        compose(xml, env.unwrapped.robot, (0.0, 0.0, 0.0, 0.0))
+        gen.append(t1 - t0)
+        mjcf.append(t2 - t1)
+        compiled.append(time.perf_counter() - t2)
     env.close()
     return {
         "first_visit_ms": 1e3 * float(np.median(first)),
         "reset_cached_ms": 1e3 * float(np.median(hits)),
         "scene_generate_ms": 1e3 * float(np.median(gen)),
+        "scene_mjcf_ms": 1e3 * float(np.median(mjcf)),
+        "scene_compile_ms": 1e3 * float(np.median(compiled)),
     }
 
 
@@ -461,7 +473,8 @@ def main(argv: list[str] | None = None) -> int:
             "first visit to a scene",
             resets["first_visit_ms"],
             "ms",
-            f"generating its spec alone: {resets['scene_generate_ms']:.0f} ms",
+            f"generating its spec alone: {resets['scene_generate_ms']:.0f} ms, its MJCF "
+            f"{resets['scene_mjcf_ms']:.0f} ms, MuJoCo's compile {resets['scene_compile_ms']:.0f} ms",
         ),
         (
             "fresh process to its first reset",
@@ -520,6 +533,8 @@ def main(argv: list[str] | None = None) -> int:
         "reset_cached_ms": round(resets["reset_cached_ms"], 2),
         "first_visit_ms": round(resets["first_visit_ms"], 1),
         "scene_generate_ms": round(resets["scene_generate_ms"], 1),
+        "scene_mjcf_ms": round(resets["scene_mjcf_ms"], 1),
+        "scene_compile_ms": round(resets["scene_compile_ms"], 1),
         "navstatic_resets": state["resets"],
         "navstatic_reset_ms": _r(state["reset_ms"], 2),
         "mj_step_per_s": round(raw, 0),
