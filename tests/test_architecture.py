@@ -119,6 +119,15 @@ def test_the_rule_catches_a_violation(tmp_path):
 EXPORTER_MODULES = sorted(m for m in MODULES if m.startswith("citygen.exporters"))
 
 
+def python_stdout(code: str, cwd: Path, timeout: float = 60, env: dict | None = None) -> str:
+    """What a fresh interpreter started in ``cwd`` prints running ``code`` (it must succeed)."""
+    proc = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=cwd, timeout=timeout, env=env
+    )
+    assert proc.returncode == 0, proc.stderr
+    return proc.stdout
+
+
 @pytest.mark.parametrize("module", [*EXPORTER_MODULES, "citygen", "citygen.spec", "citygen.validate"])
 def test_importing_loads_no_generator_runner_or_engine(module, tmp_path):
     code = (
@@ -128,11 +137,7 @@ def test_importing_loads_no_generator_runner_or_engine(module, tmp_path):
         "print(','.join(bad))\n"
     )
     # The engines may be imported by an exporter that needs them, never by the rest.
-    proc = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, timeout=60
-    )
-    assert proc.returncode == 0, proc.stderr
-    loaded = [m for m in proc.stdout.strip().split(",") if m]
+    loaded = [m for m in python_stdout(code, tmp_path).strip().split(",") if m]
     allowed_engines = {"mujoco"} if module.endswith("mjcf") else {"pxr"} if module.endswith("usd") else set()
     assert [m for m in loaded if m.split(".")[0] not in allowed_engines] == []
 
@@ -155,25 +160,12 @@ def test_an_environment_process_never_loads_mesh_plotting_or_graph_libraries(tmp
         "        env.step(env.action_space.sample())\n"
         "    print(task, heavy())\n"
     )
-    proc = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, timeout=300
-    )
-    assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.split("\n")[:2] == ["nav-static ", "nav-dynamic "]
+    assert python_stdout(code, tmp_path, timeout=300).split("\n")[:2] == ["nav-static ", "nav-dynamic "]
 
 
 def exporters_file(cwd: Path, env: dict | None = None) -> Path:
     """Where a fresh interpreter started in ``cwd`` imports ``citygen.exporters`` from."""
-    proc = subprocess.run(
-        [sys.executable, "-c", "import citygen.exporters as e; print(e.__file__)"],
-        capture_output=True,
-        text=True,
-        cwd=cwd,
-        timeout=60,
-        env=env,
-    )
-    assert proc.returncode == 0, proc.stderr
-    return Path(proc.stdout.strip())
+    return Path(python_stdout("import citygen.exporters as e; print(e.__file__)", cwd, env=env).strip())
 
 
 def test_exporters_import_from_outside_the_checkout(tmp_path):
