@@ -194,7 +194,8 @@ def _finish(scene: Scene, config: GeneratorConfig, seed: int, *, keep: int) -> S
             terrain, crossed = keep_crossable(bounds, zones, terrain, walkable, ends, config, seed, pins)
         if config.layout == "city":
             rng = child(stage_rng(seed, "terrain"), 3)
-            terrain, crossed = city_features(zones, terrain, rng, keep_clear=_corridor(ends)), None
+            terrain = city_features(zones, terrain, rng, keep_clear=_corridor(ends))
+            crossed = None  # the features change what the robot crosses
     # The ground the task's robot can cross: walkable zones less the tiles it cannot cross.
     passable = walkable
     if ends is not None and ends.needs_path:

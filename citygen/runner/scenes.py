@@ -180,7 +180,10 @@ class Prepared:
         microsecond: the ideal-locomotion servo asks at every drive period and for every
         foot): a function with the raster's constants bound, reading its cells through a
         ``memoryview`` (a Python float each, where indexing the array makes numpy scalars).
-        The same arithmetic as :meth:`ground`, to the bit."""
+        The same interpolation as :meth:`ground` in another order of operations, so it may
+        differ from it in the last bit (about 1e-15 m); :meth:`ground_point` is the bit-exact
+        one. The servo keeps this one: its trajectories, and so the shipped quadruped
+        baselines, were made with it."""
         h = np.ascontiguousarray(self._raster)
         g = self.occupancy.grid
         rows, cols = h.shape
