@@ -5,16 +5,22 @@ spec <- assets <- generate; spec, geometry, assets <- exporters; spec, exporters
 (the runner samples scenes of a named split);
 everything <- cli. Nothing imports cli; exporters never import generate or runner;
 the generator, the spec and the assets never import mujoco or pxr.
+
+No import circles anywhere in the package (citygen and citygen.exporters), function-local
+imports included, and no module over 800 lines but the asset builders' tables (DESIGN.md
+section 3; docs/architecture.md).
 """
 
 from __future__ import annotations
 
 import ast
+import itertools
 import subprocess
 import sys
 import zipfile
 from pathlib import Path
 
+import networkx as nx
 import pytest
 
 from tests.conftest import ROOT
@@ -60,9 +66,10 @@ def layer_of(module: str) -> str:
     return LAYERS[best]
 
 
-def source_modules() -> dict[str, Path]:
+def source_modules(folders=((ROOT / "citygen", "citygen"), (ROOT / "exporters", "citygen.exporters"))):
+    """``{dotted module name: file}`` of every module under ``folders`` (``(folder, package)`` pairs)."""
     modules = {}
-    for folder, package in ((ROOT / "citygen", "citygen"), (ROOT / "exporters", "citygen.exporters")):
+    for folder, package in folders:
         for path in folder.rglob("*.py"):
             rel = path.relative_to(folder).with_suffix("")
             parts = [p for p in rel.parts if p != "__init__"]
@@ -70,25 +77,55 @@ def source_modules() -> dict[str, Path]:
     return modules
 
 
-def imports_of(module: str, path: Path) -> set[str]:
+def _is_type_checking(test: ast.expr) -> bool:
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
+        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING"
+    )
+
+
+def import_nodes(tree: ast.AST, type_checking: bool = True):
+    """Every import statement anywhere in ``tree`` (in functions and branches too), with those
+    under ``if TYPE_CHECKING:`` only when ``type_checking``."""
+    stack = [tree]
+    while stack:
+        node = stack.pop()
+        if isinstance(node, ast.Import | ast.ImportFrom):
+            yield node
+        elif isinstance(node, ast.If) and not type_checking and _is_type_checking(node.test):
+            stack.extend(node.orelse)  # never run: only the else branch imports
+            continue
+        stack.extend(ast.iter_child_nodes(node))
+
+
+def imports_with_lines(module: str, path: Path, modules=None, type_checking: bool = True):
+    """``{imported name: first line}`` of the imports in ``module``'s source at ``path``;
+    a name is a module of ``modules`` where the import names one (default: the package's)."""
+    modules = MODULES if modules is None else modules
     tree = ast.parse(path.read_text(), filename=str(path))
     package = module if path.name == "__init__.py" else module.rpartition(".")[0]
-    found = set()
-    for node in ast.walk(tree):
+    found: dict[str, int] = {}
+    for node in sorted(import_nodes(tree, type_checking), key=lambda n: n.lineno):
         if isinstance(node, ast.Import):
-            found |= {alias.name for alias in node.names}
-        elif isinstance(node, ast.ImportFrom):
+            names = [alias.name for alias in node.names]
+        else:
             if node.level:
                 base = package.split(".")[: len(package.split(".")) - node.level + 1]
                 target = ".".join(base + ([node.module] if node.module else []))
             else:
                 target = node.module or ""
+            names = []
             for alias in node.names:
                 sub = f"{target}.{alias.name}"
                 # `from citygen import assets` imports the module citygen.assets;
                 # `from citygen import load_scene` imports from the package itself.
-                found.add(sub if any(m == sub or m.startswith(sub + ".") for m in MODULES) else target)
+                names.append(sub if any(m == sub or m.startswith(sub + ".") for m in modules) else target)
+        for name in names:
+            found.setdefault(name, node.lineno)
     return found
+
+
+def imports_of(module: str, path: Path, modules=None) -> set[str]:
+    return set(imports_with_lines(module, path, modules))
 
 
 MODULES = source_modules()
@@ -114,6 +151,84 @@ def test_the_rule_catches_a_violation(tmp_path):
     assert {"citygen.generate.blocks", "mujoco"} <= found  # the module, now that it exists
     assert layer_of("citygen.generate.blocks") not in ALLOWED["exporters"]
     assert layer_of("citygen.geometry.roads") in ALLOWED["exporters"]
+
+
+def import_graph(modules: dict[str, Path]) -> nx.DiGraph:
+    """Module -> module it imports, for every import statement anywhere in a module (a function's
+    own imports too: they run when it is called), but those under ``if TYPE_CHECKING:``; each
+    edge keeps the line of its import. A name is the longest module of ``modules`` it starts with."""
+    graph = nx.DiGraph()
+    graph.add_nodes_from(modules)
+    for module, path in modules.items():
+        for name, line in imports_with_lines(module, path, modules, type_checking=False).items():
+            target = max((m for m in modules if name == m or name.startswith(m + ".")), key=len, default=None)
+            if target is not None and target != module:
+                graph.add_edge(module, target, line=line)
+    return graph
+
+
+def import_circles(modules: dict[str, Path]) -> list[str]:
+    """One line per circle of imports among ``modules``: for each strongly connected component,
+    its shortest cycle through its first module, each step with the importing line."""
+    graph = import_graph(modules)
+    circles = []
+    for component in sorted(sorted(c) for c in nx.strongly_connected_components(graph) if len(c) > 1):
+        sub = graph.subgraph(component)
+        start = component[0]
+        back = min((nx.shortest_path(sub, target, start) for target in sub.successors(start)), key=len)
+        cycle = [start, *back]
+        steps = [f"{a} (line {graph.edges[a, b]['line']})" for a, b in itertools.pairwise(cycle)]
+        circles.append(" -> ".join([*steps, start]) + f"  [{len(component)} modules in the circle]")
+    return circles
+
+
+MAX_LINES = 800
+# The asset builders' tables: long lists of parameterised parts, one builder each, read as tables.
+LONG_TABLES = {"citygen.assets.outdoor", "citygen.assets.street"}
+
+
+def oversized_modules(modules: dict[str, Path], exempt=frozenset()) -> list[str]:
+    """``module: N lines`` for each module longer than MAX_LINES, but those in ``exempt``."""
+    sizes = {m: len(path.read_text().splitlines()) for m, path in modules.items() if m not in exempt}
+    return [f"{m}: {n} lines" for m, n in sorted(sizes.items()) if n > MAX_LINES]
+
+
+def test_no_import_circles():
+    circles = import_circles(MODULES)
+    assert circles == [], "import circles (function-local imports count):\n" + "\n".join(circles)
+
+
+def test_no_module_over_800_lines():
+    assert set(MODULES) >= LONG_TABLES, sorted(LONG_TABLES - set(MODULES))  # no stale exemption
+    oversized = oversized_modules(MODULES, LONG_TABLES)
+    assert oversized == [], f"modules over {MAX_LINES} lines (split them by idea):\n" + "\n".join(oversized)
+
+
+def test_the_checks_catch_a_circle_and_an_oversized_module(tmp_path):
+    pkg = tmp_path / "pkg"
+    (pkg / "sub").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "sub" / "__init__.py").write_text("from pkg.sub.a import run\n")
+    (pkg / "sub" / "a.py").write_text("from pkg import b\n\n\ndef run():\n    return b.helper()\n")
+    # The circle closes through a function-local import, as the hidden ones did.
+    (pkg / "b.py").write_text("def helper():\n    from pkg.sub.a import run\n\n    return run\n")
+    # A TYPE_CHECKING import is no edge: c <-> d is not a circle.
+    (pkg / "c.py").write_text("from pkg import d\n")
+    (pkg / "d.py").write_text(
+        "from typing import TYPE_CHECKING\n\nif TYPE_CHECKING:\n    from pkg.c import x\n"
+    )
+    (pkg / "big.py").write_text("x = 1\n" * (MAX_LINES + 1))
+    (pkg / "table.py").write_text("x = 1\n" * (MAX_LINES + 1))
+    modules = source_modules([(pkg, "pkg")])
+    assert import_circles(modules) == [
+        "pkg.b (line 2) -> pkg.sub.a (line 1) -> pkg.b  [2 modules in the circle]"
+    ]
+    assert oversized_modules(modules, {"pkg.table"}) == [f"pkg.big: {MAX_LINES + 1} lines"]
+    # Without the function-local import, and with the big module split, both checks pass.
+    (pkg / "b.py").write_text("def helper():\n    return None\n")
+    (pkg / "big.py").write_text("x = 1\n" * MAX_LINES)
+    assert import_circles(modules) == []
+    assert oversized_modules(modules, {"pkg.table"}) == []
 
 
 EXPORTER_MODULES = sorted(m for m in MODULES if m.startswith("citygen.exporters"))
