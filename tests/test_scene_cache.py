@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 from citygen.errors import SpecError
-from citygen.runner import envs, scenes
+from citygen.runner import scenes
 from citygen.runner.bench import make_env
+from citygen.runner.envs import base as envs
 
 
 class _Stub:

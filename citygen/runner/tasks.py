@@ -27,6 +27,9 @@ from citygen.spec.task import TASK_KINDS
 
 #: The policy a command runs when none is given, by task family.
 DEFAULT_POLICY = {"nav": "planner", "loco": "trot", "traverse": "ai"}
+#: The robot an environment runs when given none, by task family (the traverse's quadruped is
+#: the robot both Urban-Tra scenes are set for: the wheeled robot cannot climb the track's stairs).
+DEFAULT_ROBOT = {"nav": "wheeled", "loco": "quadruped", "traverse": "quadruped"}
 #: The traverse control modes (see :mod:`citygen.runner.policies`).
 TRAVERSE_MODES = ("human", "ai", "shared-cautious", "shared-efficient")
 
@@ -82,8 +85,8 @@ def default_policy(task: str) -> str:
 
 
 def default_robot(task: str) -> str:
-    """The robot the task's environment runs when given none (its class's ``default_robot``)."""
-    return env_class(task).default_robot
+    """The robot the task's environment runs when given none (:data:`DEFAULT_ROBOT`)."""
+    return DEFAULT_ROBOT[family(task)]
 
 
 def env_class(task: str) -> type:

@@ -1,0 +1,219 @@
+"""Locomotion (:class:`LocoEnv`; LocoFlat, LocoSlope, LocoStair, LocoRough): joint-level
+actions in [-1, 1] (targets around the robot's standing pose) every :data:`LOCO_DT` s;
+the observation is the base's linear and angular velocity, the command, joint positions
+and velocities, the last action and the height map. Reward as in the paper: ``-100`` and
+the end of the episode when the robot's body (any part but its legs: trunk, head, torso,
+arms) presses on the ground with more than 1 N;
+``exp(-|v_xy - c_xy|^2 / 0.25^2) + 0.5 exp(-(w_z - c_wz)^2 / 0.25^2)``
+for tracking the command; ``-2.0 v_z^2``; ``-0.01 |a_t - a_(t-1)|^2``. Horizon
+:data:`LOCO_HORIZON` steps.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from citygen.errors import SpecError
+from citygen.runner import metrics as M
+from citygen.runner.envs.base import _CitygenEnv
+from citygen.runner.tasks import DEFAULT_ROBOT, check_robot
+from citygen.spec import Scene
+
+#: Control step (s) of locomotion.
+LOCO_DT = 0.02
+#: Locomotion episodes end after this many steps (the paper's horizon).
+LOCO_HORIZON = 1000
+#: Contact force (N) on a non-foot part that counts as a fall in locomotion.
+FALL_FORCE = 1.0
+#: Locomotion: a seed turns the scene's command ``(vx, vy, wz)`` (in the robot's frame) to a
+#: direction uniform in this range (rad, about the robot's heading), keeping its speed and yaw
+#: rate. The paper's X-displacement is "in the velocity direction under fixed magnitude and
+#: random orientation": the orientation drawn is the robot's heading in the world (any angle),
+#: while the command stays ahead of it, the direction the scripted trot and biped walk can
+#: follow (both tip over within seconds once the command has a sideways part). Widen it for a
+#: learned omnidirectional policy.
+COMMAND_TURN = (0.0, 0.0)
+#: Locomotion: the start is up to this far (m, each axis) from its region's centre.
+START_JITTER = 0.25
+
+
+class LocoEnv(_CitygenEnv):
+    """Velocity-command locomotion on an Urban-Loc grid (see the module docstring)."""
+
+    default_robot = DEFAULT_ROBOT["loco"]
+    dt = LOCO_DT
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 50}
+
+    def __init__(self, task: str = "loco-flat", scene: Scene | str | Path | None = None, **kwargs: Any):
+        if not task.startswith("loco"):
+            raise SpecError(f"task: expected a locomotion task kind, got {task!r}")
+        self.randomize = bool(kwargs.pop("randomize", True))
+        super().__init__(task, scene, **kwargs)
+        check_robot(task, self.robot)
+        n = len(self.robot.leg_joints)
+        self.n_joints = n
+        self._fall_model = None
+        self.action_space = spaces.Box(-1.0, 1.0, (n,), np.float32)
+        obs = {
+            "base_lin_vel": spaces.Box(-np.inf, np.inf, (3,), np.float32),
+            "base_ang_vel": spaces.Box(-np.inf, np.inf, (3,), np.float32),
+            "command": spaces.Box(-np.inf, np.inf, (3,), np.float32),
+            "joint_pos": spaces.Box(-np.inf, np.inf, (n,), np.float32),
+            "joint_vel": spaces.Box(-np.inf, np.inf, (n,), np.float32),
+            "last_action": spaces.Box(-1.0, 1.0, (n,), np.float32),
+            "height_map": self._height_space(),
+        }
+        obs.update(self._image_spaces())
+        self._set_observation_space(obs)
+        self.horizon = self.max_steps or LOCO_HORIZON
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """A new episode. With ``randomize`` (the default) the seed draws the test region
+        (a tile of the Urban-Loc grid; ``options={"region": (row, col)}`` picks one), the
+        start pose in it (:data:`START_JITTER` m around the tile's centre, any heading) and
+        the command's direction (the scene's command turned by an angle in
+        :data:`COMMAND_TURN`; ``options={"command": (vx, vy, wz)}`` sets one); without, the
+        scene's own start and command."""
+        import mujoco
+
+        super().reset(seed=seed)
+        options = options or {}
+        self._load(self._pick_index(options))
+        task = self.scene.task
+        if task is None or not task.kind.startswith("loco"):
+            raise SpecError(
+                f"{self.source.name}: $.task: expected a locomotion task, got "
+                f"{'none' if task is None else task.kind}"
+            )
+        x, y, yaw, command = self._draw_start(task, options)
+        self.command = np.asarray(command, dtype=np.float64)
+        for mocap in self.prepared.agent_bodies.values():
+            self.data.mocap_pos[mocap] = (0.0, 0.0, -100.0)
+        self._spawn(x, y, yaw)
+        mujoco.mj_forward(self.model, self.data)
+        self._fall_geoms_for_model()
+        self.steps = 0
+        self.last_action = np.zeros(self.n_joints)
+        heading = yaw + math.atan2(self.command[1], self.command[0])
+        self.recorder = M.LocoEpisode(start_xy=(float(x), float(y)), target_heading=heading, dt=self.dt)
+        obs = self._observation()
+        info = {"scene": self.source.name, "index": self._index, "region": self.region}
+        return obs, {**info, "command": tuple(float(c) for c in self.command)}
+
+    def _draw_start(self, task: Any, options: dict) -> tuple[float, float, float, tuple]:
+        """Start ``(x, y, yaw)`` and command of the episode (see :meth:`reset`)."""
+        grid = self.scene.terrain
+        rng = self.np_random
+        command = tuple(task.command)
+        x, y = (float(v) for v in task.start.position)
+        yaw = float(task.start.yaw)
+        size = grid.tile_size if grid is not None else 0.0
+        self.region = None
+        if grid is not None:
+            self.region = (int((y - grid.origin[1]) // size), int((x - grid.origin[0]) // size))
+        if self.randomize and grid is not None:
+            row, col = int(rng.integers(grid.rows)), int(rng.integers(grid.cols))
+            jitter = rng.uniform(-START_JITTER, START_JITTER, 2)
+            x = grid.origin[0] + (col + 0.5) * size + float(jitter[0])
+            y = grid.origin[1] + (row + 0.5) * size + float(jitter[1])
+            yaw = float(rng.uniform(-math.pi, math.pi))
+            speed, turn = math.hypot(command[0], command[1]), float(rng.uniform(*COMMAND_TURN))
+            command = (speed * math.cos(turn), speed * math.sin(turn), float(command[2]))
+            self.region = (row, col)
+        if "region" in options and grid is not None:
+            row, col = (int(v) for v in options["region"])
+            if not (0 <= row < grid.rows and 0 <= col < grid.cols):
+                raise SpecError(
+                    f"options.region: expected (row, col) inside the {grid.rows} x {grid.cols} grid, "
+                    f"got {(row, col)}"
+                )
+            x, y = grid.origin[0] + (col + 0.5) * size, grid.origin[1] + (row + 0.5) * size
+            self.region = (row, col)
+        if "command" in options:
+            command = tuple(float(c) for c in options["command"])
+        return x, y, yaw, command
+
+    def _fall_geoms_for_model(self) -> None:
+        """The robot geoms whose pressing on the ground is a fall: the body, not the legs.
+        A leg is every link from a foot (or wheel) up to the base, so a knee brushing a
+        knee-high bump is not a fall, the trunk, head, torso or an arm touching down is (the
+        base-contact termination of Isaac Lab's locomotion tasks, on which URBAN-SIM's are
+        built). Computed once per compiled model."""
+        if self._fall_model is self.model:
+            return
+        m, h = self.model, self.handle
+        legs: set[int] = set()
+        for body in m.geom_bodyid[h.foot_geom_ids].tolist():
+            while body != h.base_id and body > 0 and body not in legs:
+                legs.add(body)
+                body = int(m.body_parentid[body])
+        self._fall_geoms = self._robot_geoms & ~np.isin(m.geom_bodyid, sorted(legs))
+        self._fall_model = self.model
+
+    def _ground_force(self) -> float:
+        """Largest normal force (N) of a contact between the ground and a robot part that
+        must not touch it (:meth:`_fall_geoms_for_model`)."""
+        import mujoco
+
+        g1, g2 = self._contacts()
+        if g1.size == 0:
+            return 0.0
+        body = self._fall_geoms
+        ground = self.prepared.ground_geoms
+        hits = np.flatnonzero((body[g1] & ground[g2]) | (body[g2] & ground[g1]))
+        force = np.zeros(6)
+        worst = 0.0
+        for i in hits:
+            mujoco.mj_contactForce(self.model, self.data, int(i), force)
+            worst = max(worst, abs(force[0]))
+        return worst
+
+    def step(self, action):
+        a = np.clip(np.asarray(action, dtype=np.float64).reshape(self.n_joints), -1.0, 1.0)
+        self.handle.joint_action(self.data, a)
+        self._physics(None)
+        self.steps += 1
+        x, y, _, _ = self.handle.pose(self.data)
+        vel = self.handle.velocity(self.data)
+        fallen = self._ground_force() > FALL_FORCE or self._out_of_bounds(x, y)
+        dv = (vel[0] - self.command[0]) ** 2 + (vel[1] - self.command[1]) ** 2
+        dz = (vel[3] - self.command[2]) ** 2
+        reward = math.exp(-dv / 0.25**2) + 0.5 * math.exp(-dz / 0.25**2)
+        reward += 2.0 * -(vel[2] ** 2)
+        reward += 0.01 * -float(np.sum((a - self.last_action) ** 2))
+        if fallen:
+            reward -= 100.0
+        self.last_action = a
+        self.recorder.record_step((x, y), np.array(self.data.actuator_force), fallen=fallen)
+        truncated = not fallen and self.steps >= self.horizon
+        obs = self._observation()
+        info = {"scene": self.source.name, "index": self._index, "fallen": fallen}
+        if fallen or truncated:
+            self.recorder.finish()
+            info["metrics"] = M.loco_metrics(self.recorder)
+        return obs, float(reward), bool(fallen), bool(truncated), info
+
+    def _observation(self) -> dict[str, np.ndarray]:
+        x, y, z, yaw = self.handle.pose(self.data)
+        vel = self.handle.velocity(self.data)
+        obs = {
+            "base_lin_vel": np.asarray(vel[:3], dtype=np.float32),
+            "base_ang_vel": np.asarray(
+                self.data.qvel[self.handle.dadr + 3 : self.handle.dadr + 6], dtype=np.float32
+            ),
+            "command": self.command.astype(np.float32),
+            "joint_pos": np.asarray(
+                self.handle.joint_positions(self.data) - self.handle.default, dtype=np.float32
+            ),
+            "joint_vel": np.asarray(self.handle.joint_velocities(self.data), dtype=np.float32),
+            "last_action": self.last_action.astype(np.float32),
+        }
+        if "height_map" in self.observation_space.spaces:
+            obs["height_map"] = self._height_map(x, y, self._terrain_around(x, y, yaw)[0], yaw)
+        obs.update(self._images((x, y, z, yaw)))
+        return {k: obs[k] for k in self.observation_space.spaces}
