@@ -88,7 +88,7 @@ N_VEC = 2
 
 
 def _env(**kwargs):
-    from citygen.runner.bench import make_env
+    from citygen.runner.make import make_env
 
     return make_env(TASK, split=SPLIT, **{"scene_pool": POOL, **kwargs})
 
@@ -200,7 +200,7 @@ class VectorRun:
 
         import gymnasium
 
-        from citygen.runner.bench import make_env, make_vector_env
+        from citygen.runner.make import make_env, make_vector_env
 
         kw = {"scene_pool": POOL, **kwargs}
         self.n = num_envs
@@ -243,7 +243,7 @@ def reset_times(new: int = 6, cached: int = 30) -> dict:
     """Median wall ms of a reset to a cached scene and of a first visit (a scene this process
     never compiled), and of three parts of one on other new scenes: generating the scene's
     spec, writing its MJCF and MuJoCo's compile of it with the robot."""
-    from citygen.runner.bench import make_env
+    from citygen.runner.make import make_env
     from citygen.runner.robots import compose
     from citygen.runner.scenes import _scene_mjcf
 
@@ -288,7 +288,7 @@ def reset_times(new: int = 6, cached: int = 30) -> dict:
 #: without. Each prints its wall milliseconds from its first line on (interpreter start apart).
 _FRESH = (
     "import time; t0 = time.perf_counter()\n"
-    "from citygen.runner.bench import make_env\n"
+    "from citygen.runner.make import make_env\n"
     f"env = make_env({TASK!r}, split={SPLIT!r})\n"
     "env.reset(seed=0, options={'index': 0})\n"
     "print(1e3 * (time.perf_counter() - t0))\n"

@@ -185,7 +185,8 @@ def run(
     """Run one episode on a scene and print its URBAN-BENCH table (as `citygen bench` does); optionally
     save frames or an animation."""
     from citygen.io import load_scene
-    from citygen.runner.bench import make_env, run_episode
+    from citygen.runner.bench import run_episode
+    from citygen.runner.make import make_env
     from citygen.runner.policies import make_policy
     from citygen.runner.tasks import check_scene_task, check_task
 

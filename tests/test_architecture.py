@@ -264,7 +264,7 @@ def test_an_environment_process_never_loads_mesh_plotting_or_graph_libraries(tmp
     road graph, which a scene without vehicles never makes."""
     code = (
         "import sys\n"
-        "from citygen.runner.bench import make_env\n"
+        "from citygen.runner.make import make_env\n"
         "HEAVY = {'trimesh', 'matplotlib', 'networkx'}\n"
         "def heavy():\n"
         "    return ','.join(sorted({m.split('.')[0] for m in sys.modules} & HEAVY))\n"

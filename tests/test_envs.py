@@ -16,8 +16,9 @@ import citygen
 import citygen.runner
 from citygen.exporters import ExportWarning
 from citygen.runner import ENV_IDS
-from citygen.runner.bench import make_env, make_vector_env, run_episode
+from citygen.runner.bench import run_episode
 from citygen.runner.envs import NAV_HORIZON
+from citygen.runner.make import make_env, make_vector_env
 from citygen.runner.policies import make_policy
 
 pytestmark = pytest.mark.filterwarnings("ignore::citygen.exporters.ExportWarning")

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from citygen.geometry.terrain import height_at
-from citygen.runner.bench import make_env, run_episode
+from citygen.runner.bench import run_episode
+from citygen.runner.make import make_env
 from citygen.runner.policies import make_policy
 from citygen.runner.robots import PREFIX, lowest_point
 from citygen.runner.tasks import robots_for

@@ -659,7 +659,7 @@ def test_the_runners_ground_raster_is_height_at_within_a_cell():
     """The runner's height map and servo read the scene's 5 cm ground raster (bilinear): on
     slopes and rough ground within a centimetre of :func:`height_at`, exact at the cells'
     centres; a stair's edge becomes a ramp one cell wide."""
-    from citygen.runner.bench import make_env
+    from citygen.runner.make import make_env
 
     env = make_env("nav-static", robot="quadruped")
     for index in range(4):

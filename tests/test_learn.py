@@ -125,8 +125,8 @@ def test_numpy_policy_gives_the_actions_of_torch(run):
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecNormalize
 
-    from citygen.runner.bench import make_env
     from citygen.runner.learn import read_policy
+    from citygen.runner.make import make_env
 
     out = run["out"]
     model = PPO.load(out / "model.zip", device="cpu")
@@ -445,9 +445,9 @@ def test_progress_shaping_pays_for_geodesic_progress_and_only_in_training():
     """The training wrapper adds ``scale`` per metre gained along the walkable geodesic:
     driving at the goal earns more than the environment's own reward, backing away less,
     and the environment's reward itself (what bench reports) is unchanged."""
-    from citygen.runner.bench import make_env
     from citygen.runner.learn.config import TrainConfig
     from citygen.runner.learn.shaping import ProgressReward
+    from citygen.runner.make import make_env
 
     assert TrainConfig().progress > 0
 
@@ -481,9 +481,9 @@ def test_driving_backwards_costs_what_it_moves_so_reversing_to_the_goal_earns_no
     """The shaping's ``reverse`` term: reversing straight at the goal (the goal behind the
     robot) gains the geodesic progress and gives the same metres back; driving forwards
     keeps it."""
-    from citygen.runner.bench import make_env
     from citygen.runner.learn.config import TrainConfig
     from citygen.runner.learn.shaping import ProgressReward
+    from citygen.runner.make import make_env
 
     assert TrainConfig().reverse == 1.0
 
@@ -521,8 +521,8 @@ def test_driving_backwards_costs_what_it_moves_so_reversing_to_the_goal_earns_no
 def test_backing_off_an_obstacle_is_not_charged_as_reversing():
     """A step that starts in collision is not charged for moving backwards (the way off a pole
     the robot drove into); the step after one that ended clear is."""
-    from citygen.runner.bench import make_env
     from citygen.runner.learn.shaping import ProgressReward
+    from citygen.runner.make import make_env
 
     def reverse_charges(touching: bool) -> list[float]:
         env = make_env("nav-clear", split="urban-nav-1-train", robot="wheeled")
@@ -550,8 +550,8 @@ def test_a_success_earns_holding_the_goal_so_hovering_never_pays_more():
     """Reaching the goal ends the episode; the shaping pays the discounted tracking reward of
     standing on the goal until the horizon, so finishing sooner is worth more than hovering
     just outside the tolerance (where the paper's tracking term pays ~1 a step)."""
-    from citygen.runner.bench import make_env
     from citygen.runner.learn.shaping import TRACK_AT_GOAL, ProgressReward
+    from citygen.runner.make import make_env
 
     env = ProgressReward(make_env("nav-clear", split="urban-nav-1-train", robot="wheeled"), 1.0, 0.99)
     plain = make_env("nav-clear", split="urban-nav-1-train", robot="wheeled")

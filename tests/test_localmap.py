@@ -10,8 +10,8 @@ import pytest
 
 import citygen
 from citygen.runner import localmap
-from citygen.runner.bench import make_env
 from citygen.runner.localmap import AGENT_HEIGHT, LocalMap, StaticLayers, with_margin
+from citygen.runner.make import make_env
 
 pytestmark = pytest.mark.filterwarnings("ignore::citygen.exporters.ExportWarning")
 

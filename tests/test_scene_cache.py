@@ -8,8 +8,8 @@ import pytest
 
 from citygen.errors import SpecError
 from citygen.runner import scenes
-from citygen.runner.bench import make_env
 from citygen.runner.envs import base as envs
+from citygen.runner.make import make_env
 
 
 class _Stub:

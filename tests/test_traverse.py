@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 import citygen
-from citygen.runner.bench import make_env, run_episode
+from citygen.runner.bench import run_episode
+from citygen.runner.make import make_env
 from citygen.runner.metrics import TraverseEpisode, traverse_metrics
 from citygen.runner.policies import make_policy
 from citygen.spec.blocks import Pose2

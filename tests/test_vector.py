@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode
 
-from citygen.runner.bench import make_env, make_vector_env
+from citygen.runner.make import make_env, make_vector_env
 from citygen.runner.vector import VectorEnv
 
 SPLIT = "urban-nav-2-train"
@@ -99,7 +99,7 @@ def test_worker_errors_reach_the_caller():
 
 def test_scene_pool_limits_the_scenes_drawn():
     from citygen.errors import SpecError
-    from citygen.runner.bench import make_env
+    from citygen.runner.make import make_env
 
     with pytest.raises(SpecError, match="scene_pool"):
         make_env("nav-static", split=SPLIT, scene_pool=0)
@@ -110,7 +110,7 @@ def test_scene_pool_limits_the_scenes_drawn():
 
 
 def test_depth_images_from_workers_match_one_process_and_survive_scene_swaps():
-    from citygen.runner.bench import make_env
+    from citygen.runner.make import make_env
 
     kw = {"depth": True, "image_size": 32, "scene_pool": 2}
     env = make_env("nav-static", split=SPLIT, **kw)
@@ -137,7 +137,7 @@ def test_same_step_autoreset_matches_gymnasiums():
 
     from gymnasium.vector import SyncVectorEnv
 
-    from citygen.runner.bench import make_env
+    from citygen.runner.make import make_env
     from citygen.runner.vector import VectorEnv
 
     fns = [functools.partial(make_env, "nav-static", split=SPLIT, max_steps=3) for _ in range(2)]

@@ -7,16 +7,19 @@ Importing this package registers the environment ids with Gymnasium::
 
     env = gym.make("citygen/NavStatic-v0", scene="out/urban-nav-2/test/0000.json")
 
-Modules: :mod:`~citygen.runner.envs` (the environments), :mod:`~citygen.runner.robots`
-(embodiments built in code as MJCF), :mod:`~citygen.runner.crowd` (ORCA pedestrians, IDM
-vehicles), :mod:`~citygen.runner.metrics` (the paper's metrics),
-:mod:`~citygen.runner.planning` (A*, pure pursuit) and :mod:`~citygen.runner.policies`
-(baselines).
+Modules: :mod:`~citygen.runner.envs` (the environments), :mod:`~citygen.runner.make`
+(``make_env``, ``make_vector_env`` and the task -> environment class map),
+:mod:`~citygen.runner.robots` (embodiments built in code as MJCF),
+:mod:`~citygen.runner.crowd` (ORCA pedestrians, IDM vehicles), :mod:`~citygen.runner.metrics`
+(the paper's metrics), :mod:`~citygen.runner.planning` (A*, pure pursuit) and
+:mod:`~citygen.runner.policies` (baselines).
 """
 
 from __future__ import annotations
 
 import gymnasium
+
+from citygen.runner.make import env_class
 
 #: Gymnasium id -> the task kind of :mod:`citygen.spec.task` it runs.
 ENV_IDS = {
@@ -30,17 +33,9 @@ ENV_IDS = {
     "citygen/Traverse-v0": "traverse",
 }
 
-
-def _entry_point(kind: str) -> str:
-    if kind.startswith("nav"):
-        return "citygen.runner.envs:NavEnv"
-    if kind.startswith("loco"):
-        return "citygen.runner.envs:LocoEnv"
-    return "citygen.runner.envs:TraverseEnv"
-
-
 for _id, _kind in ENV_IDS.items():
     if _id not in gymnasium.registry:
-        gymnasium.register(id=_id, entry_point=_entry_point(_kind), kwargs={"task": _kind})
+        _cls = env_class(_kind)
+        gymnasium.register(id=_id, entry_point=f"{_cls.__module__}:{_cls.__name__}", kwargs={"task": _kind})
 
 __all__ = ["ENV_IDS"]

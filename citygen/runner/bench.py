@@ -1,31 +1,33 @@
-"""Running episodes: one (:func:`run_episode`), a benchmark of many in a process pool
-(:func:`run_bench`, the ``citygen bench`` command) and vector environments whose
-sub-environments each run a different scene (:func:`make_vector_env`)."""
+"""Running episodes: one (:func:`run_episode`) and a benchmark of many in a process pool
+(:func:`run_bench`, the ``citygen bench`` command). Environments are made by
+:mod:`citygen.runner.make`."""
 
 from __future__ import annotations
 
-import functools
 import os
+import warnings
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from citygen.runner import ENV_IDS
-from citygen.spec import Scene
+from citygen.runner import make
 
-#: Task kind -> environment class name in :mod:`citygen.runner.envs`.
-KINDS = tuple(ENV_IDS.values())
+#: Names that lived here before :mod:`citygen.runner.make` (kept for one release).
+_MOVED = ("make_env", "make_vector_env")
 
 
-def make_env(task: str, scene: Scene | str | Path | None = None, **kwargs: Any):
-    """The environment of a task kind (``"nav-static"``) on a scene or a split."""
-    from citygen.runner.tasks import env_class
-
-    return env_class(task)(task, scene, **kwargs)
+def __getattr__(name: str) -> Any:
+    if name in _MOVED:
+        warnings.warn(
+            f"citygen.runner.bench.{name} moved to citygen.runner.make.{name}",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return getattr(make, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def run_episode(
@@ -86,7 +88,9 @@ def _episode(spec: BenchSpec, i: int) -> dict[str, Any]:
     if _WORKER.get("key") != key:
         _WORKER.clear()
         _WORKER["key"] = key
-        _WORKER["env"] = make_env(spec.task, split=spec.split, robot=spec.robot, **dict(spec.env_options))
+        _WORKER["env"] = make.make_env(
+            spec.task, split=spec.split, robot=spec.robot, **dict(spec.env_options)
+        )
     policy = make_policy(spec.policy, seed=spec.seed + i, task=spec.task)
     return run_episode(_WORKER["env"], policy, seed=spec.seed + i, index=i)
 
@@ -133,29 +137,6 @@ def run_bench(
             if progress:
                 progress(done, episodes, rows[futures[fut]])
     return rows
-
-
-def make_vector_env(
-    task: str,
-    *,
-    split: str | None = None,
-    num_envs: int | None = None,
-    asynchronous: bool = True,
-    **kwargs: Any,
-):
-    """A Gymnasium vector environment (:class:`citygen.runner.vector.VectorEnv`) of ``num_envs``
-    (default: one per core) environments of ``task`` sampling ``split``: every sub-environment
-    draws its own scene on every reset (from its own generator, seeded ``seed + i``) out of its
-    process's cache of compiled scenes -- asynchronous scene sampling. Batched: an array of
-    actions in, arrays of observations out. ``asynchronous=True`` steps the sub-environments
-    in parallel, in worker processes (shared-memory buffers, nothing pickled per step) and,
-    when every process has a core and no images are rendered, the first in this process;
-    False steps them one after another in this process. ``kwargs`` go to :func:`make_env`."""
-    from citygen.runner.vector import VectorEnv
-
-    n = num_envs or os.cpu_count() or 1
-    fns = [functools.partial(make_env, task, split=split, **kwargs) for _ in range(n)]
-    return VectorEnv(fns, processes=asynchronous)
 
 
 def summary_json(rows: Sequence[dict[str, Any]], **header: Any) -> dict[str, Any]:

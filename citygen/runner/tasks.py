@@ -89,13 +89,6 @@ def default_robot(task: str) -> str:
     return DEFAULT_ROBOT[family(task)]
 
 
-def env_class(task: str) -> type:
-    """The environment class of a task kind in :mod:`citygen.runner.envs`."""
-    from citygen.runner import envs
-
-    return {"nav": envs.NavEnv, "loco": envs.LocoEnv, "traverse": envs.TraverseEnv}[family(task)]
-
-
 def _robot(robot: Any, adapter: Any = None):
     """A Robot from a name or file (a one-line error prefixed by ``--robot``), or as given."""
     if isinstance(robot, str | Path):

@@ -148,7 +148,7 @@ def resolve_policy(
         raise PolicyError(
             f"--policy: expected one of {', '.join(builtin)}, ppo, or a model file (.npz, .zip), got {name!r}"
         )
-    from citygen.runner.bench import make_env
+    from citygen.runner.make import make_env
 
     env = make_env(task, robot=robot, **env_options)
     try:

@@ -66,11 +66,12 @@ class SceneSchedule(gymnasium.Wrapper):
 def _sub_env(
     task: str, split: str, robot: str, scenes: int | None, sampling: str, seed: int, rank: int, period: int,
     progress: float = 0.0, gamma: float = 0.99, reverse: float = 0.0, keys: tuple[str, ...] | None = None,
+    loco: dict[str, Any] | None = None,
 ) -> gymnasium.Env:  # fmt: skip
     import multiprocessing
     import signal
 
-    from citygen.runner.bench import make_env
+    from citygen.runner.make import make_env
 
     if multiprocessing.parent_process() is not None:
         # A worker of the vector env: Ctrl-C is the trainer's to handle (it saves a checkpoint
@@ -81,6 +82,10 @@ def _sub_env(
         from citygen.runner.learn.shaping import ProgressReward
 
         env = ProgressReward(env, progress, gamma, reverse)
+    if task.startswith("loco"):
+        from citygen.runner.learn.loco import LocoTraining
+
+        env = LocoTraining(env, seed=seed, rank=rank, **(loco or {}))
     return SceneSchedule(env, scenes=scenes, sampling=sampling, seed=seed, rank=rank, period=period)
 
 
@@ -201,6 +206,7 @@ def make_training_env(cfg: TrainConfig) -> Sb3VecEnv:
             cfg.gamma,
             cfg.reverse,
             tuple(cfg.obs_keys),
+            {"shaping": cfg.gait_shaping, "command_mix": cfg.command_mix, "curriculum": cfg.curriculum},
         )
         for rank in range(cfg.envs)
     ]
