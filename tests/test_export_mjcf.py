@@ -23,7 +23,10 @@ from shapely.geometry import Point, Polygon
 from citygen.assets import Box, Capsule, ConvexMesh, Cylinder, resolve
 from citygen.errors import ExportError, SpecError
 from citygen.exporters import ExportWarning, mjcf
+from citygen.exporters.mjcf import heightfield
+from citygen.exporters.mjcf.text import ints, num
 from citygen.generate import generate, layout
+from citygen.geometry import convex
 from citygen.geometry.terrain import height_at
 from citygen.io import save_scene
 from citygen.spec import Scene
@@ -161,7 +164,7 @@ def check_ground_by_rays(scene: Scene, model, n: int, seed: int, own: dict[int, 
             )
             if 0 <= col < t.cols and 0 <= row < t.rows:
                 tile = row * t.cols + col
-        if tile is not None and not mjcf._level(t.tiles[tile]):
+        if tile is not None and not heightfield.level(t.tiles[tile]):
             assert layer == "terrain" and ident == f"{row}_{col}" and cls == t.tiles[tile].kind
             continue
         assert layer == "zone", (x, y, lab[g])
@@ -481,7 +484,7 @@ def test_name_from_meta_and_bad_options(tmp_path):
 def test_numbers_are_compact():
     xml = mjcf.to_xml(objects_scene())
     assert "-0 " not in xml and "e-" not in xml and "e+" not in xml
-    assert mjcf._n(0.1 + 0.2) == "0.3" and mjcf._n(-1e-9) == "0" and mjcf._n(12.0) == "12"
+    assert num(0.1 + 0.2) == "0.3" and num(-1e-9) == "0" and num(12.0) == "12"
 
 
 def test_palette_is_the_pictures():
@@ -521,8 +524,8 @@ def test_convex_pieces_are_convex_and_tile_the_polygon(poly):
     assert all(p.convex_hull.area == pytest.approx(p.area, rel=1e-9) for p in pieces)
     assert sum(p.area for p in pieces) == pytest.approx(poly.area, rel=1e-9)
     assert shapely.union_all(pieces).symmetric_difference(poly).area < 1e-9
-    if mjcf._rectilinear(poly):
-        assert all(mjcf._as_rectangle(mjcf._clean_ring(np.asarray(p.exterior.coords))) for p in pieces)
+    if convex._rectilinear(poly):
+        assert all(convex.as_rectangle(convex._clean_ring(np.asarray(p.exterior.coords))) for p in pieces)
 
 
 @pytest.mark.parametrize("scale", [0.2, 0.7, 3.3])
@@ -555,9 +558,9 @@ def test_elevation_text_is_the_plain_join():
         rng.integers(0, 10 ** int(rng.integers(1, 18)), int(rng.integers(1, 300))).tolist() for _ in range(50)
     ]
     for values in cases:
-        assert mjcf._ints(values) == " ".join(map(str, values))
+        assert ints(values) == " ".join(map(str, values))
     grid = rng.integers(0, 5000, (17, 17))
-    assert mjcf._ints(grid[::-1]) == " ".join(map(str, grid[::-1].ravel().tolist()))
+    assert ints(grid[::-1]) == " ".join(map(str, grid[::-1].ravel().tolist()))
 
 
 def test_zone_areas_are_the_per_tile_intersections():
@@ -570,7 +573,7 @@ def test_zone_areas_are_the_per_tile_intersections():
     xs, ys = np.meshgrid(np.arange(5) * 2.5 - 1.0, np.arange(4) * 2.5)
     xs, ys = xs.ravel(), ys.ravel()
     squares = shapely.box(xs, ys, xs + 2.5, ys + 2.5)
-    tiles, zis, areas = mjcf._zone_areas(squares, zones, tree)
+    tiles, zis, areas = heightfield._zone_areas(squares, zones, tree)
     expected = [
         (t, zi, zones[zi].intersection(squares[t]).area)
         for t in range(len(squares))

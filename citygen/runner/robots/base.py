@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from citygen.exporters.mjcf import ROBOT_BIT, ROBOT_CONAFFINITY
+from citygen.exporters.mjcf.contract import ROBOT_BIT, ROBOT_CONAFFINITY
 
 #: Physics timestep (s) of a composed model unless the robot asks for another
 #: (:attr:`Robot.timestep`).

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from citygen.errors import Problem, SpecError
-from citygen.exporters.mjcf import ROBOT_BIT, ROBOT_CONAFFINITY, import_mujoco
+from citygen.exporters.mjcf.contract import ROBOT_BIT, ROBOT_CONAFFINITY, import_mujoco
 from citygen.runner.robots.base import _GRAVITY, Robot, lowest_point
 
 _ADAPTER_KEYS = (

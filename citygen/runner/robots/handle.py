@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from citygen.errors import CitygenError, ExportError
-from citygen.exporters.mjcf import MJCF, ROBOT_BIT, ROBOT_CONAFFINITY, import_mujoco
+from citygen.exporters.mjcf.contract import MJCF, ROBOT_BIT, ROBOT_CONAFFINITY, import_mujoco
 from citygen.runner.robots.base import _GRAVITY, HOVER_CLEARANCE, IMPRATIO, PREFIX, Robot, _v
 
 

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from citygen.errors import CitygenError
-from citygen.exporters.mjcf import import_mujoco
+from citygen.exporters.mjcf.contract import import_mujoco
 from citygen.runner.robots.base import Robot, lowest_point
 
 #: Builders of the built-in robots by name, in the order of :data:`BUILTIN`.
