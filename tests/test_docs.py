@@ -3,6 +3,7 @@ front page, the links of the pages in ``docs/``, and the documentation site's st
 
 from __future__ import annotations
 
+import ast
 import doctest
 import importlib
 import importlib.util
@@ -54,9 +55,8 @@ def test_the_readme_is_a_front_page_with_the_two_commands():
 def test_relative_links_point_at_files(page):
     """Every relative link resolves as a repository browser reads it (raw HTML too, which
     MkDocs does not check)."""
-    for url in LINK.findall(page.read_text()):
-        if "://" not in url and not url.startswith(("/", "mailto:")):
-            assert (page.parent / url).exists(), f"{page.name} links to {url}, which does not exist"
+    urls = {url for url in LINK.findall(page.read_text()) if "://" not in url and url[0] != "/"}
+    assert sorted(url for url in urls if not (page.parent / url).exists()) == []
 
 
 def test_the_layer_picture_is_drawn_from_the_rule():
@@ -92,3 +92,57 @@ def test_the_site_builds_strictly(tmp_path):
     assert 'id="citygen.exporters.mjcf.export"' in (tmp_path / "api" / "exporters.html").read_text()
     assert 'id="citygen.runner.make.make_env"' in (tmp_path / "api" / "runner.html").read_text()
     assert (tmp_path / "repo" / "examples" / "EDITING.html").exists()  # linked from outside docs/
+
+
+# A dotted name of the package as the pages write it (not `citygen.scene/1`, not a file name).
+DOTTED = re.compile(r"(?<![\w/.(-])citygen(?:\.[A-Za-z_]\w*)+(?![\w/-]|\.\w)")
+
+
+def _module_names(path) -> tuple[set[str], bool, bool]:
+    """Top-level names a module defines or imports, whether it has a module ``__getattr__``,
+    and whether it warns of its own deprecation when imported."""
+    tree = ast.parse(path.read_text())
+    names, lazy, shim = set(), False, False
+    for node in tree.body:
+        if isinstance(node, ast.FunctionDef | ast.ClassDef):
+            names.add(node.name)
+            lazy |= node.name == "__getattr__"
+        elif isinstance(node, ast.Import | ast.ImportFrom):
+            names |= {(a.asname or a.name).split(".")[0] for a in node.names}
+        elif isinstance(node, ast.Assign | ast.AnnAssign):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            names |= {n.id for t in targets for n in ast.walk(t) if isinstance(n, ast.Name)}
+        elif isinstance(node, ast.Expr) and "DeprecationWarning" in ast.unparse(node):
+            shim = True
+    return names, lazy, shim
+
+
+@pytest.mark.parametrize("page", [README, *PAGES], ids=lambda p: str(p.relative_to(ROOT)))
+def test_the_pages_name_modules_and_functions_that_exist(page):
+    """As modules move, the pages follow: each ``citygen.x.y`` they name is a module of the
+    package (not an old path kept for a release) or a name one defines."""
+    for dotted in sorted(set(DOTTED.findall(page.read_text()))):
+        module = max((m for m in MODULES if dotted == m or dotted.startswith(m + ".")), key=len)
+        names, lazy, shim = _module_names(MODULES[module])
+        assert not shim, f"{page.name}: {dotted} is in {module}, an old path kept for one release"
+        rest = dotted.removeprefix(module).lstrip(".").split(".")[0]
+        source = MODULES[module].read_text()
+        assert not rest or rest in names or (lazy and f'"{rest}"' in source), f"{page.name}: {dotted}"
+        assert not rest or rest in names or "DeprecationWarning" not in source, (
+            f"{page.name}: {dotted} is an old path kept for one release"
+        )
+
+
+# A path in the repository as the pages write it: `citygen/runner/envs/`, `seeds/*.toml`.
+REPO_PATH = re.compile(
+    r"(?<![\w./-])((?:citygen|exporters|seeds|schemas|examples|benchmarks|docs|tests)/[\w./*<>-]*)"
+)
+
+
+@pytest.mark.parametrize("page", [README, *PAGES], ids=lambda p: str(p.relative_to(ROOT)))
+def test_the_pages_name_paths_that_exist(page):
+    """Each repository path a page names (a folder, a file, a glob) is there."""
+    named = {path.rstrip(".") for path in REPO_PATH.findall(page.read_text())}
+    # Patterns (benchmarks/bench_<topic>.py) and Gymnasium ids (citygen/NavClear-v0) are no paths.
+    named = {path for path in named if "<" not in path and not re.search(r"-v\d+$", path)}
+    assert sorted(p for p in named if not any(ROOT.glob(p.rstrip("/")))) == []
