@@ -24,7 +24,7 @@ With ``--init`` the policy every run starts from is tested too, before any train
 kept in its folder (``test-<episodes>.json``), so a sweep stopped part way goes on where it
 stopped and a finished one prints its table again at once.
 
-The README's figures come from shorter protocols than the paper's (from scratch, NavStatic
+docs/training.md's figures come from shorter protocols than the paper's (from scratch, NavStatic
 with the crossable layer had 1-2 % training success after 92,800 steps on 1,024 scenes):
 every run starts from a wheeled NavClear policy, with ``--config`` giving its observation
 (``keys`` and ``stack``), the rate decaying linearly and ``target_kl`` 0.03, tested on 256

@@ -3,7 +3,7 @@
     python examples/street_network.py [OUT_DIR] [--seed N]
 
 Writes ``OUT_DIR/street_network.json`` (a scene you can edit, validate and export) and
-``OUT_DIR/street_network.png`` (the top-down map in the README).
+``OUT_DIR/street_network.png`` (the top-down map in docs/generating.md).
 """
 
 from __future__ import annotations

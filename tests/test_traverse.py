@@ -45,7 +45,7 @@ def test_the_planner_climbs_the_stairs_and_crosses_the_uneven_units(track):
     # Up the 17 cm stairs at the start of unit 4 (x = 60 m), over rough tiles, up the second
     # flight and down the slopes beyond: the quadruped's ideal locomotion stalled at the first
     # riser and the wheeled robot cannot climb it. (The planner: the ai mode's learned
-    # navigator and its recovery take their time, see the full track in the README.)
+    # navigator and its recovery take their time, see the full track in docs/training.md.)
     scene = _stretch(track, (56.0, 2.5), [(66.0, 2.5), (76.0, 2.5), (86.0, 2.5)], time_limit=60.0)
     env = make_env("traverse", scene)
     heights = []

@@ -57,7 +57,7 @@ between a robot (priority 0) and the ground uses the ground's friction, not a mi
 Geom groups: 0 ground and terrain, 1 objects, 2 agents (so a ray or a rendering can
 select them: ``mj_ray(..., geomgroup=[1, 0, 0, 0, 0, 0], ...)`` sees only the ground).
 
-Names (the runner may rely on them; they are a public contract, the README's naming table):
+Names (the runner may rely on them; they are a public contract, the naming table of docs/exporting.md):
 the parts of every name are joined by ``:`` (:data:`SEP`), never ``/``, which dm_control's
 ``mjcf`` reserves for the scopes of attached models. Every geom is
 ``<layer>:<class>:<id>:<k>`` (an id may itself hold a ``:``; layer, class and k never do):

@@ -41,7 +41,7 @@ from citygen.runner.learn.config import TrainConfig
 #: The one line printed when the optional dependencies are missing.
 MISSING = (
     'citygen train needs the optional "train" extra (Stable-Baselines3 and PyTorch), which is not '
-    'installed: pip install -e ".[train]" (see the README\'s Training section for a CPU-only PyTorch)'
+    'installed: pip install -e ".[train]" (see docs/training.md for a CPU-only PyTorch)'
 )
 CURVE_FIELDS = ("steps", "seconds", "steps_per_s", "episodes", "success_rate", "return_mean")
 
