@@ -24,6 +24,8 @@ import sys
 import types
 
 from citygen.generate.pipeline import STAGES, generate, layout, rebuild
+from citygen.generate.splits import generate_split
+from citygen.spec.config import GeneratorConfig
 
 
 class _CallableModule(types.ModuleType):
@@ -31,9 +33,6 @@ class _CallableModule(types.ModuleType):
         """One scene of ``split``: a split or family name, a manifest or config file, a
         :class:`~citygen.spec.config.SplitConfig` or a :class:`~citygen.spec.config.GeneratorConfig`
         (then ``seed`` is the scene's own seed, default 0)."""
-        from citygen.generate.splits import generate_split
-        from citygen.spec.config import GeneratorConfig
-
         if isinstance(split, GeneratorConfig):
             return generate(split, 0 if seed is None else seed, index=index)
         return generate_split(split, seed=seed, index=index)

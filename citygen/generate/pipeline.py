@@ -51,6 +51,7 @@ from citygen.generate.city_furniture import street_furniture
 from citygen.generate.city_ground import plan_city_ground
 from citygen.generate.city_terrain import city_features
 from citygen.generate.ground import ground_margin, plan_ground, plan_region
+from citygen.generate.manifests import config_for
 from citygen.generate.placement import place_objects
 from citygen.generate.signals import place_lights, signalise
 from citygen.generate.space import (
@@ -127,7 +128,7 @@ def rebuild(
 
     ``from_stage`` is the last stage kept: one of :data:`STAGES`. ``config`` is the generator
     config the scene came from; by default the config of the named split in its
-    ``meta.split`` (:func:`~citygen.generate.splits.config_for`). ``seed`` is the scene's own
+    ``meta.split`` (:func:`~citygen.generate.manifests.config_for`). ``seed`` is the scene's own
     seed; by default its ``meta.seed``. The density level is that of ``meta.index``.
 
     Raises :class:`~citygen.errors.SpecError` when the stage is unknown or the config or seed
@@ -143,8 +144,6 @@ def rebuild(
     if from_stage not in STAGES:
         raise SpecError([Problem("--from", f"one of {', '.join(STAGES)}", repr(from_stage))])
     if config is None:
-        from citygen.generate.splits import config_for
-
         config = config_for(scene)
     if seed is None:
         seed = scene.meta.seed
