@@ -17,6 +17,7 @@ from pxr import Gf, Usd, UsdGeom, UsdPhysics, UsdShade
 from citygen.assets import resolve
 from citygen.errors import ExportError, SpecError
 from citygen.exporters import ExportWarning, usd
+from citygen.exporters.usd import terrain as usd_terrain
 from citygen.geometry.terrain import height_at, tile_mesh
 from citygen.io import load_scene
 from citygen.spec import Terrain
@@ -457,7 +458,7 @@ def test_rough_sampling_matches_tile_mesh():
         mesh = tile_mesh(tile, 2.5, resolution=resolution)
         top = np.asarray(mesh.vertices)
         per_side = len(np.unique(top[top[:, 2] > tile.height - tile.amplitude - 1e-9][:, 0].round(9)))
-        assert usd._rough_cells([tile], 2.5, resolution) == [per_side - 1]
+        assert usd_terrain._rough_cells([tile], 2.5, resolution) == [per_side - 1]
 
 
 def test_ground_friction_and_labels_follow_zones_and_tiles(exported):
@@ -671,7 +672,8 @@ def test_default_sampling_coarsens_on_big_terrains_with_a_warning(tmp_path, monk
         bounds={"min": [0, 0], "max": [30, 30]},
         terrain=Terrain(origin=(0, 0), tile_size=10.0, rows=3, cols=3, tiles=[tile] * 9),
     )
-    monkeypatch.setattr(usd, "DEFAULT_TERRAIN_TRIANGLES", 20_000)  # 80 x 80 cells a tile would be 115,200
+    # 80 x 80 cells a tile would be 115,200
+    monkeypatch.setattr(usd_terrain, "DEFAULT_TERRAIN_TRIANGLES", 20_000)
     with pytest.warns(
         ExportWarning, match=r"USD samples rough tiles every 0.303 m \(up to [0-9.]+ cm off height_at\)"
     ):

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from citygen.exporters import ExportWarning, glb, lod, mjcf, usd
+from citygen.exporters.usd import terrain as usd_terrain
 from citygen.geometry.terrain import height_at, terrain_mesh
 from citygen.spec.scene import Scene
 
@@ -127,7 +128,7 @@ def test_glb_and_html_sample_rougher_tiles_finer_within_their_budget(monkeypatch
 
 def test_usd_samples_rougher_tiles_finer_within_its_budget(tmp_path, monkeypatch):
     scene = rough_scene()
-    monkeypatch.setattr(usd, "DEFAULT_TERRAIN_TRIANGLES", 20_000)
+    monkeypatch.setattr(usd_terrain, "DEFAULT_TERRAIN_TRIANGLES", 20_000)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         files = usd.export(scene, tmp_path)
