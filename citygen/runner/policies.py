@@ -142,7 +142,10 @@ class GaitPolicy:
     def act(self, obs: Any) -> np.ndarray:
         a = self.controller.act(self.env.handle, self.env.data, self.t)
         self.t += self.env.dt
-        return np.asarray(a, dtype=np.float32).clip(-1, 1)
+        # the gaits drive the legs; wheels on them (the wheeled-legged robot's) stay still
+        full = np.zeros(self.env.action_space.shape, dtype=np.float32)
+        full[: len(a)] = a
+        return full.clip(-1, 1)
 
 
 # --- traverse control modes ---------------------------------------------------------------

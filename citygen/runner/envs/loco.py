@@ -1,7 +1,11 @@
 """Locomotion (:class:`LocoEnv`; LocoFlat, LocoSlope, LocoStair, LocoRough): joint-level
-actions in [-1, 1] (targets around the robot's standing pose) every :data:`LOCO_DT` s;
-the observation is the base's linear and angular velocity, the command, joint positions
-and velocities, the last action and the height map. Reward as in the paper: ``-100`` and
+actions in [-1, 1] (targets around the robot's standing pose, then for the wheeled-legged
+robot the speeds of its four wheels, :meth:`~citygen.runner.robots.RobotHandle.joint_action`)
+every :data:`LOCO_DT` s; the observation is the base's linear and angular velocity, the
+command, joint positions and velocities (the wheels' speeds after the legs'), the last action
+and the height map, as in the paper, plus ``projected_gravity`` (the unit gravity vector in
+the base's frame: the tilt, which the paper's inputs leave to be integrated from the angular
+velocity; Isaac Lab's and legged_gym's locomotion policies read it). Reward as in the paper: ``-100`` and
 the end of the episode when the robot's body (any part but its legs: trunk, head, torso,
 arms) presses on the ground with more than 1 N;
 ``exp(-|v_xy - c_xy|^2 / 0.25^2) + 0.5 exp(-(w_z - c_wz)^2 / 0.25^2)``
@@ -57,15 +61,17 @@ class LocoEnv(_CitygenEnv):
         check_robot(task, self.robot)
         n = len(self.robot.leg_joints)
         self.n_joints = n
+        self.n_actions = n + len(self.robot.loco_wheels)
         self._fall_model = None
-        self.action_space = spaces.Box(-1.0, 1.0, (n,), np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (self.n_actions,), np.float32)
         obs = {
             "base_lin_vel": spaces.Box(-np.inf, np.inf, (3,), np.float32),
             "base_ang_vel": spaces.Box(-np.inf, np.inf, (3,), np.float32),
+            "projected_gravity": spaces.Box(-1.0, 1.0, (3,), np.float32),
             "command": spaces.Box(-np.inf, np.inf, (3,), np.float32),
             "joint_pos": spaces.Box(-np.inf, np.inf, (n,), np.float32),
-            "joint_vel": spaces.Box(-np.inf, np.inf, (n,), np.float32),
-            "last_action": spaces.Box(-1.0, 1.0, (n,), np.float32),
+            "joint_vel": spaces.Box(-np.inf, np.inf, (self.n_actions,), np.float32),
+            "last_action": spaces.Box(-1.0, 1.0, (self.n_actions,), np.float32),
             "height_map": self._height_space(),
         }
         obs.update(self._image_spaces())
@@ -98,7 +104,7 @@ class LocoEnv(_CitygenEnv):
         mujoco.mj_forward(self.model, self.data)
         self._fall_geoms_for_model()
         self.steps = 0
-        self.last_action = np.zeros(self.n_joints)
+        self.last_action = np.zeros(self.n_actions)
         heading = yaw + math.atan2(self.command[1], self.command[0])
         self.recorder = M.LocoEpisode(start_xy=(float(x), float(y)), target_heading=heading, dt=self.dt)
         obs = self._observation()
@@ -174,7 +180,7 @@ class LocoEnv(_CitygenEnv):
         return worst
 
     def step(self, action):
-        a = np.clip(np.asarray(action, dtype=np.float64).reshape(self.n_joints), -1.0, 1.0)
+        a = np.clip(np.asarray(action, dtype=np.float64).reshape(self.n_actions), -1.0, 1.0)
         self.handle.joint_action(self.data, a)
         self._physics(None)
         self.steps += 1
@@ -196,6 +202,7 @@ class LocoEnv(_CitygenEnv):
         if fallen or truncated:
             self.recorder.finish()
             info["metrics"] = M.loco_metrics(self.recorder)
+            info["is_success"] = not fallen  # the episode kept its balance (the paper's Balance)
         return obs, float(reward), bool(fallen), bool(truncated), info
 
     def _observation(self) -> dict[str, np.ndarray]:
@@ -206,11 +213,15 @@ class LocoEnv(_CitygenEnv):
             "base_ang_vel": np.asarray(
                 self.data.qvel[self.handle.dadr + 3 : self.handle.dadr + 6], dtype=np.float32
             ),
+            # gravity (0, 0, -1) in the base's frame: minus the third row of its rotation
+            "projected_gravity": -np.asarray(self.data.xmat[self.handle.base_id][6:9], dtype=np.float32),
             "command": self.command.astype(np.float32),
             "joint_pos": np.asarray(
                 self.handle.joint_positions(self.data) - self.handle.default, dtype=np.float32
             ),
-            "joint_vel": np.asarray(self.handle.joint_velocities(self.data), dtype=np.float32),
+            "joint_vel": np.concatenate(
+                [self.handle.joint_velocities(self.data), self.handle.wheel_velocities(self.data)]
+            ).astype(np.float32),
             "last_action": self.last_action.astype(np.float32),
         }
         if "height_map" in self.observation_space.spaces:

@@ -23,8 +23,11 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validat
 #: layer covers its ground at 0.2 m, and its 187 extra inputs slowed NavClear to 10-16 %
 #: training success at 100k steps where these three keys reach 51 %.
 NAV_KEYS = ("goal", "velocity", "local_map")
-#: Observation keys a locomotion policy sees.
-LOCO_KEYS = ("base_lin_vel", "base_ang_vel", "command", "joint_pos", "joint_vel", "last_action", "height_map")
+#: Observation keys a locomotion policy sees: the paper's, and the base's tilt.
+LOCO_KEYS = (
+    "base_lin_vel", "base_ang_vel", "projected_gravity", "command", "joint_pos", "joint_vel", "last_action",
+    "height_map",
+)  # fmt: skip
 
 #: The training split of each task kind (the test split is :data:`citygen.runner.envs.DEFAULT_SPLIT`).
 TRAIN_SPLIT = {
@@ -141,6 +144,23 @@ class TrainConfig(BaseModel):
         description="Training-only shaping: reward taken per metre the robot moves backwards (at "
         "1.0 progress in reverse earns nothing, so policies drive forwards as their sensors face); "
         "not on a step that starts in collision, so backing off an obstacle is free.",
+    )
+    gait_shaping: Annotated[float, Field(ge=0, le=100)] = Field(
+        1.0,
+        description="Locomotion, training only: weight of the gait shaping terms (broad velocity "
+        "tracking, tilt, body rates, torques, joint accelerations, feet air time; "
+        "citygen.runner.learn.loco); 0: the paper's locomotion reward alone.",
+    )
+    command_mix: Annotated[float, Field(ge=0, le=1)] = Field(
+        0.0,
+        description="Locomotion, training only: share of episodes whose velocity command is drawn "
+        "from citygen.runner.learn.loco.COMMANDS instead of the task's own (a general model that "
+        "follows a navigation policy's commands).",
+    )
+    curriculum: bool = Field(
+        True,
+        description="Locomotion, training only: the terrain curriculum over the training grid's "
+        "difficulty rows (Rudin et al. 2022; citygen.runner.learn.loco).",
     )
     normalize: bool = Field(True, description="Running mean/std of observations (exported) and rewards.")
     norm_epsilon: Annotated[float, Field(gt=0)] = Field(

@@ -137,6 +137,12 @@ class Robot:
     def n_joints(self) -> int:
         return len(self.leg_joints)
 
+    @property
+    def loco_wheels(self) -> tuple[str, ...]:
+        """Wheel actuators a locomotion action drives after the leg joints: a legged robot's
+        wheels (the wheeled-legged robot's four), left then right; none for the others."""
+        return (*self.left_wheels, *self.right_wheels) if self.leg_joints else ()
+
 
 # --- MJCF building helpers ------------------------------------------------------------
 

@@ -172,6 +172,10 @@ class RobotHandle:
         self.leg_qadr = model.jnt_qposadr[joints].astype(int)
         self.leg_dadr = model.jnt_dofadr[joints].astype(int)
         self.wheel_act = np.concatenate([self.left, self.right])
+        # Wheels a locomotion action drives (Robot.loco_wheels) and the dofs of their joints.
+        self.loco_wheels = np.array([model.actuator(prefix + n).id for n in robot.loco_wheels], dtype=int)
+        self.loco_wheel_dadr = model.jnt_dofadr[model.actuator_trnid[self.loco_wheels, 0]].astype(int)
+        self.wheel_speed = robot.max_speed / robot.wheel_radius if self.loco_wheels.size else 0.0
         self.mass = float(model.body_subtreemass[root])
         self.default = np.array(robot.default_pose, dtype=float)
         self.scale = np.array(robot.action_scale, dtype=float)
@@ -508,13 +512,24 @@ class RobotHandle:
 
     def joint_action(self, data: Any, action: np.ndarray) -> None:
         """Locomotion: leg joint targets ``default_pose + action_scale * clip(action, -1, 1)``
-        (rad) for an action of :attr:`n_joints` numbers; wheels (if any) are held still."""
+        (rad) for the first :attr:`n_joints` numbers; a robot with wheels on its legs takes
+        one more number per wheel (:attr:`loco_wheels`: the wheels' speed targets, a fraction
+        of ``max_speed / wheel_radius`` rad/s), and holds its wheels still without them."""
         a = np.asarray(action, dtype=float)
-        if a.shape != (self.n_joints,):
-            raise ValueError(f"joint_action: expected {self.n_joints} numbers, got shape {a.shape}")
+        n, w = self.n_joints, self.loco_wheels.size
+        if a.shape not in ((n,), (n + w,)):
+            sizes = f"{n} or {n + w}" if w else f"{n}"
+            raise ValueError(f"joint_action: expected {sizes} numbers, got shape {a.shape}")
         self._undamp()
-        data.ctrl[self.leg_act] = self.default + self.scale * np.clip(a, -1.0, 1.0)
+        a = np.clip(a, -1.0, 1.0)
+        data.ctrl[self.leg_act] = self.default + self.scale * a[:n]
         data.ctrl[self.wheel_act] = 0.0
+        if a.size > n:
+            data.ctrl[self.loco_wheels] = self.wheel_speed * a[n:]
+
+    def wheel_velocities(self, data: Any) -> np.ndarray:
+        """Speeds (rad/s) of the wheels a locomotion action drives (:attr:`loco_wheels`)."""
+        return data.qvel[self.loco_wheel_dadr].copy()
 
     def joint_positions(self, data: Any) -> np.ndarray:
         """Leg joint angles (rad), in action order."""

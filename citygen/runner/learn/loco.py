@@ -1,0 +1,160 @@
+"""Training-only parts of learned locomotion: commands, a terrain curriculum and gait shaping.
+
+:class:`LocoTraining` wraps one training sub-environment of a ``loco-*`` task. The
+environment's reward, its metrics and ``citygen bench`` stay the paper's (tracking with a
+0.25 m/s kernel, ``-2 v_z^2``, ``-0.01 |a_t - a_(t-1)|^2``, ``-100`` on a fall); the wrapper
+adds what makes the same policy learnable on a laptop in hours:
+
+- **Commands.** With probability ``command_mix`` an episode's command is drawn from
+  :data:`COMMANDS` (forward speed, sideways speed, yaw rate in the robot's frame) instead of
+  the task's own ``(1, 0, 0)``, so the general model also follows the velocity commands a
+  navigation policy gives it.
+- **Terrain curriculum** (Rudin et al. 2022, "Learning to Walk in Minutes"): the Urban-Loc
+  training grids rise in difficulty with the row. Each sub-environment keeps a level (a row),
+  starts at the easiest rows and draws a random column; an episode that covers more than
+  half a region (4 m) moves it a row up, one that covers less than half of what its command
+  asked moves it a row down; a level past the hardest row restarts at a random one.
+- **Gait shaping** (``shaping`` times the legged_gym terms, per step): a broad tracking
+  kernel ``exp(-|v_xy - c_xy|^2 / 0.25) + 0.5 exp(-(w_z - c_wz)^2 / 0.25)`` (the paper's
+  0.25 m/s kernel pays nothing to a robot still 1 m/s short of its command, so nothing leads
+  a standing robot to walk), ``-0.05 |w_xy|^2``, ``-0.5 |g_xy|^2`` (tilt), ``-1e-5 |tau|^2``,
+  ``-2.5e-7 |qdd|^2`` and a foot air-time reward ``+1.0 sum (t_air - 0.25)`` at each
+  touch-down while the command asks to move (the stepping that a trot needs).
+"""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium
+import numpy as np
+
+#: Ranges of the commands drawn for training: forward (m/s), sideways (m/s), yaw rate (rad/s).
+COMMANDS = ((-0.5, 1.0), (-0.3, 0.3), (-1.0, 1.0))
+#: Weights of the gait shaping terms (see the module docstring).
+WEIGHTS = {
+    "track_lin": 1.0,
+    "track_ang": 0.5,
+    "ang_vel_xy": -0.05,
+    "tilt": -0.5,
+    "torque": -1e-5,
+    "joint_acc": -2.5e-7,
+    "air_time": 1.0,
+}
+#: Air time (s) a foot is rewarded beyond at its touch-down.
+AIR_TIME = 0.25
+#: Rows of the grid a sub-environment may start its curriculum on (the easiest).
+START_ROWS = 3
+
+
+class LocoTraining(gymnasium.Wrapper):
+    """Command sampling, terrain curriculum and gait shaping of one training sub-environment
+    (see the module docstring)."""
+
+    def __init__(
+        self, env: gymnasium.Env, *, seed: int, rank: int, shaping: float = 1.0,
+        command_mix: float = 0.0, curriculum: bool = True,
+    ):  # fmt: skip
+        super().__init__(env)
+        self.shaping = float(shaping)
+        self.command_mix = float(command_mix)
+        self.curriculum = bool(curriculum)
+        self._rng = np.random.default_rng([seed, rank, 3571])
+        self.level: int | None = None
+        self._start = (0.0, 0.0)
+        self._air = np.zeros(0)
+        self._last_qvel: np.ndarray | None = None
+
+    # --- episode setup --------------------------------------------------------------------
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        options = dict(options or {})
+        u = self.env.unwrapped
+        grid = self._grid(options)
+        if self.curriculum and grid is not None and "region" not in options:
+            rows, cols = grid.rows, grid.cols
+            if self.level is None:
+                self.level = int(self._rng.integers(min(START_ROWS, rows)))
+            options["region"] = (self.level, int(self._rng.integers(cols)))
+        if self.command_mix and "command" not in options and self._rng.random() < self.command_mix:
+            options["command"] = tuple(float(self._rng.uniform(lo, hi)) for lo, hi in COMMANDS)
+        obs, info = self.env.reset(seed=seed, options=options)
+        h = u.handle
+        self._start = tuple(float(v) for v in u.data.qpos[h.qadr : h.qadr + 2])
+        self._air = np.zeros(len(h.foot_geom_ids))
+        self._foot_index = {int(g): k for k, g in enumerate(h.foot_geom_ids)}
+        self._last_qvel = None
+        return obs, info
+
+    def _grid(self, options: dict):
+        """The terrain grid of the scene the next reset loads (its first scene's: every
+        Urban-Loc split has one scene)."""
+        u = self.env.unwrapped
+        scene = u.scene if getattr(u, "scene", None) is not None else u.source.scene(options.get("index", 0))
+        return scene.terrain
+
+    # --- reward ---------------------------------------------------------------------------
+
+    def step(self, action):
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        if self.shaping:
+            reward += self.shaping * self._shaping()
+        if (terminated or truncated) and self.curriculum and self.level is not None:
+            self._move_level(bool(terminated))
+        return obs, reward, terminated, truncated, info
+
+    def _shaping(self) -> float:
+        u = self.env.unwrapped
+        d, h, c = u.data, u.handle, u.command
+        vx, vy, _, wz = h.velocity(d)
+        w = d.qvel[h.dadr + 3 : h.dadr + 5]
+        g = d.xmat[h.base_id][6:8]  # the tilt: gravity's x and y in the base's frame (up to sign)
+        tau = d.actuator_force[h.leg_act]
+        qvel = d.qvel[h.leg_dadr]
+        r = WEIGHTS["track_lin"] * math.exp(-((vx - c[0]) ** 2 + (vy - c[1]) ** 2) / 0.25)
+        r += WEIGHTS["track_ang"] * math.exp(-((wz - c[2]) ** 2) / 0.25)
+        r += WEIGHTS["ang_vel_xy"] * float(w @ w)
+        r += WEIGHTS["tilt"] * float(g @ g)
+        r += WEIGHTS["torque"] * float(tau @ tau)
+        if self._last_qvel is not None:
+            acc = (qvel - self._last_qvel) / u.dt
+            r += WEIGHTS["joint_acc"] * float(acc @ acc)
+        self._last_qvel = qvel
+        touching = self._feet_touching()
+        landed = touching & (self._air > 0)
+        self._air += u.dt
+        if math.hypot(c[0], c[1]) > 0.1 or abs(c[2]) > 0.1:
+            r += WEIGHTS["air_time"] * float(np.sum((self._air - AIR_TIME) * landed))
+        self._air[touching] = 0.0
+        return r
+
+    def _feet_touching(self) -> np.ndarray:
+        """Which feet touch anything (the ground, a step) after this step."""
+        d = self.env.unwrapped.data
+        touching = np.zeros(len(self._air), dtype=bool)
+        n = d.ncon
+        if n:
+            index = self._foot_index
+            for g in d.contact.geom[:n].ravel().tolist():
+                k = index.get(g)
+                if k is not None:
+                    touching[k] = True
+        return touching
+
+    # --- curriculum -----------------------------------------------------------------------
+
+    def _move_level(self, fell: bool) -> None:
+        u = self.env.unwrapped
+        grid = u.scene.terrain
+        if grid is None:
+            return
+        h = u.handle
+        x, y = (float(v) for v in u.data.qpos[h.qadr : h.qadr + 2])
+        walked = math.hypot(x - self._start[0], y - self._start[1])
+        asked = math.hypot(*u.command[:2]) * u.steps * u.dt
+        if walked > grid.tile_size / 2 and not fell:
+            self.level += 1
+        elif walked < asked / 2 or fell:
+            self.level = max(self.level - 1, 0)
+        if self.level >= grid.rows:
+            self.level = int(self._rng.integers(grid.rows))
