@@ -35,16 +35,8 @@ import trimesh
 
 from citygen.errors import ExportError
 from citygen.exporters import ZONE_COLORS
-from citygen.exporters.glb import (
-    AGENT_COLORS,
-    AUTO,
-    GOAL_COLOR,
-    START_COLOR,
-    build,
-    check_options,
-    output_name,
-    scene_dir_of,
-)
+from citygen.exporters.options import AUTO, check_options, output_name, scene_dir_of
+from citygen.exporters.scene_graph import AGENT_COLORS, GOAL_COLOR, START_COLOR, build
 from citygen.io import write_atomic
 from citygen.spec.scene import Scene
 from citygen.spec.surfaces import ZONE_KINDS
@@ -299,7 +291,7 @@ def export(scene: Scene | str | Path, out_dir: str | Path, **options: Any) -> li
 
     Options: ``name`` (default: the scene file's stem, ``<split>-<index>`` or ``scene``),
     ``scene_dir`` (the folder mesh placements are relative to, for a scene model),
-    ``resolution`` (m, default :data:`~citygen.exporters.glb.AUTO`), ``title`` and ``legend`` (see
+    ``resolution`` (m, default :data:`~citygen.exporters.options.AUTO`), ``title`` and ``legend`` (see
     :func:`to_html`).
     """
     check_options(options, _OPTIONS, "html")

@@ -90,15 +90,9 @@ from shapely.geometry import Polygon
 
 from citygen.errors import ExportError, Problem, SpecError
 from citygen.exporters import OBJECT_COLOR, ZONE_COLORS, ExportWarning
-from citygen.exporters.glb import (
-    catalog_asset,
-    check_options,
-    load_mesh_file,
-    output_name,
-    resolution_option,
-    scene_dir_of,
-    zone_polygons,
-)
+from citygen.exporters.ground import zone_polygons
+from citygen.exporters.meshes import catalog_asset, load_mesh_file
+from citygen.exporters.options import check_options, output_name, resolution_option, scene_dir_of
 from citygen.geometry.features import feature_mask
 from citygen.geometry.raster import Grid, erode, paint
 from citygen.geometry.terrain import height_at

@@ -78,7 +78,7 @@ def _edges(lo: float, hi: float, grid_lo: float | None, cells: int, cell: float,
 
 def plan(scene: Scene, side: float, zones: Sequence[shapely.Geometry]) -> list[Piece]:
     """The scene cut into tiles of about ``side`` metres (row-major, rows along +y);
-    ``zones`` are the zones' shapes (:func:`~citygen.exporters.glb.zone_polygons`)."""
+    ``zones`` are the zones' shapes (:func:`~citygen.exporters.ground.zone_polygons`)."""
     (bx0, by0), (bx1, by1) = scene.bounds.min, scene.bounds.max
     t = scene.terrain
     if t is None:

@@ -51,29 +51,27 @@ import trimesh
 from citygen.assets import Box, Capsule, Cylinder, Part
 from citygen.errors import ExportError
 from citygen.exporters import ExportWarning, lod, shared_file, tiles
-from citygen.exporters.glb import (
-    AUTO,
+from citygen.exporters.ground import (
+    ZONE_LIFT,
+    drape,
+    fit_terrain,
+    grid_box,
+    polygon_parts,
+    rough_cells,
+    triangulate,
+    zone_polygons,
+)
+from citygen.exporters.meshes import (
     GROUND_RGBA,
     RGBA,
     TERRAIN_RGBA,
-    ZONE_LIFT,
     catalog_asset,
-    check_options,
     colour_groups,
-    drape,
     file_mesh,
-    fit_terrain,
-    grid_box,
-    output_name,
-    polygon_parts,
-    resolution_option,
-    rough_cells,
-    scene_dir_of,
     submesh,
-    triangulate,
-    zone_polygons,
     zone_rgba,
 )
+from citygen.exporters.options import AUTO, check_options, output_name, resolution_option, scene_dir_of
 from citygen.geometry.features import feature_boxes
 from citygen.geometry.terrain import MIN_THICKNESS, tile_boxes, tile_mesh
 from citygen.io import write_atomic
@@ -325,7 +323,7 @@ def tile_friction(
     counts as concrete's, :data:`~citygen.spec.surfaces.FRICTION`), rounded to
     :data:`FRICTION_STEP`; and a one-line report of how far that is from the ground under
     the tiles that lie on zones of different friction (None when none does).
-    ``zones`` are the zones' shapes if already made (:func:`~citygen.exporters.glb.zone_polygons`).
+    ``zones`` are the zones' shapes if already made (:func:`~citygen.exporters.ground.zone_polygons`).
     With ``split_flat``, flat tiles without a friction of their own are left out of the
     report: the URDF exporter cuts them where the zone changes, so they keep it exactly."""
     t = scene.terrain

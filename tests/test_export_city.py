@@ -26,7 +26,7 @@ import shapely
 
 from citygen.exporters import occupancy, usd
 from citygen.exporters.batch import FORMATS
-from citygen.exporters.glb import catalog_asset
+from citygen.exporters.meshes import catalog_asset
 from citygen.geometry.terrain import height_at
 from citygen.io import load_scene
 

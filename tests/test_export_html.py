@@ -21,7 +21,7 @@ from PIL import Image
 
 from citygen.errors import ExportError
 from citygen.exporters import html
-from citygen.exporters.glb import MESH_RGBA
+from citygen.exporters.meshes import MESH_RGBA
 from citygen.exporters.picture import ZONE_COLORS
 from citygen.io import load_scene
 from tests.conftest import ROOT
