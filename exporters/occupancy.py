@@ -93,6 +93,7 @@ from citygen.exporters import OBJECT_COLOR, ZONE_COLORS, ExportWarning
 from citygen.exporters.ground import zone_polygons
 from citygen.exporters.meshes import catalog_asset, load_mesh_file
 from citygen.exporters.options import check_options, output_name, resolution_option, scene_dir_of
+from citygen.exporters.style import FONT_PT, check_size, figure_layout, scale_bar_length, style
 from citygen.geometry.features import feature_mask
 from citygen.geometry.raster import Grid, erode, paint
 from citygen.geometry.terrain import height_at
@@ -101,8 +102,8 @@ from citygen.spec.scene import Scene
 from citygen.spec.surfaces import WALKABLE_ZONES, ZONE_KINDS
 from citygen.spec.terrain import TILE_TYPES
 
-if TYPE_CHECKING:  # matplotlib (and the picture module) only where a picture is drawn: the
-    from matplotlib.figure import Figure  # runner builds maps and never draws them
+if TYPE_CHECKING:  # matplotlib only where a picture is drawn: the runner builds maps
+    from matplotlib.figure import Figure  # and never draws them
 
 FORMAT = "citygen.occupancy/1"
 """The ``format`` entry of the npz; a reader checks it before trusting the keys."""
@@ -519,10 +520,8 @@ def figure(m: OccupancyMap, *, size_px: int = 1600, legend: bool = True, title: 
     """The map as a matplotlib :class:`~matplotlib.figure.Figure` (Agg canvas, no pyplot):
     classes in colour, non-flat terrain tinted, a legend of what the map holds, a scale bar;
     axes in metres. ``size_px`` is the larger side of the picture in pixels."""
-    from citygen.exporters.picture import _check_size, _style
-
-    size_px = _check_size(size_px)
-    with _style():
+    size_px = check_size(size_px)
+    with style():
         return _figure(m, size_px, legend, title)
 
 
@@ -542,8 +541,6 @@ def _figure(m: OccupancyMap, size_px: int, legend: bool, title: str) -> Figure:
     from matplotlib.font_manager import FontProperties
     from matplotlib.patches import Patch
     from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
-
-    from citygen.exporters.picture import _FONT_PT, _layout, scale_bar_length
 
     g = m.grid
     width_m, height_m = g.cols * g.resolution, g.rows * g.resolution
@@ -565,7 +562,7 @@ def _figure(m: OccupancyMap, size_px: int, legend: bool, title: str) -> Figure:
         Patch(facecolor=colour, alpha=alpha, edgecolor="none", label=f"{kind} tile")
         for kind, (colour, alpha) in tints.items()
     ]
-    layout = _layout(width_m, height_m, size_px, len(handles), legend)
+    layout = figure_layout(width_m, height_m, size_px, len(handles), legend)
     fig = Figure(figsize=(layout.width_px / layout.dpi, layout.height_px / layout.dpi), dpi=layout.dpi)
     FigureCanvasAgg(fig)
     fig.set_facecolor("white")
@@ -576,9 +573,9 @@ def _figure(m: OccupancyMap, size_px: int, legend: bool, title: str) -> Figure:
     ax.set_aspect("equal", adjustable="box", anchor="C")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    ax.tick_params(labelsize=_FONT_PT - 0.5)
+    ax.tick_params(labelsize=FONT_PT - 0.5)
     ax.set_title(title or f"occupancy {g.cols} x {g.rows} cells of {g.resolution:g} m", loc="left",
-                 fontsize=_FONT_PT)  # fmt: skip
+                 fontsize=FONT_PT)  # fmt: skip
     lut = np.array([_rgba(CLASS_COLORS.get(c, "#000000")) for c in m.classes])
     extent = (x0, x0 + labels.shape[1] * k * g.resolution, y0, y0 + labels.shape[0] * k * g.resolution)
     common = {"extent": extent, "origin": "lower", "interpolation": "nearest", "resample": False}
@@ -594,24 +591,22 @@ def _figure(m: OccupancyMap, size_px: int, legend: bool, title: str) -> Figure:
         AnchoredSizeBar(
             ax.transData, bar, f"{bar:g} m", "lower left", pad=0.3, borderpad=0.6, sep=3, color="black",
             frameon=True, size_vertical=1.8 * layout.dpi / 72 / px_per_m,
-            fontproperties=FontProperties(size=_FONT_PT), zorder=10,
+            fontproperties=FontProperties(size=FONT_PT), zorder=10,
         )
     )  # fmt: skip
     if legend and handles:
         fig.legend(
             handles=handles, loc="upper left", bbox_to_anchor=layout.legend_anchor, frameon=False,
-            fontsize=_FONT_PT, handlelength=1.8, borderaxespad=0.0,
+            fontsize=FONT_PT, handlelength=1.8, borderaxespad=0.0,
         )  # fmt: skip
     return fig
 
 
 def png_bytes(m: OccupancyMap, *, size_px: int = 1600, legend: bool = True, title: str = "") -> bytes:
     """The picture of :func:`figure` as PNG bytes, the same for the same map and options."""
-    from citygen.exporters.picture import _check_size, _style
-
-    size_px = _check_size(size_px)
+    size_px = check_size(size_px)
     buf = io.BytesIO()
-    with _style():
+    with style():
         fig = _figure(m, size_px, legend, title)
         # No "Software" (matplotlib's version) and no time: the bytes depend on the map only.
         fig.savefig(buf, format="png", dpi=fig.dpi, metadata={"Software": None})
@@ -629,11 +624,9 @@ def export(scene: Scene | str | Path, out_dir: str | Path, **options: object) ->
     larger side, default 1600) and ``legend`` (default True). Agents and the task are not
     part of a static map: an :class:`~citygen.exporters.ExportWarning` says so.
     """
-    from citygen.exporters.picture import _check_size
-
     check_options(dict(options), _OPTIONS, "occupancy")
     name = output_name(scene, dict(options), "occupancy")
-    size_px = _check_size(options.get("size_px", 1600))
+    size_px = check_size(options.get("size_px", 1600))
     legend = options.get("legend", True)
     if not isinstance(legend, bool):
         raise ExportError(f"occupancy export: expected True or False for 'legend', got {legend!r}")

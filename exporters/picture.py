@@ -32,17 +32,14 @@ from __future__ import annotations
 
 import io
 import math
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Sequence
 from dataclasses import dataclass
 from itertools import chain, pairwise
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
-import matplotlib
 import matplotlib.colors
-import matplotlib.style
 import numpy as np
 from matplotlib.artist import Artist
 from matplotlib.axes import Axes
@@ -58,6 +55,9 @@ from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 from citygen.assets import UnknownAsset, resolve
 from citygen.errors import ExportError, Problem, SpecError
 from citygen.exporters import OBJECT_COLOR, ZONE_COLORS, as_scene, output_name
+from citygen.exporters.style import FONT_PT, check_size, figure_layout, scale_bar_length, style
+from citygen.exporters.style import MAX_SIZE_PX as MAX_SIZE_PX
+from citygen.exporters.style import MIN_SIZE_PX as MIN_SIZE_PX
 from citygen.geometry.features import feature_polygon
 from citygen.geometry.roads import block_outline
 from citygen.geometry.terrain import height_at
@@ -71,8 +71,6 @@ from citygen.spec.terrain import RoughTile, SlopeTile, StairTile
 #: Hatching of a zone kind (matplotlib hatch pattern, drawn in white): crosswalk stripes.
 ZONE_HATCH = MappingProxyType({"crosswalk": "///"})
 
-#: Smallest and largest ``size_px`` accepted (the larger side of the picture, in pixels).
-MIN_SIZE_PX, MAX_SIZE_PX = 64, 8192
 #: Tiles narrower than this many pixels get no stair, slope or rough marks.
 GLYPH_MIN_PX = 14.0
 #: Most terrain height samples along one side of the grid (one per pixel up to this).
@@ -93,94 +91,6 @@ _JOINED = "#b8b8b8"
 _GLYPH = "#1b1b1b"
 _START, _GOAL = "#0b8f3a", "#d11f4a"
 _AGENT_COLORS = {"pedestrian": "#e6194b", "cyclist": "#f58231", "scooter": "#911eb4", "vehicle": "#1f5fd1"}
-_FONT_PT = 7.5
-# Layout of the figure in inches; the dpi follows from size_px.
-_MARGINS = {"left": 0.62, "right": 0.15, "bottom": 0.45, "top": 0.32}
-_LEGEND_IN = 1.75
-# Everything that decides how the picture looks, fixed so the user's rcParams do not.
-_RC = {
-    "font.family": "DejaVu Sans",
-    "font.size": _FONT_PT,
-    "hatch.linewidth": 1.2,
-    "path.simplify": True,
-    "agg.path.chunksize": 20_000,
-    "savefig.facecolor": "white",
-    "image.resample": False,
-}
-
-
-def scale_bar_length(width_m: float) -> float:
-    """A round length (1, 2 or 5 times a power of ten) close to a fifth of ``width_m``, in metres.
-
-    >>> scale_bar_length(24.0), scale_bar_length(1200.0), scale_bar_length(10.0), scale_bar_length(3.0)
-    (5.0, 200.0, 2.0, 0.5)
-    """
-    if not width_m > 0:
-        raise ValueError(f"width_m: expected a positive length in metres, got {width_m!r}")
-    target = width_m / 5
-    decade = 10.0 ** math.floor(math.log10(target))
-    # The candidate nearest the target on a log scale.
-    candidates = [m * decade for m in (1, 2, 5, 10)]
-    best = min(candidates, key=lambda c: abs(math.log(c / target)))
-    return float(f"{best:.6g}")
-
-
-# --- layout -------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class _Layout:
-    width_px: int
-    height_px: int
-    dpi: float
-    axes: tuple[float, float, float, float]
-    """The map's axes in figure fractions: left, bottom, width, height."""
-    legend_anchor: tuple[float, float]
-    """The legend's upper left corner in figure fractions."""
-
-    @property
-    def px_per_m(self) -> float:
-        return self.axes[2] * self.width_px
-
-
-def _layout(width_m: float, height_m: float, size_px: int, legend_entries: int, legend: bool) -> _Layout:
-    """Figure size and the map's place in it, so the map shows the bounds at equal aspect."""
-    long_in = min(max(size_px / 130, 5.0), 11.0)
-    dpi = size_px / long_in
-    m = _MARGINS
-    legend_in = _LEGEND_IN if legend else 0.0
-    extra_w = m["left"] + m["right"] + legend_in
-    extra_h = m["bottom"] + m["top"]
-    ratio = height_m / width_m
-    map_w = long_in - extra_w
-    map_h = map_w * ratio
-    if map_h + extra_h > long_in:  # a tall scene: the height is the long side
-        map_h = long_in - extra_h
-        map_w = map_h / ratio
-    fig_w, fig_h = map_w + extra_w, map_h + extra_h
-    if legend:  # room for every legend entry
-        fig_h = max(fig_h, min(long_in, (legend_entries * 1.55 + 1.2) * _FONT_PT / 72 + m["top"]))
-    fig_h, fig_w = max(fig_h, 1.6), max(fig_w, 1.6)
-    width_px = size_px if fig_w >= fig_h else max(1, round(fig_w * dpi))
-    height_px = size_px if fig_h > fig_w else max(1, round(fig_h * dpi))
-    fig_w, fig_h = width_px / dpi, height_px / dpi
-    # The map box at exact aspect, centred in the room left by the margins.
-    room_w, room_h = fig_w - extra_w, fig_h - extra_h
-    map_w = min(room_w, room_h / ratio)
-    map_h = map_w * ratio
-    left = m["left"] + (room_w - map_w) / 2
-    bottom = m["bottom"] + (room_h - map_h) / 2
-    axes = (left / fig_w, bottom / fig_h, map_w / fig_w, map_h / fig_h)
-    anchor = ((fig_w - legend_in - m["right"] + 0.1) / fig_w, 1 - m["top"] / fig_h)
-    return _Layout(width_px, height_px, dpi, axes, anchor)
-
-
-@contextmanager
-def _style() -> Iterator[None]:
-    """matplotlib's default style plus citygen's settings, restored on leaving."""
-    with matplotlib.style.context("default"), matplotlib.rc_context(_RC):
-        yield
-
 
 # --- shapes as matplotlib paths -------------------------------------------------------
 
@@ -493,7 +403,7 @@ def _draw_blocks(ax: Axes, scene: Scene, m_per_pt: float, legend: _Legend) -> No
             ax.annotate(
                 block.id,
                 block.pose.position,
-                fontsize=_FONT_PT - 1,
+                fontsize=FONT_PT - 1,
                 ha="left",
                 va="bottom",
                 xytext=(3, 3),
@@ -713,20 +623,12 @@ def _legend_size(scene: Scene, terrain: bool) -> int:
 # --- public API -------------------------------------------------------------------
 
 
-def _check_size(size_px: object) -> int:
-    if isinstance(size_px, bool) or not isinstance(size_px, int | np.integer):
-        raise ExportError(f"size_px: expected a whole number of pixels, got {size_px!r}")
-    if not MIN_SIZE_PX <= size_px <= MAX_SIZE_PX:
-        raise ExportError(f"size_px: expected {MIN_SIZE_PX} to {MAX_SIZE_PX} pixels, got {size_px}")
-    return int(size_px)
-
-
 def _figure(scene: Scene, file: str | None, size_px: int, terrain: bool, legend: bool) -> Figure:
     width_m, height_m = scene.bounds.size
     if not (width_m > 0 and height_m > 0):
         found = f"a size of {width_m:g} x {height_m:g} m"
         raise SpecError([Problem("$.bounds", "max greater than min in x and y", found)], file=file)
-    layout = _layout(width_m, height_m, size_px, _legend_size(scene, terrain), legend)
+    layout = figure_layout(width_m, height_m, size_px, _legend_size(scene, terrain), legend)
     fig = Figure(figsize=(layout.width_px / layout.dpi, layout.height_px / layout.dpi), dpi=layout.dpi)
     FigureCanvasAgg(fig)
     fig.set_facecolor(_OUTSIDE)
@@ -738,8 +640,8 @@ def _figure(scene: Scene, file: str | None, size_px: int, terrain: bool, legend:
     ax.set_facecolor(_BACKGROUND)
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    ax.set_title(_title(scene), loc="left", fontsize=_FONT_PT)
-    ax.tick_params(labelsize=_FONT_PT - 0.5)
+    ax.set_title(_title(scene), loc="left", fontsize=FONT_PT)
+    ax.tick_params(labelsize=FONT_PT - 0.5)
     px_per_m = layout.px_per_m / width_m
     m_per_pt = layout.dpi / 72 / px_per_m
 
@@ -769,7 +671,7 @@ def _figure(scene: Scene, file: str | None, size_px: int, terrain: bool, legend:
             color="black",
             frameon=not legend,
             size_vertical=1.8 * m_per_pt,
-            fontproperties=FontProperties(size=_FONT_PT),
+            fontproperties=FontProperties(size=FONT_PT),
             zorder=10,
             **(beside if legend else {}),
         )
@@ -780,7 +682,7 @@ def _figure(scene: Scene, file: str | None, size_px: int, terrain: bool, legend:
             loc="upper left",
             bbox_to_anchor=layout.legend_anchor,
             frameon=False,
-            fontsize=_FONT_PT,
+            fontsize=FONT_PT,
             handlelength=1.8,
             borderaxespad=0.0,
         )
@@ -797,10 +699,10 @@ def figure(
     ``size_px`` is the picture's larger side in pixels; the other follows the scene's
     bounds. The map axes are ``fig.axes[0]``, in metres; the legend is ``fig.legends[0]``.
     """
-    size_px = _check_size(size_px)
+    size_px = check_size(size_px)
     model, _ = as_scene(scene)
     file = None if isinstance(scene, Scene) else str(scene)
-    with _style():
+    with style():
         return _figure(model, file, size_px, terrain, legend)
 
 
@@ -819,14 +721,14 @@ def render(
     marks; ``legend=False`` leaves out the legend (the map gets wider). The same scene
     and options always give the same bytes.
     """
-    size_px = _check_size(size_px)
+    size_px = check_size(size_px)
     path = Path(path)
     if path.suffix.lower() != ".png":
         raise ExportError(f"{path}: expected a path ending in .png, got {path.suffix or 'no suffix'!r}")
     model, _ = as_scene(scene)
     file = None if isinstance(scene, Scene) else str(scene)
     buf = io.BytesIO()
-    with _style():
+    with style():
         fig = _figure(model, file, size_px, terrain, legend)
         # No "Software" (matplotlib's version) and no time: the bytes depend on the scene only.
         fig.savefig(buf, format="png", dpi=fig.dpi, metadata={"Software": None})
