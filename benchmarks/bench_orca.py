@@ -11,7 +11,7 @@ What is measured
     - ``random``: agents at random in a square (about 4 m^2 each), each to a random goal.
 
     Each step sets every agent's preferred velocity (towards its goal, as a runner would)
-    and advances all agents. For citygen that is one :func:`citygen.runner.crowd.orca_velocities`
+    and advances all agents. For citygen that is one :func:`citygen.runner.agents.orca.orca_velocities`
     call and the position update, both numpy; for RVO2 it is ``set_agent_pref_velocity`` per
     agent, ``do_step`` and reading the positions back (``rvo2_us``), and ``do_step`` alone
     (``rvo2_core_us``: the C++ without the Python calls a runner cannot avoid). Also
@@ -35,7 +35,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from citygen.runner.crowd import orca_velocities
+from citygen.runner.agents.orca import orca_velocities
 
 DT, TAU, NEIGHBOR_DIST, MAX_NEIGHBORS, RADIUS, MAX_SPEED = 0.1, 2.0, 5.0, 10, 0.3, 1.5
 SIZES = (25, 50, 100, 200)

@@ -17,8 +17,10 @@ from scipy.spatial import cKDTree
 
 import citygen
 from citygen.exporters.occupancy import occupancy
-from citygen.runner import orca
-from citygen.runner.crowd import Crowd, Traffic, orca_velocities
+from citygen.runner.agents import orca
+from citygen.runner.agents.crowd import Crowd
+from citygen.runner.agents.orca import orca_velocities
+from citygen.runner.agents.traffic import Traffic
 from citygen.spec.agents import Person, Vehicle
 from citygen.spec.scene import Scene
 from citygen.spec.task import ROBOT_RADIUS

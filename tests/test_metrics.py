@@ -246,7 +246,7 @@ def _polyline(points, step=RES):
 def test_the_distance_left_from_a_cell_touching_the_goal_region_is_the_way_onto_the_disc():
     """A robot stopped just outside the tolerance, in a cell the region's field already
     counts as 0, has the metres onto the disc left (was an IndexError ending a bench run)."""
-    from citygen.runner.planning import region_distance, region_path_length
+    from citygen.runner.control.regions import region_distance, region_path_length
 
     grid, free = _wall_map()
     goal, tol = (1.0, 8.0), 0.5
@@ -266,7 +266,8 @@ def test_the_distance_left_from_a_cell_touching_the_goal_region_is_the_way_onto_
 
 
 def test_spl_shortest_path_is_the_any_angle_geodesic_to_the_goal_region():
-    from citygen.runner.planning import DistanceField, region_distance
+    from citygen.runner.control.fields import DistanceField
+    from citygen.runner.control.regions import region_distance
 
     grid, free = _wall_map()
     goal, tol = (1.0, 8.0), 0.5
@@ -303,7 +304,7 @@ def test_spl_shortest_path_is_the_any_angle_geodesic_to_the_goal_region():
 def test_spl_geodesic_around_an_l_shaped_corridor():
     """An L-shaped corridor 1 m wide: the geodesic hugs the inner corner (2, 2)."""
     from citygen.geometry.raster import Grid
-    from citygen.runner.planning import DistanceField
+    from citygen.runner.control.fields import DistanceField
 
     grid = Grid(0.0, 0.0, RES, 100, 100)  # 5 m x 5 m
     free = np.zeros(grid.shape, dtype=bool)

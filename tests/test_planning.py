@@ -11,19 +11,10 @@ import pytest
 import citygen
 from citygen.exporters.occupancy import CLASSES, OccupancyMap, occupancy
 from citygen.geometry.raster import Grid
-from citygen.runner.planning import (
-    DistanceField,
-    Planner,
-    astar,
-    avoid,
-    geodesic_distance,
-    line_of_sight,
-    path_length,
-    path_to_world,
-    pure_pursuit,
-    shortcut,
-    snap_free,
-)
+from citygen.runner.control.fields import DistanceField, geodesic_distance
+from citygen.runner.control.grid import astar, line_of_sight, path_length, path_to_world, shortcut, snap_free
+from citygen.runner.control.planner import Planner
+from citygen.runner.control.pursuit import avoid, pure_pursuit
 from citygen.spec.task import ROBOT_RADIUS
 
 SQ2 = math.sqrt(2.0)
@@ -359,7 +350,7 @@ def test_farthest_visible_is_the_last_segment_visible_tests_one_at_a_time():
     """The batched line-of-sight test of the taut path (SPL's shortest path) finds the same
     farthest point in sight as testing each segment with ``_visible``, on random obstacles,
     with points inside and outside the grid and batches of more than one pass."""
-    from citygen.runner.planning import _SIGHT_BATCH, _farthest_visible, _visible
+    from citygen.runner.control.regions import _SIGHT_BATCH, _farthest_visible, _visible
 
     rng = np.random.default_rng(7)
     grid = Grid(-1.0, 2.0, 0.05, 80, 120)

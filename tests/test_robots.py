@@ -19,7 +19,8 @@ import citygen
 from citygen.errors import CitygenError, SpecError
 from citygen.exporters import mjcf
 from citygen.geometry.terrain import height_at
-from citygen.runner import gaits, robots
+from citygen.runner import robots
+from citygen.runner.control import gaits
 from citygen.runner.robots import BUILTIN, RobotHandle, compose, flat_ground, load_robot
 from citygen.spec.task import ROBOT_RADIUS
 

@@ -11,8 +11,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from citygen.runner import gaits_biped
 from citygen.runner.bench import run_episode
+from citygen.runner.control import gaits_biped
 from citygen.runner.make import make_env
 from citygen.runner.policies import make_policy
 from citygen.runner.robots import BUILTIN, PREFIX, RobotHandle, compose, flat_ground, load_robot

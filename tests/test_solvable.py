@@ -15,7 +15,7 @@ from citygen.generate.pipeline import generate
 from citygen.generate.splits import generate_scene, resolve
 from citygen.generate.terrain import build_terrain
 from citygen.geometry.traversable import blocked_tiles, tile_crossable
-from citygen.runner.planning import region_distance
+from citygen.runner.control.regions import region_distance
 from citygen.runner.robots import load_robot
 from citygen.runner.scenes import free_cells, map_resolution
 from citygen.seeding import stage_rng

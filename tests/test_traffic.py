@@ -14,8 +14,9 @@ import pytest
 
 import citygen
 from citygen.geometry.roads import block_sockets
-from citygen.runner.signals import SignalPlan
-from citygen.runner.traffic import CityTraffic, _overlapping, drive_path, speed_limit
+from citygen.runner.agents.lanes import drive_path, speed_limit
+from citygen.runner.agents.signals import SignalPlan
+from citygen.runner.agents.traffic import CityTraffic, _overlapping
 from citygen.spec import Scene
 from citygen.spec.blocks import Connection, Intersection, Pose2, Straight
 from citygen.spec.signals import Signal

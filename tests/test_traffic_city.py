@@ -25,8 +25,9 @@ from shapely.geometry import Polygon
 
 import citygen
 from citygen.geometry.roads import block_geometry
-from citygen.runner.signals import Crossings, SignalCrowd
-from citygen.runner.traffic import STOP_MARGIN, CityTraffic, rectangles
+from citygen.runner.agents.lanes import STOP_MARGIN
+from citygen.runner.agents.signals import Crossings, SignalCrowd
+from citygen.runner.agents.traffic import CityTraffic, rectangles
 
 pytestmark = pytest.mark.slow
 
@@ -119,7 +120,7 @@ class Invariants:
 
 def test_ten_minutes_of_city_traffic_keep_every_rule_at_every_step(city):
     from citygen.exporters.occupancy import occupancy
-    from citygen.runner.crowd import Crowd
+    from citygen.runner.agents.crowd import Crowd
     from citygen.runner.scenes import map_resolution
 
     crossings = Crossings(city)

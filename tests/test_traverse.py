@@ -183,8 +183,8 @@ def test_the_ai_sub_goal_follows_a_path_around_what_blocks_the_straight_leg(monk
     from citygen.exporters.occupancy import CLASSES, OccupancyMap
     from citygen.geometry.raster import Grid
     from citygen.runner import policies
+    from citygen.runner.control.pursuit import point_ahead
     from citygen.runner.learn import policy as learned
-    from citygen.runner.planning import point_ahead
 
     grid = Grid.covering((0.0, 0.0, 20.0, 10.0), 0.05)
     labels = np.full(grid.shape, CLASSES.index("sidewalk"), dtype=np.uint8)

@@ -10,9 +10,10 @@ Importing this package registers the environment ids with Gymnasium::
 Modules: :mod:`~citygen.runner.envs` (the environments), :mod:`~citygen.runner.make`
 (``make_env``, ``make_vector_env`` and the task -> environment class map),
 :mod:`~citygen.runner.robots` (embodiments built in code as MJCF),
-:mod:`~citygen.runner.crowd` (ORCA pedestrians, IDM vehicles), :mod:`~citygen.runner.metrics`
-(the paper's metrics), :mod:`~citygen.runner.planning` (A*, pure pursuit) and
-:mod:`~citygen.runner.policies` (baselines).
+:mod:`~citygen.runner.agents` (ORCA pedestrians, IDM vehicles, signals),
+:mod:`~citygen.runner.control` (A*, distance fields, pure pursuit, scripted gaits),
+:mod:`~citygen.runner.metrics` (the paper's metrics) and :mod:`~citygen.runner.policies`
+(baselines).
 """
 
 from __future__ import annotations

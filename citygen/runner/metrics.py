@@ -132,7 +132,7 @@ class NavEpisode:
     ``best_length`` is ``L*_best``, the length (m) of the shortest path the robot can take
     from the start to the goal *region* (the disc of the task's goal tolerance, where success
     fires), and ``route_length`` is ``L_route`` (m, default ``best_length``); the runner takes
-    both from :meth:`citygen.runner.planning.DistanceField.route`: the any-angle geodesic
+    both from :meth:`citygen.runner.control.fields.DistanceField.route`: the any-angle geodesic
     (fast marching, pulled taut round obstacle corners) over the ground the robot can cross
     (the occupancy map inflated by its radius, less edges higher than it steps and tiles it
     cannot climb). ``distance_left`` is measured the same way.

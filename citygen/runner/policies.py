@@ -7,10 +7,10 @@ so a baseline may read privileged state such as the occupancy map and the agents
 - ``random``: uniform actions from the action space (seeded);
 - ``planner`` (navigation, traverse): A* on the occupancy grid inflated by the robot's
   radius, pure pursuit along the path, reactive avoidance of moving agents
-  (:class:`citygen.runner.planning.Planner`);
+  (:class:`citygen.runner.control.planner.Planner`);
 - ``stand``, ``trot`` (locomotion): the PD stand and trot controllers of
-  :mod:`citygen.runner.gaits`; for a biped (the ``humanoid``) the stand and the scripted
-  walk of :mod:`citygen.runner.gaits_biped`;
+  :mod:`citygen.runner.control.gaits`; for a biped (the ``humanoid``) the stand and the scripted
+  walk of :mod:`citygen.runner.control.gaits_biped`;
 - traverse control modes ``human``, ``ai``, ``shared-cautious``, ``shared-efficient``:
   who drives is decided at *decision points* (every :data:`DECISION_INTERVAL` m along the
   route) from the risk ahead (:func:`risk`); a person is a pluggable :class:`Driver`, with
@@ -73,7 +73,7 @@ class PlannerPolicy:
         self._goal = None
 
     def reset(self, env: Any) -> None:
-        from citygen.runner.planning import Planner
+        from citygen.runner.control.planner import Planner
 
         self.env = env
         robot = env.robot
@@ -105,7 +105,7 @@ def wait_for_walk(env: Any, x: float, y: float, yaw: float) -> bool:
     crosswalk that does not show *walk* (in a city; once on a crosswalk it walks on)."""
     if not getattr(env.scene, "signals", None) or getattr(env, "prepared", None) is None:
         return False
-    from citygen.runner.signals import crossings_of
+    from citygen.runner.agents.signals import crossings_of
 
     c = crossings_of(env.prepared, env.scene)
     if c.crosswalk_at(np.array([[x, y]]))[0] >= 0:
@@ -116,8 +116,8 @@ def wait_for_walk(env: Any, x: float, y: float, yaw: float) -> bool:
 
 
 class GaitPolicy:
-    """The PD stand or trot controller of :mod:`citygen.runner.gaits` as a policy (a
-    biped's stand or walk of :mod:`citygen.runner.gaits_biped`)."""
+    """The PD stand or trot controller of :mod:`citygen.runner.control.gaits` as a policy (a
+    biped's stand or walk of :mod:`citygen.runner.control.gaits_biped`)."""
 
     def __init__(self, gait: str):
         self.gait = gait
@@ -125,7 +125,7 @@ class GaitPolicy:
         self.env = None
 
     def reset(self, env: Any) -> None:
-        from citygen.runner import gaits, gaits_biped
+        from citygen.runner.control import gaits, gaits_biped
         from citygen.runner.tasks import check_policy
 
         check_policy(env.task_kind, env.robot, self.gait)  # locomotion, a robot a gait drives
@@ -245,7 +245,7 @@ class LearnedNavigator:
         self.planner = None
 
     def reset(self, env: Any) -> None:
-        from citygen.runner.planning import Planner
+        from citygen.runner.control.planner import Planner
 
         self.env = env
         self.planner = Planner(
@@ -267,7 +267,7 @@ class LearnedNavigator:
         env = self.env
         if self.guide == "route":
             return carrot(env.route, env.waypoint, (x, y), CARROT)
-        from citygen.runner.planning import point_ahead
+        from citygen.runner.control.pursuit import point_ahead
 
         goal = tuple(env._goal())
         path = self.planner.path

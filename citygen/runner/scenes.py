@@ -214,9 +214,9 @@ class Prepared:
         return self.occupancy.heights.astype(np.float64)
 
     def field(self, goal: tuple[float, float], tolerance: float | None = None):
-        """The :class:`~citygen.runner.planning.DistanceField` to ``goal`` (its region of
+        """The :class:`~citygen.runner.control.fields.DistanceField` to ``goal`` (its region of
         radius ``tolerance`` m when given) over :attr:`free`, built once per goal."""
-        from citygen.runner.planning import DistanceField
+        from citygen.runner.control.fields import DistanceField
 
         key = (round(float(goal[0]), 4), round(float(goal[1]), 4), tolerance)
         field_ = self._fields.get(key)

@@ -4,8 +4,8 @@ The environments, ``citygen bench``, ``citygen run`` and the tests all ask here,
 or policy added later is offered (and refused) everywhere the same way.
 
 - a **locomotion** task (``loco-*``) needs a robot with leg joints; ``stand`` and ``trot``
-  need a four-legged robot of twelve joints (:mod:`citygen.runner.gaits`) or a biped
-  (:mod:`citygen.runner.gaits_biped`: its stand and its scripted walk);
+  need a four-legged robot of twelve joints (:mod:`citygen.runner.control.gaits`) or a
+  biped (:mod:`citygen.runner.control.gaits_biped`: its stand and its scripted walk);
 - **navigation** (``nav-*``) and the **traverse** take every robot; the traverse control
   modes (``human``, ``ai``, ``shared-*``) only drive a traverse;
 - a split fits a task of its own family: navigation scenes (a goal), locomotion grids or a
@@ -52,8 +52,9 @@ def can_walk(robot: Any) -> bool:
 
 
 def can_gait(robot: Any) -> bool:
-    """The model-based stand and trot of :mod:`citygen.runner.gaits` (four legs, twelve
-    joints) or the biped stand and walk of :mod:`citygen.runner.gaits_biped` can drive it."""
+    """The model-based stand and trot of :mod:`citygen.runner.control.gaits` (four legs,
+    twelve joints) or the biped stand and walk of :mod:`citygen.runner.control.gaits_biped`
+    can drive it."""
     return (len(robot.legs) == 4 and robot.n_joints == 12) or len(robot.legs) == 2
 
 

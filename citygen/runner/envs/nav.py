@@ -18,7 +18,7 @@ episode; a fall ends it like leaving the bounds), ``2.0 * [(1 - tanh(d / 1.0)) +
 tanh(d / 0.2))]`` for the distance ``d`` to the goal, ``-0.5`` on non-walkable ground and
 ``-1.0`` in collision (a contact with an object or an agent, or a person's disc
 overlapping the robot's). The horizon is :data:`NAV_HORIZON` steps. NavDynamic's people
-move by ORCA and its vehicles by IDM (:mod:`citygen.runner.crowd`); in NavClear and
+move by ORCA and its vehicles by IDM (:mod:`citygen.runner.agents`); in NavClear and
 NavStatic the scene's agents are removed.
 """
 
@@ -122,13 +122,13 @@ class NavEnv(_CitygenEnv):
         self.crowd = self.traffic = None
         d = self.data
         if self._dynamic() and self.prepared.agent_bodies:
-            from citygen.runner.crowd import Crowd, Traffic
-            from citygen.runner.traffic import city_agents
+            from citygen.runner.agents.crowd import Crowd
+            from citygen.runner.agents.traffic import Traffic, city_agents
 
             self.crowd = Crowd(self.scene, self.prepared.occupancy, rng=self.np_random, dt=self.dt)
             if len(self.crowd.ids) == 0:
                 self.crowd = None
-            if self.scene.signals:  # a city: signals for vehicles and people (runner.traffic)
+            if self.scene.signals:  # a city: signals for vehicles and people (agents.traffic)
                 self.crowd, self.traffic = city_agents(self.prepared, self.scene, self.crowd, self.dt)
             else:
                 self.traffic = Traffic(self.scene, dt=self.dt)
@@ -192,9 +192,9 @@ class NavEnv(_CitygenEnv):
         return self._after_step()
 
     def _record_traffic(self, x: float, y: float) -> None:
-        """Red-light crossings and roadway incursions of the robot, in a city (runner.signals)."""
+        """Red-light crossings and roadway incursions of the robot, in a city (agents.signals)."""
         if self.traffic_record is not None:
-            from citygen.runner.signals import crossings_of
+            from citygen.runner.agents.signals import crossings_of
 
             c = crossings_of(self.prepared, self.scene)
             xy = np.array([[x, y]])

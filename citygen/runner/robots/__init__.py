@@ -15,7 +15,7 @@ file here: every test and command that runs over robots picks it up):
   driven wheel at each foot (4 velocity actuators), standing base height about 0.60 m.
 - ``humanoid``: G1-like, 1.32 m tall, about 35 kg, 21 hinge joints (6 per leg, waist yaw,
   4 per arm) with position actuators and box feet, base (pelvis) height 0.66 m; ideal
-  locomotion in navigation, a scripted walk (:mod:`citygen.runner.gaits_biped`) in locomotion.
+  locomotion in navigation, a scripted walk (:mod:`citygen.runner.control.gaits_biped`) in locomotion.
 - ``wheelchair``: an electric wheelchair, 0.65 m wide, 1.1 m long, about 110 kg including
   a 70 kg seated person; differential drive on the rear wheels, frictionless front casters.
 - ``scooter``: a mobility scooter, 1.27 m x 0.63 m, about 140 kg with a 75 kg rider, 15 km/h;
@@ -43,7 +43,7 @@ down through the scene), keeps the trunk level, and tracks the planar velocity `
 touch flat ground; legs and trunk still collide with obstacles, curbs and agents. Its yaw
 torque is of the order of its push at the feet's lever, as a walking robot's is, so a robot
 pushing its nose into a bench still turns away from it. The
-open-loop trot of :mod:`citygen.runner.gaits` is the locomotion baseline, not the
+open-loop trot of :mod:`citygen.runner.control.gaits` is the locomotion baseline, not the
 navigation drive (it is not precise enough to track a planner's commands).
 
 **Control timing**: each robot's :attr:`Robot.timestep` physics step (5 ms for the built-in

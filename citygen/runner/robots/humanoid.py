@@ -14,7 +14,7 @@ of the hip joints, 0.66 m above the ground when standing with knees bent 0.6 rad
 
 Speed limits (navigation, ideal locomotion ``nav_mode == "base"`` as the quadruped's):
 1.2 m/s forward (G1 walks up to 2 m/s), 1.5 rad/s turning, on a 0.3 m footprint radius; steps up to 0.15 m.
-Locomotion baselines: :mod:`citygen.runner.gaits_biped` (stand, walk). Sensors: those of
+Locomotion baselines: :mod:`citygen.runner.control.gaits_biped` (stand, walk). Sensors: those of
 every robot in the environments (base pose and velocity, joint positions and speeds, the
 height map or occupancy patch, optional RGB/depth cameras).
 """

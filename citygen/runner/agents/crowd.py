@@ -1,0 +1,403 @@
+"""Moving people: ORCA for pedestrians, cyclists and scooter riders.
+
+People (:class:`Crowd`) avoid each other and the robot by ORCA, *Optimal Reciprocal
+Collision Avoidance* (van den Berg, Guy, Lin and Manocha, 2011), as the reference RVO2
+library computes it: :func:`citygen.runner.agents.orca.orca_velocities` (re-exported here) does it
+for every agent at once with numpy, neighbour search, half-planes and RVO2's linear
+programs as array operations over all agents (and over a leading batch of environments).
+
+Static obstacles are discs (a point of blocked ground grown by a radius) with zero
+velocity for which the agent takes full responsibility; RVO2 models walls as polygons
+instead, so with static obstacles the two differ (without them they agree to float
+precision: ``tests/test_crowd.py`` compares with RVO2 through ``pyrvo``). The robot is a
+*non-cooperative* agent: it does not avoid anyone, so every person takes full
+responsibility (1, not 1/2) for avoiding it.
+
+Each person walks from its ``start`` to its ``goal`` and back, for ever, along the
+shortest path on a coarse grid of the walkable ground (a geodesic distance field per
+person and target, precomputed once with :func:`scipy.sparse.csgraph.dijkstra`); its
+preferred velocity points at a waypoint a few cells ahead on that path. A person stays on
+walkable ground: its centre keeps ``need`` metres (its radius, plus half a cell's
+diagonal, less where its own start or goal is narrower) from the centre of every
+non-walkable cell of the occupancy map. ORCA sees the nearest blocked cells as static
+obstacles; a step that would still leave that ground slides along the boundary (the x or
+y part of the step alone) or stays. Last, a step that would make two people overlap more
+than they already did is taken back (both stay where they were, which never overlapped
+beyond the previous step's overlap), unless staying would put one of them inside the
+robot, which is pushed out of first. So people never overlap each other (beyond
+:data:`OVERLAP_SLACK`) and keep out of the robot's disc unless it pins them against a
+wall.
+
+Vehicles are :mod:`citygen.runner.agents.traffic`'s.
+
+>>> import numpy as np
+>>> pos = np.array([[-2.0, 0.05], [2.0, 0.0]])  # walking at each other, 5 cm off the line
+>>> pref = np.array([[1.0, 0.0], [-1.0, 0.0]])
+>>> orca_velocities(pos, pref, pref, 0.3, 1.5, dt=0.1).round(2).tolist()  # each dodges half
+[[0.98, 0.14], [-0.98, -0.14]]
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import scipy.ndimage
+import scipy.sparse
+import scipy.sparse.csgraph
+from scipy.spatial import cKDTree
+
+from citygen.exporters.occupancy import OccupancyMap
+from citygen.runner.agents.orca import orca_velocities
+from citygen.runner.agents.vec2 import dot
+from citygen.spec.agents import Person
+from citygen.spec.scene import Scene
+
+OVERLAP_SLACK = 1e-3
+"""Overlap (m) of two people's discs the safety pass lets grow in one step (rounding)."""
+SPEED_FACTOR = 1.5
+"""A person's top speed (ORCA's ``maxSpeed``) over its preferred speed: room to dodge."""
+NAV_CELL = 0.2
+"""Side (m) of the cells of the grid people plan their path on (coarser in large scenes)."""
+MAX_NAV_NODES = 2**18
+"""Most cells of that grid: a 1.2 km city plans on 2.4 m cells, so the path tables of 200
+people take 0.4 GB instead of tens of GB."""
+LOOKAHEAD = 3
+"""Cells of the path ahead of a person its preferred velocity aims at."""
+ARRIVE = 0.4
+"""Distance (m) from a target at which a person has arrived and turns round."""
+ROBOT_MARGIN = 0.05
+"""Extra radius (m) people give the robot in ORCA: it does not avoid them."""
+_ANGLES = np.arange(16) * (np.pi / 8)
+_ESCAPES = np.concatenate(
+    [[[0.0, 0.0]], *(f * np.stack([np.cos(_ANGLES), np.sin(_ANGLES)], axis=-1) for f in (1 / 3, 2 / 3, 1.0))]
+)
+"""Steps a conflicted person may try, as fractions of its top speed times ``dt``."""
+JITTER = 0.01
+"""Size (m/s) of the random nudge added to preferred velocities to break symmetric deadlocks
+(RVO2's examples do the same)."""
+
+
+# --- vector helpers ----------------------------------------------------------------------
+
+
+def _unit(w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``w / |w|`` and ``|w|``; a zero vector gives ``(1, 0)`` (RVO2 would divide by zero)."""
+    n = np.sqrt(dot(w, w))
+    safe = n > 1e-12
+    u = np.where(safe[..., None], w / np.where(safe, n, 1.0)[..., None], np.array([1.0, 0.0]))
+    return u, n
+
+
+# --- people ------------------------------------------------------------------------------
+
+
+class Crowd:
+    """The scene's pedestrians, cyclists and scooter riders, moved by ORCA on walkable ground.
+
+    ``scene``'s :class:`~citygen.spec.agents.Person` agents in spec order; ``occupancy`` the
+    scene's :class:`~citygen.exporters.occupancy.OccupancyMap` (its walkable cells are where
+    people may be); ``rng`` the generator of the small nudges that break symmetric deadlocks
+    (the same generator state gives the same motion); ``dt`` (s) one control step.
+    State after :meth:`reset` and each :meth:`step`: ``pos`` ``(N, 2)`` (m), ``vel`` ``(N, 2)``
+    (m/s), ``target`` ``(N,)`` (0: heading for the goal, 1: for the start) and ``arrivals``
+    ``(N,)`` (targets reached so far). Constant: ``ids``, ``radius`` (m), ``speed`` (preferred,
+    m/s), ``max_speed`` (m/s), ``need`` (m: the clearance kept from non-walkable cell centres).
+    """
+
+    def __init__(
+        self,
+        scene: Scene,
+        occupancy: OccupancyMap,
+        *,
+        rng: np.random.Generator,
+        dt: float,
+        tau: float = 2.0,
+        neighbor_dist: float = 5.0,
+        max_neighbors: int = 10,
+    ) -> None:
+        if not (isinstance(dt, int | float) and dt > 0):
+            raise ValueError(f"Crowd dt: expected a step > 0 in seconds, got {dt!r}")
+        people = [a for a in scene.agents if isinstance(a, Person)]
+        self.ids: list[str] = [a.id for a in people]
+        self.dt, self.tau = float(dt), float(tau)
+        self.neighbor_dist, self.max_neighbors = float(neighbor_dist), int(max_neighbors)
+        self.radius = np.array([a.radius for a in people], dtype=np.float64)
+        self.speed = np.array([a.speed for a in people], dtype=np.float64)
+        self.max_speed = SPEED_FACTOR * self.speed
+        self.start = np.array([a.start for a in people], dtype=np.float64).reshape(-1, 2)
+        self.goal = np.array([a.goal for a in people], dtype=np.float64).reshape(-1, 2)
+        self._grid = occupancy.grid
+        res = occupancy.resolution
+        walk = np.pad(occupancy.walkable_mask(), 1)  # off the map is not walkable
+        edt, idx = scipy.ndimage.distance_transform_edt(walk, return_indices=True)
+        #: Distance (m) from each cell centre to the nearest non-walkable cell centre.
+        self.clearance = edt[1:-1, 1:-1] * res
+        g = self._grid
+        self._blocked_xy = np.stack(
+            [g.x0 + (idx[1, 1:-1, 1:-1] - 0.5) * res, g.y0 + (idx[0, 1:-1, 1:-1] - 0.5) * res], axis=-1
+        )
+        half_diag = res * math.sqrt(0.5)
+        self.need = np.minimum(
+            self.radius + half_diag, np.minimum(self._clear_at(self.start), self._clear_at(self.goal))
+        )
+        self.need = np.maximum(self.need, 0.0)
+        self._static_radius = self.need + half_diag - self.radius
+        self._build_paths()
+        self.reset(rng)
+
+    # grid look-ups
+    def _cells(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        g = self._grid
+        col = np.clip(np.floor((xy[..., 0] - g.x0) / g.resolution), 0, g.cols - 1).astype(np.int64)
+        row = np.clip(np.floor((xy[..., 1] - g.y0) / g.resolution), 0, g.rows - 1).astype(np.int64)
+        return row, col
+
+    def _clear_at(self, xy: np.ndarray) -> np.ndarray:
+        """Clearance (m) of the cells under points ``xy`` ``(..., 2)``; 0 off the map."""
+        g = self._grid
+        inside = (
+            (xy[..., 0] >= g.x0)
+            & (xy[..., 0] < g.x0 + g.cols * g.resolution)
+            & (xy[..., 1] >= g.y0)
+            & (xy[..., 1] < g.y0 + g.rows * g.resolution)
+        )
+        return np.where(inside, self.clearance[self._cells(xy)], 0.0)
+
+    def allowed(self, xy: np.ndarray) -> np.ndarray:
+        """Whether each person ``i`` may stand at ``xy[i]`` (``(N, 2)`` m): its cell keeps ``need[i]``."""
+        return self._clear_at(xy) >= self.need
+
+    def _build_paths(self) -> None:
+        """Per person and target (goal, start) the next hop towards it on a coarse grid of
+        :data:`NAV_CELL` cells, whose nodes are each block's best-cleared fine cell."""
+        g, res = self._grid, self._grid.resolution
+        cell = max(NAV_CELL, math.sqrt(g.rows * g.cols * res * res / MAX_NAV_NODES))
+        f = max(1, math.ceil(cell / res - 1e-9))
+        rows, cols = -(-g.rows // f), -(-g.cols // f)
+        pad = np.full((rows * f, cols * f), -1.0)
+        pad[: g.rows, : g.cols] = self.clearance
+        blocks = pad.reshape(rows, f, cols, f).transpose(0, 2, 1, 3).reshape(rows, cols, f * f)
+        best = blocks.argmax(axis=-1)
+        self._node_clear = np.take_along_axis(blocks, best[..., None], -1)[..., 0]
+        r = np.arange(rows)[:, None] * f + best // f
+        c = np.arange(cols)[None, :] * f + best % f
+        self._node_xy = np.stack([g.x0 + (c + 0.5) * res, g.y0 + (r + 0.5) * res], axis=-1).reshape(-1, 2)
+        self._f, self._shape = f, (rows, cols)
+        n_nodes = rows * cols
+        n = len(self.ids)
+        self._hop = np.full((n, 2, n_nodes), -1, dtype=np.int32)
+        # One graph per clearance class (5 cm): people of like size share their Dijkstra run.
+        groups = np.floor(self.need / 0.05 + 1e-9) * 0.05
+        for need in np.unique(groups):
+            members = np.flatnonzero(groups == need)
+            graph = self._graph(need)
+            targets = np.concatenate([self.goal[members], self.start[members]])
+            src = self._node_of(targets)
+            _, pred = scipy.sparse.csgraph.dijkstra(
+                graph, directed=False, indices=src, return_predecessors=True
+            )
+            m = len(members)
+            self._hop[members, 0] = pred[:m]
+            self._hop[members, 1] = pred[m:]
+        self._hop[self._hop < 0] = -1
+
+    def _node_of(self, xy: np.ndarray) -> np.ndarray:
+        row, col = self._cells(xy)
+        return (row // self._f) * self._shape[1] + col // self._f
+
+    def _graph(self, need: float) -> scipy.sparse.csr_matrix:
+        rows, cols = self._shape
+        ok = self._node_clear >= need
+        ids = np.arange(rows * cols).reshape(rows, cols)
+        src, dst = [], []
+        for dr, dc in ((0, 1), (1, 0), (1, 1), (1, -1)):
+            a = ok[: rows - dr, max(0, -dc) : cols - max(0, dc)]
+            b = ok[dr:, max(0, dc) : cols + min(0, dc)]
+            both = a & b
+            if dr and dc:  # diagonal: only where both orthogonal cells are free too (no corner cutting)
+                both &= (
+                    ok[: rows - dr, max(0, dc) : cols + min(0, dc)] & ok[dr:, max(0, -dc) : cols - max(0, dc)]
+                )
+            src.append(ids[: rows - dr, max(0, -dc) : cols - max(0, dc)][both])
+            dst.append(ids[dr:, max(0, dc) : cols + min(0, dc)][both])
+        s, d = np.concatenate(src), np.concatenate(dst)
+        w = np.linalg.norm(self._node_xy[s] - self._node_xy[d], axis=1) + 1e-9
+        return scipy.sparse.csr_matrix((w, (s, d)), shape=(rows * cols, rows * cols))
+
+    # state
+    def reset(self, rng: np.random.Generator) -> None:
+        """Everyone back at its start, standing, heading for its goal; ``rng`` drives the nudges."""
+        self._rng = rng
+        self.pos = self.start.copy()
+        self.vel = np.zeros_like(self.pos)
+        self.target = np.zeros(len(self.ids), dtype=np.int64)
+        self.arrivals = np.zeros(len(self.ids), dtype=np.int64)
+        d = self.goal - self.start
+        self._heading = np.arctan2(d[:, 1], d[:, 0])
+
+    def targets(self) -> np.ndarray:
+        """Where each person is heading now ``(N, 2)`` (m)."""
+        return np.where((self.target == 0)[:, None], self.goal, self.start)
+
+    def preferred_velocities(self) -> np.ndarray:
+        """Velocities (m/s) towards a waypoint :data:`LOOKAHEAD` cells ahead on each person's path."""
+        n = len(self.ids)
+        tgt = self.targets()
+        node = self._node_of(self.pos)
+        rows = np.arange(n)
+        for _ in range(LOOKAHEAD):
+            nxt = self._hop[rows, self.target, node]
+            node = np.where(nxt >= 0, nxt, node)
+        src = self._node_of(tgt)
+        lost = self._hop[rows, self.target, self._node_of(self.pos)] < 0  # at the target's node, or cut off
+        aim = np.where(((node == src) | lost)[:, None], tgt, self._node_xy[node])
+        u, dist = _unit(aim - self.pos)
+        return u * np.minimum(self.speed, dist / self.dt)[:, None]
+
+    def _static(self) -> tuple[np.ndarray, np.ndarray]:
+        """The nearest blocked cell centres seen from each person and from 8 points around it."""
+        ang = np.arange(8) * (np.pi / 4)
+        probe = self.radius[:, None, None] + 0.3
+        around = self.pos[:, None] + probe * np.stack([np.cos(ang), np.sin(ang)], -1)[None]
+        pts = np.concatenate([self.pos[:, None], around], axis=1)
+        row, col = self._cells(pts)
+        near = self._blocked_xy[row, col]
+        reach = (self.radius + self.max_speed * 1.0 + self._static_radius + 0.5)[:, None]
+        far = np.linalg.norm(near - self.pos[:, None], axis=-1) > reach
+        radii = np.where(far, -1.0, self._static_radius[:, None])
+        return near, radii
+
+    def step(self, robot_xy, robot_vel, robot_radius: float) -> None:
+        """Move everyone by one step of ``dt``, avoiding each other and the robot at ``robot_xy``
+        (m) moving at ``robot_vel`` (m/s) with radius ``robot_radius`` (m)."""
+        n = len(self.ids)
+        if n == 0:
+            return
+        rxy = np.asarray(robot_xy, dtype=np.float64).reshape(2)
+        rvel = np.asarray(robot_vel, dtype=np.float64).reshape(2)
+        rrad = float(robot_radius)
+        arrived = np.linalg.norm(self.targets() - self.pos, axis=1) < np.maximum(ARRIVE, 0.5 * self.radius)
+        self.target = np.where(arrived, 1 - self.target, self.target)
+        self.arrivals += arrived
+        pref = self.preferred_velocities() + self._rng.normal(0.0, JITTER, (n, 2))
+        pts, radii = self._static()
+        pos = np.concatenate([self.pos, rxy[None]])
+        vel = np.concatenate([self.vel, rvel[None]])
+        coop = np.arange(n + 1) < n
+        static = (
+            np.concatenate([pts, np.full((1, pts.shape[1], 2), np.nan)]),
+            np.concatenate([radii, np.full((1, radii.shape[1]), -1.0)]),
+        )
+        v = orca_velocities(
+            pos,
+            vel,
+            np.concatenate([pref, rvel[None]]),
+            np.concatenate([self.radius, [rrad + ROBOT_MARGIN]]),
+            np.concatenate([self.max_speed, [max(1.0, float(np.hypot(*rvel)))]]),
+            dt=self.dt,
+            tau=self.tau,
+            neighbor_dist=self.neighbor_dist,
+            max_neighbors=self.max_neighbors,
+            cooperative=coop,
+            static=static,
+        )[:n]
+        new = self._safe(self.pos + v * self.dt, rxy, rvel, rrad)
+        self.vel = (new - self.pos) / self.dt
+        self.pos = new
+        moving = np.hypot(self.vel[:, 0], self.vel[:, 1]) > 0.05
+        self._heading = np.where(moving, np.arctan2(self.vel[:, 1], self.vel[:, 0]), self._heading)
+
+    def _safe(self, cand: np.ndarray, rxy: np.ndarray, rvel: np.ndarray, rrad: float) -> np.ndarray:
+        """``cand`` made safe: on allowed ground (slide along the boundary, else stay), out of the
+        robot's disc now and after its next step where the ground allows, and no overlap between
+        two people larger than before (take steps back)."""
+        old = self.pos
+        step = cand - old
+        for trial in (old + step * [1.0, 0.0], old + step * [0.0, 1.0], old):
+            bad = ~self.allowed(cand)
+            cand = np.where(bad[:, None], trial, cand)
+        # The robot sweeps the segment from where it is to where it will be after its next step.
+        a, b = rxy, rxy + rvel * self.dt
+        ab = b - a
+        reach = self.radius + rrad
+
+        def nearest(xy: np.ndarray) -> np.ndarray:
+            t = np.clip(dot(xy - a, ab) / max(dot(ab, ab), 1e-12), 0.0, 1.0)
+            return a + t[:, None] * ab
+
+        def depth(xy: np.ndarray) -> np.ndarray:
+            return reach - np.linalg.norm(xy - nearest(xy), axis=1)
+
+        def in_robot(xy: np.ndarray) -> np.ndarray:
+            return depth(xy) > 0.0
+
+        hit = in_robot(cand)
+        if hit.any():
+            q = nearest(cand)
+            away, _ = _unit(cand - q)
+            out = q + away * (reach + 1e-3)[:, None]
+            fine = hit & ~in_robot(out) & self.allowed(out)
+            cand = np.where(fine[:, None], out, cand)
+        # Rare conflicts ORCA left (a person squeezed between the robot, others and a wall): each
+        # conflicted person takes, of a few steps it could make, the one that overlaps least.
+        floor = self._worst_overlap(old)  # overlaps already there may stay
+        for _ in range(2):
+            conflict = np.flatnonzero(
+                (self._worst_overlap(cand) < floor - OVERLAP_SLACK) | (depth(cand) > OVERLAP_SLACK)
+            )
+            if not len(conflict):
+                break
+            for i in conflict.tolist():
+                opts = np.concatenate([cand[i : i + 1], old[i] + _ESCAPES * self.max_speed[i] * self.dt])
+                others = np.delete(np.arange(len(cand)), i)
+                d = np.linalg.norm(opts[:, None] - cand[others][None], axis=-1)
+                over = np.max(self.radius[i] + self.radius[others] - d, axis=1, initial=0.0) + floor[i]
+                dep = reach[i] - np.linalg.norm(
+                    opts - (a + np.clip(dot(opts - a, ab) / max(dot(ab, ab), 1e-12), 0.0, 1.0)[:, None] * ab),
+                    axis=1,
+                )
+                score = np.maximum(np.maximum(over, dep), 0.0)
+                score[self._clear_at(opts) < self.need[i]] = np.inf
+                best = int(np.argmin(score + 1e-6 * np.linalg.norm(opts - cand[i], axis=1)))
+                if np.isfinite(score[best]):
+                    cand[i] = opts[best]
+        # Steps that still make two people overlap more than now are taken back (not into the robot).
+        pinned = depth(old) > OVERLAP_SLACK  # a step back would leave them inside the robot
+        back = np.zeros(len(cand), dtype=bool)
+        for _ in range(len(cand)):
+            i, j, gap = self._overlaps(cand)
+            worse = (gap < -OVERLAP_SLACK) & (gap < self._gap(old, i, j) - 1e-9)
+            i, j = i[worse], j[worse]
+            movers = np.unique(np.concatenate([i, j]))
+            movers = movers[~back[movers] & ~pinned[movers]]
+            if not len(movers):
+                break
+            back[movers] = True
+            cand[movers] = old[movers]
+        return cand
+
+    def _gap(self, xy: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+        """Gaps (m) between the discs of people ``i`` and ``j`` at ``xy``."""
+        return np.linalg.norm(xy[i] - xy[j], axis=1) - (self.radius[i] + self.radius[j])
+
+    def _overlaps(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The pairs ``i < j`` of people whose discs overlap at ``xy`` and their gaps (m, < 0),
+        found by a KD-tree: only people within two of the largest radii can overlap."""
+        pairs = cKDTree(xy).query_pairs(2 * float(self.radius.max()), output_type="ndarray")
+        i, j = pairs[:, 0], pairs[:, 1]
+        gap = self._gap(xy, i, j)
+        over = gap < 0.0
+        return i[over], j[over], gap[over]
+
+    def _worst_overlap(self, xy: np.ndarray) -> np.ndarray:
+        """Per person the gap (m) to the person it overlaps most at ``xy``; 0 if none."""
+        worst = np.zeros(len(xy))
+        i, j, gap = self._overlaps(xy)
+        np.minimum.at(worst, i, gap)
+        np.minimum.at(worst, j, gap)
+        return worst
+
+    def headings(self) -> np.ndarray:
+        """Yaw (rad) each person faces: where it moves, or where it last moved when standing."""
+        return self._heading.copy()
