@@ -19,7 +19,7 @@ from shapely.geometry import LineString, Point, Polygon, box
 import citygen
 from citygen.errors import GenerationError
 from citygen.generate import generate
-from citygen.generate.city import plan_city
+from citygen.generate.layouts.city.streets import plan_city
 from citygen.generate.pipeline import layout
 from citygen.geometry.roads import block_geometry, road_graph
 from citygen.seeding import stage_rng

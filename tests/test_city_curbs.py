@@ -9,7 +9,7 @@ import shapely
 from shapely.geometry import LineString, Polygon
 
 import citygen
-from citygen.generate.city_curbs import CURB, rectangles
+from citygen.generate.layouts.city.curbs import CURB, rectangles
 from citygen.geometry import raster
 from citygen.geometry.features import feature_polygon
 from citygen.geometry.terrain import height_at, height_grid

@@ -16,7 +16,7 @@ from shapely.geometry import Polygon, box
 
 from citygen.errors import GenerationError
 from citygen.generate.blocks import KINDS, connect_blocks
-from citygen.generate.ground import plan_region
+from citygen.generate.layouts.region import plan_region
 from citygen.generate.pipeline import layout
 from citygen.geometry.roads import block_outline, block_sockets, road_graph
 from citygen.io import dumps

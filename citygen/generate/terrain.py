@@ -381,7 +381,7 @@ def build_terrain(
     crosses (flat, or a slope or stair it climbs; not rough, whose bumps are drawn after
     WFC), so a path inside the corridor stays crossable (the pipeline asks for one when
     the task's start and goal would otherwise be cut apart, see
-    :func:`citygen.generate.pipeline.keep_crossable`).
+    :func:`citygen.generate.layouts.base.keep_crossable`).
 
     ``rng`` is the terrain stage's generator; ``seed`` only labels errors. Raises
     :class:`~citygen.errors.GenerationError` when WFC cannot tile the grid (naming the cell)
