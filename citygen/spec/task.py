@@ -39,7 +39,8 @@ class Mobility:
 
 #: The embodiments of the runner and what ground each crosses: a wheeled delivery robot, a
 #: Go2-like quadruped, a B2-W-like wheeled-legged robot, a G1-like humanoid, an electric
-#: wheelchair, a mobility scooter. A new embodiment is one entry here (and its model in the runner).
+#: wheelchair, a mobility scooter. A new embodiment is one entry here (and its model in the runner,
+#: which takes its radius and highest step from here).
 ROBOTS: Mapping[str, Mobility] = MappingProxyType(
     {
         "wheeled": Mobility(radius=0.35, max_step=0.05, max_slope=0.25, stairs=False),

@@ -13,7 +13,8 @@ swings the leg forward, a positive knee bends it. The base (pelvis) origin is th
 of the hip joints, 0.66 m above the ground when standing with knees bent 0.6 rad.
 
 Speed limits (navigation, ideal locomotion ``nav_mode == "base"`` as the quadruped's):
-1.2 m/s forward (G1 walks up to 2 m/s), 1.5 rad/s turning, on a 0.3 m footprint radius; steps up to 0.15 m.
+1.2 m/s forward (G1 walks up to 2 m/s), 1.5 rad/s turning; footprint radius and highest step
+(0.3 m, 0.2 m) from :data:`citygen.spec.task.ROBOTS`.
 Locomotion baselines: :mod:`citygen.runner.control.gaits_biped` (stand, walk). Sensors: those of
 every robot in the environments (base pose and velocity, joint positions and speeds, the
 height map or occupancy patch, optional RGB/depth cameras).
@@ -25,7 +26,7 @@ import xml.etree.ElementTree as ET
 
 from citygen.runner.robots.base import Leg, Robot, _Doc, _n, _v
 from citygen.runner.robots.registry import register
-from citygen.spec.task import ROBOT_RADIUS
+from citygen.spec.task import ROBOTS
 
 THIGH, SHANK = 0.32, 0.32
 #: Height (m) of the ankle joint above the sole.
@@ -152,14 +153,14 @@ def _humanoid() -> Robot:
     return Robot(
         name="humanoid",
         xml=doc.xml(),
-        radius=ROBOT_RADIUS["humanoid"],
+        radius=ROBOTS["humanoid"].radius,
         max_speed=1.2,
         max_yaw_rate=1.5,
         mass=0.0,
         max_accel=1.5,
         max_yaw_accel=3.0,
         stand_height=h,
-        max_step=0.15,
+        max_step=ROBOTS["humanoid"].max_step,
         nav_mode="base",
         leg_joints=tuple(joints),
         leg_actuators=tuple(joints),

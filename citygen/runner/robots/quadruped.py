@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from citygen.runner.robots.base import Robot, _Doc, _leg_set, _legs, _stand, _v
 from citygen.runner.robots.registry import register
-from citygen.spec.task import ROBOT_RADIUS
+from citygen.spec.task import ROBOTS
 
 _QUAD_LEGS = _leg_set(0.1934, 0.0465, 0.0955, 0.213, 0.213, 0.022)
 _QUAD_POSE = (0.0, 0.85, -1.7) * 4
@@ -34,14 +34,14 @@ def _quadruped() -> Robot:
     return Robot(
         name="quadruped",
         xml=doc.xml(),
-        radius=ROBOT_RADIUS["quadruped"],
+        radius=ROBOTS["quadruped"].radius,
         max_speed=1.0,
         max_yaw_rate=1.5,
         mass=0.0,
         max_accel=2.0,
         max_yaw_accel=4.0,
         stand_height=h,
-        max_step=0.18,
+        max_step=ROBOTS["quadruped"].max_step,
         nav_mode="base",
         leg_joints=tuple(joints),
         leg_actuators=tuple(acts),

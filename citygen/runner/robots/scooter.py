@@ -15,7 +15,7 @@ import xml.etree.ElementTree as ET
 
 from citygen.runner.robots.base import _COLLIDE, Robot, _Doc, _n, _v
 from citygen.runner.robots.registry import register
-from citygen.spec.task import ROBOT_RADIUS
+from citygen.spec.task import ROBOTS
 
 WHEEL_R, WHEELBASE, TRACK, MAX_STEER = 0.13, 0.9, 0.56, 0.6
 _TYRE = "0.12 0.12 0.12 1"
@@ -75,14 +75,14 @@ def _scooter() -> Robot:
     return Robot(
         name="scooter",
         xml=doc.xml(),
-        radius=ROBOT_RADIUS["scooter"],
+        radius=ROBOTS["scooter"].radius,
         max_speed=15.0 / 3.6,
         max_yaw_rate=1.0,
         mass=0.0,
         max_accel=1.2,
         max_yaw_accel=2.0,
         stand_height=h,
-        max_step=0.05,
+        max_step=ROBOTS["scooter"].max_step,
         nav_mode="ackermann",
         left_wheels=("left_wheel",),
         right_wheels=("right_wheel",),

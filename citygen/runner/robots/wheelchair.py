@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from citygen.runner.robots.base import _CASTER, _COLLIDE, Robot, _Doc, _n, _v
 from citygen.runner.robots.registry import register
-from citygen.spec.task import ROBOT_RADIUS
+from citygen.spec.task import ROBOTS
 
 
 @register("wheelchair")
@@ -60,14 +60,14 @@ def _wheelchair() -> Robot:
     return Robot(
         name="wheelchair",
         xml=doc.xml(),
-        radius=ROBOT_RADIUS["wheelchair"],
+        radius=ROBOTS["wheelchair"].radius,
         max_speed=1.6,
         max_yaw_rate=1.5,
         mass=0.0,
         max_accel=1.0,
         max_yaw_accel=2.0,
         stand_height=h,
-        max_step=0.05,
+        max_step=ROBOTS["wheelchair"].max_step,
         left_wheels=("left_wheel",),
         right_wheels=("right_wheel",),
         wheel_radius=r,

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from citygen.runner.robots.base import Robot, _caster, _Doc, _v
 from citygen.runner.robots.registry import register
-from citygen.spec.task import ROBOT_RADIUS
+from citygen.spec.task import ROBOTS
 
 
 @register("wheeled")
@@ -24,14 +24,14 @@ def _wheeled() -> Robot:
     return Robot(
         name="wheeled",
         xml=doc.xml(),
-        radius=ROBOT_RADIUS["wheeled"],
+        radius=ROBOTS["wheeled"].radius,
         max_speed=1.5,
         max_yaw_rate=2.0,
         mass=0.0,
         max_accel=1.5,
         max_yaw_accel=3.0,
         stand_height=h,
-        max_step=0.05,
+        max_step=ROBOTS["wheeled"].max_step,
         left_wheels=("left_wheel",),
         right_wheels=("right_wheel",),
         wheel_radius=r,

@@ -10,7 +10,7 @@ import numpy as np
 
 from citygen.runner.robots.base import Robot, _Doc, _leg_set, _legs, _stand, _v
 from citygen.runner.robots.registry import register
-from citygen.spec.task import ROBOT_RADIUS
+from citygen.spec.task import ROBOTS
 
 _WL_LEGS = _leg_set(0.3285, 0.072, 0.12, 0.35, 0.35, 0.09)
 # Front feet a little behind their hips, rear feet in front, legs splayed out: a wheelbase
@@ -49,14 +49,14 @@ def _wheeled_legged() -> Robot:
     return Robot(
         name="wheeled_legged",
         xml=doc.xml(),
-        radius=ROBOT_RADIUS["wheeled_legged"],
+        radius=ROBOTS["wheeled_legged"].radius,
         max_speed=2.0,
         max_yaw_rate=1.5,
         mass=0.0,
         max_accel=1.5,
         max_yaw_accel=3.0,
         stand_height=h,
-        max_step=0.08,
+        max_step=ROBOTS["wheeled_legged"].max_step,
         left_wheels=("FL_wheel", "RL_wheel"),
         right_wheels=("FR_wheel", "RR_wheel"),
         wheel_radius=r,
