@@ -8,7 +8,8 @@ under ``exporters/`` into it, with griffe's public visitor, so the API pages nam
 
 ``SphinxDocstrings``: the docstrings are written for Python's own tools (``>>>`` examples that
 the tests run as doctests, Sphinx roles such as ``:func:`height_at```); in Markdown a ``>>>``
-line is a quote, so the examples become code blocks and the roles plain code.
+line is a quote, so the examples become code blocks, the roles plain code and reST's simple
+tables Markdown tables.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from pathlib import Path
 import griffe
 
 ROLE = re.compile(r":(?:py:)?[a-z]+:`~?([^`]+)`")
+BORDER = re.compile(r"^\s*=+(?:\s+=+)+\s*$")  # a reST simple table's top or bottom
 EXPORTERS = Path(__file__).resolve().parent.parent / "exporters"
 
 
@@ -50,12 +52,36 @@ class ExportersPackage(griffe.Extension):
         loader.expand_exports(pkg.get_member("exporters"))
 
 
+def markdown_tables(lines: list[str]) -> list[str]:
+    """``lines`` with each reST simple table (a border of ``=`` runs, rows, a border) as a
+    Markdown table, its columns where the border's runs start."""
+    out: list[str] = []
+    i = 0
+    while i < len(lines):
+        end = next((j for j in range(i + 1, len(lines)) if BORDER.match(lines[j])), None)
+        if not BORDER.match(lines[i]) or end is None:
+            out.append(lines[i])
+            i += 1
+            continue
+        starts = [m.start() for m in re.finditer("=+", lines[i])]
+        cells = [
+            [row[a:b].strip() for a, b in zip(starts, [*starts[1:], None], strict=True)]
+            for row in lines[i + 1 : end]
+        ]
+        out += ["", "|" + " |" * len(starts), "|" + "---|" * len(starts)]
+        out += ["| " + " | ".join(row) + " |" for row in cells]
+        out.append("")
+        i = end + 1
+    return out
+
+
 def markdown_docstring(text: str) -> str:
     """``text`` with each run of ``>>>`` lines (and their output, to the next blank line) fenced
-    as code at the left margin, and each Sphinx role as code."""
+    as code at the left margin, each Sphinx role as code and each reST simple table as a
+    Markdown table."""
     out: list[str] = []
     indent = None  # of the example being fenced
-    for line in ROLE.sub(r"`\1`", text).split("\n"):
+    for line in markdown_tables(ROLE.sub(r"`\1`", text).split("\n")):
         stripped = line.lstrip()
         if indent is None and stripped.startswith(">>>"):
             indent = len(line) - len(stripped)
