@@ -80,23 +80,49 @@ def test_gait_shaping_rewards_walking_and_is_training_only(flat):
         train.close()
 
 
-def test_the_curriculum_moves_up_after_a_long_walk_and_down_after_a_fall():
-    env = LocoTraining(make_env("loco-rough", robot="quadruped", split="urban-loc-4-train"), seed=0, rank=0)
+@pytest.fixture(scope="module")
+def grid(tmp_path_factory):
+    path = tmp_path_factory.mktemp("grid") / "grid.toml"
+    path.write_text(GRID)
+    return path
+
+
+def test_the_curriculum_moves_up_after_a_long_walk_and_down_after_a_fall(grid):
+    env = LocoTraining(make_env("loco-rough", robot="quadruped", split=str(grid)), seed=0, rank=0)
     try:
         _, info = env.reset(seed=0)
-        start = env.level
-        assert start < 3 and info["region"][0] == start
+        assert env.level in (0, 1) and info["region"][0] == env.level  # it starts on an easy row
+        env.level = 0
         u = env.unwrapped
         u.data.qpos[u.handle.qadr] += 5.0  # 5 m from the start: more than half a region
         env._move_level(fell=False)
-        assert env.level == start + 1
-        env.reset()
-        assert env.unwrapped.region[0] == start + 1
+        assert env.level == 1
+        _, info = env.reset()
+        assert info["region"][0] == 1
         env._move_level(fell=True)
-        assert env.level == start
+        assert env.level == 0
+        env.level = 1
+        u.data.qpos[u.handle.qadr] += 5.0
+        env._move_level(fell=False)  # past the hardest row: a random one
+        assert env.level in (0, 1)
     finally:
         env.close()
 
+
+#: A 2 x 2 Urban-Loc grid (16 m): the train and test splits' 30 x 30 and 16 x 16 grids take
+#: longer to generate than the whole tiny run.
+GRID = """
+size = [16.0, 16.0]
+layout = "curriculum"
+terrain.layout = "curriculum"
+terrain.tile_size = 8.0
+terrain.grid = [2, 2]
+terrain.mix = { flat = 0.0, slope = 0.0, stair = 0.0, rough = 1.0 }
+placement.count = 0
+agents.people = 0
+task.kind = "loco-rough"
+task.robot = "quadruped"
+"""
 
 TINY = """
 envs = 2
@@ -110,19 +136,19 @@ checkpoint_every = 1000
 """
 
 
-def test_a_tiny_locomotion_run_trains_and_citygen_bench_runs_it(tmp_path):
+def test_a_tiny_locomotion_run_trains_and_citygen_bench_runs_it(tmp_path, grid):
     config = tmp_path / "tiny.toml"
     config.write_text(TINY)
     out = tmp_path / "run"
-    train = [sys.executable, "-m", "citygen", "train", "--task", "loco-flat", "--robot", "wheeled_legged"]
+    train = [sys.executable, "-m", "citygen", "train", "--task", "loco-rough", "--robot", "wheeled_legged"]
     r = subprocess.run(
-        [*train, "--steps", "128", "--config", str(config), "--out", str(out)],
+        [*train, "--split", str(grid), "--steps", "128", "--config", str(config), "--out", str(out)],
         capture_output=True, text=True, cwd=ROOT, timeout=300,
     )  # fmt: skip
     assert r.returncode == 0, r.stderr
-    bench = [sys.executable, "-m", "citygen", "bench", "--task", "loco-flat", "--robot", "wheeled_legged"]
+    bench = [sys.executable, "-m", "citygen", "bench", "--task", "loco-rough", "--robot", "wheeled_legged"]
     r = subprocess.run(
-        [*bench, "--policy", str(out / "policy.npz"), "--episodes", "1", "--jobs", "1", "--max-steps", "50"],
+        [*bench, "--split", str(grid), "--policy", str(out / "policy.npz"), "--episodes", "1", "--jobs", "1"],
         capture_output=True, text=True, cwd=ROOT, timeout=300,
     )  # fmt: skip
     assert r.returncode == 0, r.stderr
