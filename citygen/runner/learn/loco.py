@@ -17,7 +17,9 @@ adds what makes the same policy learnable on a laptop in hours:
 - **Gait shaping** (``shaping`` times the legged_gym terms, per step): a broad tracking
   kernel ``exp(-|v_xy - c_xy|^2 / 0.25) + 0.5 exp(-(w_z - c_wz)^2 / 0.25)`` (the paper's
   0.25 m/s kernel pays nothing to a robot still 1 m/s short of its command, so nothing leads
-  a standing robot to walk), ``-0.05 |w_xy|^2``, ``-0.5 |g_xy|^2`` (tilt), ``-1e-5 |tau|^2``,
+  a standing robot to walk), a forward-progress term ``v_xy . c_xy / |c_xy|^2`` clipped to
+  [-1, 1] (the share of the commanded speed made good along the command: linear from a
+  standstill, so the first steps already pay), ``-0.05 |w_xy|^2``, ``-0.5 |g_xy|^2`` (tilt), ``-1e-5 |tau|^2``,
   ``-2.5e-7 |qdd|^2`` and a foot air-time reward ``+1.0 sum (t_air - 0.25)`` at each
   touch-down while the command asks to move (the stepping that a trot needs).
 """
@@ -35,6 +37,7 @@ COMMANDS = ((-0.5, 1.0), (-0.3, 0.3), (-1.0, 1.0))
 WEIGHTS = {
     "track_lin": 1.0,
     "track_ang": 0.5,
+    "progress": 1.0,
     "ang_vel_xy": -0.05,
     "tilt": -0.5,
     "torque": -1e-5,
@@ -113,6 +116,9 @@ class LocoTraining(gymnasium.Wrapper):
         qvel = d.qvel[h.leg_dadr]
         r = WEIGHTS["track_lin"] * math.exp(-((vx - c[0]) ** 2 + (vy - c[1]) ** 2) / 0.25)
         r += WEIGHTS["track_ang"] * math.exp(-((wz - c[2]) ** 2) / 0.25)
+        asked = c[0] * c[0] + c[1] * c[1]
+        if asked > 0.01:
+            r += WEIGHTS["progress"] * min(max((vx * c[0] + vy * c[1]) / asked, -1.0), 1.0)
         r += WEIGHTS["ang_vel_xy"] * float(w @ w)
         r += WEIGHTS["tilt"] * float(g @ g)
         r += WEIGHTS["torque"] * float(tau @ tau)
