@@ -60,7 +60,7 @@ and test ranges.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Literal
@@ -72,6 +72,7 @@ from shapely.geometry.base import BaseGeometry
 
 from citygen.errors import GenerationError
 from citygen.generate.wfc import Prototype, Tileset, solve
+from citygen.geometry.tiles import TILE_KINDS
 from citygen.seeding import child, uniform
 from citygen.spec import limits
 from citygen.spec.base import quantize
@@ -81,7 +82,8 @@ from citygen.spec.task import Mobility
 from citygen.spec.terrain import FlatTile, RoughTile, SlopeTile, StairTile, Terrain, edge_profile
 from citygen.spec.zones import Zone
 
-KINDS = ("flat", "slope", "stair", "rough")
+#: The tile kinds' names, in the registry's order (that of ``TerrainMix``'s weights).
+KINDS = tuple(kind.name for kind in TILE_KINDS.values())
 #: Ground levels WFC may use (level 0 is street level); ``LEVELS - 1`` boundaries between them.
 LEVELS = 3
 #: Radius (m) around each ``flat_at`` point within which every tile is flat.
@@ -106,6 +108,7 @@ ROUGH_MATERIALS: dict[str | None, tuple[str, ...]] = {
 _FREE_KINDS = ("sidewalk", "plaza", "trail", "vegetation")
 _ASCENT_OF_ROTATION = ("+y", "+x", "-y", "-x")  # a prototype rises north; each turn is clockwise
 _CODE = {k: i for i, k in enumerate(KINDS)}
+_MODELS = tuple(TILE_KINDS)  # the tile class of each code
 
 AnyTile = FlatTile | SlopeTile | StairTile | RoughTile
 
@@ -129,13 +132,7 @@ def _sockets(tile: AnyTile) -> tuple[tuple, tuple, tuple, tuple]:
 
 def symbolic_tile(kind: str, level: int, ascent: str = "+y") -> AnyTile:
     """A tile at height ``level`` whose flights rise exactly one level across a 1 m tile."""
-    if kind == "flat":
-        return FlatTile(kind="flat", height=level)
-    if kind == "rough":
-        return RoughTile(kind="rough", height=level, amplitude=0.0, scale=1.0)
-    if kind == "slope":  # tan(0.7854) = 1.0000036: one level, to the rounding in _socket
-        return SlopeTile(kind="slope", height=level, angle=0.7854, ascent=ascent)
-    return StairTile(kind="stair", height=level, step_height=0.5, step_count=2, ascent=ascent)
+    return _MAKERS[_MODELS[_CODE[kind]]].symbolic(level, ascent)
 
 
 @dataclass(frozen=True)
@@ -483,20 +480,12 @@ def _realise(
     k = 0
     for i, v in enumerate(flat_v.tolist()):
         code = int(kind[i])
-        if code != 3:
+        if code != _CODE["rough"]:
             tile = shared.get(v)
             if tile is None:
                 lv = int(level[i])
-                h = float(heights[lv])
-                if code == 0:
-                    tile = FlatTile(kind="flat", height=h)
-                elif code == 1:
-                    tile = SlopeTile(kind="slope", height=h, angle=boundaries[lv].angle, ascent=tts.ascent[v])
-                else:
-                    n, sh = boundaries[lv].steps
-                    tile = StairTile(
-                        kind="stair", height=h, step_height=sh, step_count=n, ascent=tts.ascent[v]
-                    )
+                crossing = boundaries[lv] if lv < len(boundaries) else None  # a flight's
+                tile = _MAKERS[_MODELS[code]].level(float(heights[lv]), crossing, tts.ascent[v])
                 shared[v] = tile
             out.append(tile)
             continue
@@ -568,27 +557,68 @@ def build_curriculum(
     for r in range(rows):
         d = r / (rows - 1) if rows > 1 else 0.0
         for c, kind in enumerate(kinds):
-            if kind == "flat":
-                tiles.append(FlatTile(kind="flat"))
-            elif kind == "slope":
-                tiles.append(SlopeTile(kind="slope", angle=_at(cfg.slope_angle, d), shape=shapes[c]))
-            elif kind == "stair":
-                n = round(_at(cfg.step_count, 0.5))
-                tiles.append(
-                    StairTile(
-                        kind="stair", step_height=_at(cfg.step_height, d), step_count=n, shape=shapes[c]
-                    )
-                )
-            else:
-                tiles.append(
-                    RoughTile(
-                        kind="rough",
-                        amplitude=_at(cfg.roughness_amplitude, d),
-                        scale=_at(cfg.roughness_scale, 0.5),
-                        seed=int(seeds[r, c]),
-                    )
-                )
+            tiles.append(_MAKERS[_MODELS[_CODE[kind]]].curriculum(cfg, d, shapes[c], int(seeds[r, c])))
     return Terrain(origin=origin, tile_size=cfg.tile_size, rows=rows, cols=cols, tiles=tiles)
+
+
+# --- how the stage makes each tile kind ------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _Maker:
+    """How the terrain stage makes tiles of one kind."""
+
+    symbolic: Callable[[int, str], AnyTile]
+    """``(level, ascent)``: at height ``level``, a flight rising one level across a 1 m tile."""
+    curriculum: Callable[[TerrainConfig, float, str, int], AnyTile]
+    """``(cfg, difficulty, shape, seed)``: a curriculum region (see the module docstring)."""
+    level: Callable[[float, Boundary | None, str], AnyTile] | None = None
+    """``(height, boundary, ascent)``: a WFC tile at ``height`` (m); a flight crosses
+    ``boundary`` (None above the top level). None for rough tiles, whose parameters are drawn
+    per tile."""
+
+
+def _stair_at(h: float, b: Boundary, ascent: str) -> StairTile:
+    n, sh = b.steps
+    return StairTile(kind="stair", height=h, step_height=sh, step_count=n, ascent=ascent)
+
+
+_MAKERS: dict[type, _Maker] = {
+    FlatTile: _Maker(
+        symbolic=lambda level, ascent: FlatTile(kind="flat", height=level),
+        curriculum=lambda cfg, d, shape, seed: FlatTile(kind="flat"),
+        level=lambda h, b, ascent: FlatTile(kind="flat", height=h),
+    ),
+    SlopeTile: _Maker(
+        # tan(0.7854) = 1.0000036: one level, to the rounding in _socket
+        symbolic=lambda level, ascent: SlopeTile(kind="slope", height=level, angle=0.7854, ascent=ascent),
+        curriculum=lambda cfg, d, shape, seed: SlopeTile(
+            kind="slope", angle=_at(cfg.slope_angle, d), shape=shape
+        ),
+        level=lambda h, b, ascent: SlopeTile(kind="slope", height=h, angle=b.angle, ascent=ascent),
+    ),
+    StairTile: _Maker(
+        symbolic=lambda level, ascent: StairTile(
+            kind="stair", height=level, step_height=0.5, step_count=2, ascent=ascent
+        ),
+        curriculum=lambda cfg, d, shape, seed: StairTile(
+            kind="stair",
+            step_height=_at(cfg.step_height, d),
+            step_count=round(_at(cfg.step_count, 0.5)),
+            shape=shape,
+        ),
+        level=_stair_at,
+    ),
+    RoughTile: _Maker(
+        symbolic=lambda level, ascent: RoughTile(kind="rough", height=level, amplitude=0.0, scale=1.0),
+        curriculum=lambda cfg, d, shape, seed: RoughTile(
+            kind="rough",
+            amplitude=_at(cfg.roughness_amplitude, d),
+            scale=_at(cfg.roughness_scale, 0.5),
+            seed=seed,
+        ),
+    ),
+}
 
 
 #: The paper's Urban-Loc ranges: stair step height, slope, roughness amplitude, regions.

@@ -26,8 +26,10 @@ the same ground:
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
 import shapely
@@ -37,6 +39,7 @@ from citygen.geometry.features import feature_mask, feature_polygon
 from citygen.geometry.terrain import height_at, rough_slope_bound, tile_grid
 from citygen.spec.task import STEP_RUN, Mobility
 from citygen.spec.terrain import (
+    FlatTile,
     LandingFeature,
     RampFeature,
     RoughTile,
@@ -75,21 +78,41 @@ def rough_step(tile: RoughTile, tile_size: float) -> float:
     return float(max(np.abs(z[lag:] - z[:-lag]).max(), np.abs(z[:, lag:] - z[:, :-lag]).max()))
 
 
+def _slope_crossable(tile: SlopeTile, tile_size: float, mobility: Mobility) -> bool:
+    return tile.angle <= mobility.max_slope
+
+
+def _stair_crossable(tile: StairTile, tile_size: float, mobility: Mobility) -> bool:
+    return mobility.stairs and tile.step_height <= mobility.max_step
+
+
+def _rough_crossable(tile: RoughTile, tile_size: float, mobility: Mobility) -> bool:
+    # Most rough tiles are settled by the bound on their slope, without sampling: when
+    # STEP_RUN times it (plus a relative 1e-6 and 1e-9 m for rounding) is within the
+    # step, so is rough_step, and the answer is the same.
+    bound = rough_slope_bound(tile, float(tile_size)) * STEP_RUN
+    if (bound * (1 + 1e-6) + 1e-9) * _ALLOWANCE <= mobility.max_step:
+        return True
+    return rough_step(tile, float(tile_size)) * _ALLOWANCE <= mobility.max_step
+
+
+def _always(tile: object, tile_size: float, mobility: Mobility) -> bool:
+    return True
+
+
+#: Whether a robot of a mobility crosses a tile, by the tile's class (the rules of the module
+#: docstring), over every kind of :data:`citygen.geometry.tiles.TILE_KINDS`.
+CROSSING: dict[type, Callable[[Any, float, Mobility], bool]] = {
+    FlatTile: _always,
+    SlopeTile: _slope_crossable,
+    StairTile: _stair_crossable,
+    RoughTile: _rough_crossable,
+}
+
+
 def tile_crossable(tile: object, tile_size: float, mobility: Mobility) -> bool:
     """Whether a robot of ``mobility`` can cross ``tile`` (see the module docstring)."""
-    if isinstance(tile, SlopeTile):
-        return tile.angle <= mobility.max_slope
-    if isinstance(tile, StairTile):
-        return mobility.stairs and tile.step_height <= mobility.max_step
-    if isinstance(tile, RoughTile):
-        # Most rough tiles are settled by the bound on their slope, without sampling: when
-        # STEP_RUN times it (plus a relative 1e-6 and 1e-9 m for rounding) is within the
-        # step, so is rough_step, and the answer is the same.
-        bound = rough_slope_bound(tile, float(tile_size)) * STEP_RUN
-        if (bound * (1 + 1e-6) + 1e-9) * _ALLOWANCE <= mobility.max_step:
-            return True
-        return rough_step(tile, float(tile_size)) * _ALLOWANCE <= mobility.max_step
-    return True
+    return CROSSING.get(type(tile), _always)(tile, tile_size, mobility)
 
 
 def feature_crossable(feature: object, mobility: Mobility) -> bool:
