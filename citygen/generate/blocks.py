@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -29,10 +30,9 @@ import shapely
 from shapely.geometry import Polygon, box
 
 from citygen.errors import GenerationError
-from citygen.geometry.roads import block_geometry, block_sockets, wrap
+from citygen.geometry.roads import BLOCK_KINDS, block_geometry, block_sockets, wrap
 from citygen.seeding import uniform
 from citygen.spec.blocks import (
-    BLOCK_TYPES,
     Connection,
     Curve,
     Diverge,
@@ -46,7 +46,8 @@ from citygen.spec.blocks import (
 from citygen.spec.config import BlocksConfig
 from citygen.spec.scene import Bounds
 
-KINDS = tuple(t.model_fields["kind"].annotation.__args__[0] for t in BLOCK_TYPES)
+#: The block kinds' names, in the registry's order (that of ``BlockWeights``).
+KINDS = tuple(kind.name for kind in BLOCK_KINDS.values())
 #: Candidates a socket may reject in a row before it is closed as a dead end.
 SOCKET_TRIES = 6
 #: Side of a cell of the grid hash of road outlines, in metres.
@@ -67,31 +68,74 @@ class _Placed:
 
 
 def _sample_block(kind: str, index: int, pose: Pose2, lanes: int, lane_width: float, cfg, rng):
+    """A block of ``kind`` with its parameters drawn from the config's ranges (:data:`SAMPLERS`)."""
     common = {"id": f"b{index}", "kind": kind, "pose": pose, "lanes": lanes, "lane_width": lane_width}
     sign = 1.0 if rng.random() < 0.5 else -1.0
-    if kind == "straight":
-        return Straight(**common, length=uniform(rng, cfg.straight_length))
-    if kind == "curve":
-        angle = math.radians(uniform(rng, cfg.curve_angle_deg))
-        return Curve(**common, radius=uniform(rng, cfg.curve_radius), angle=sign * angle)
-    if kind == "roundabout":
-        radius = max(uniform(rng, cfg.roundabout_radius), lanes * lane_width + 2.0)
-        return Roundabout(**common, radius=radius, arms=int(rng.integers(3, 6)))
-    if kind in ("diverge", "merge"):
-        model = Diverge if kind == "diverge" else Merge
-        return model(
-            **common,
-            length=uniform(rng, cfg.straight_length),
-            branch_angle=sign * math.radians(float(rng.uniform(20.0, 45.0))),
-            branch_lanes=int(rng.integers(min(cfg.lanes[0], lanes), lanes + 1)),
-        )
+    model = _MODELS[kind]
+    return model(**common, **SAMPLERS[model](cfg, rng, lanes, lane_width, sign))
+
+
+def _straight(
+    cfg: BlocksConfig, rng: np.random.Generator, lanes: int, lane_width: float, sign: float
+) -> dict:
+    return {"length": uniform(rng, cfg.straight_length)}
+
+
+def _curve(cfg: BlocksConfig, rng: np.random.Generator, lanes: int, lane_width: float, sign: float) -> dict:
+    angle = math.radians(uniform(rng, cfg.curve_angle_deg))
+    return {"radius": uniform(rng, cfg.curve_radius), "angle": sign * angle}
+
+
+def _roundabout(
+    cfg: BlocksConfig, rng: np.random.Generator, lanes: int, lane_width: float, sign: float
+) -> dict:
+    radius = max(uniform(rng, cfg.roundabout_radius), lanes * lane_width + 2.0)
+    return {"radius": radius, "arms": int(rng.integers(3, 6))}
+
+
+def _branching(
+    cfg: BlocksConfig, rng: np.random.Generator, lanes: int, lane_width: float, sign: float
+) -> dict:
+    """A diverge's or a merge's: the branch at 20-45 degrees, with no more lanes than the road."""
+    return {
+        "length": uniform(rng, cfg.straight_length),
+        "branch_angle": sign * math.radians(float(rng.uniform(20.0, 45.0))),
+        "branch_lanes": int(rng.integers(min(cfg.lanes[0], lanes), lanes + 1)),
+    }
+
+
+def _junction(
+    cfg: BlocksConfig, rng: np.random.Generator, lanes: int, lane_width: float, sign: float
+) -> dict:
+    """An intersection's or a T's: arms, and corners rounded no further than the arms allow."""
     arm = uniform(rng, cfg.arm_length)
     width = lanes * lane_width
     corner = float(np.clip(rng.uniform(3.0, 8.0), 0.0, max(arm - width - 6.0, 0.0)))
-    if kind == "intersection":
-        return Intersection(**common, arm_length=arm, corner_radius=corner)
-    side = "left" if sign > 0 else "right"
-    return TIntersection(**common, arm_length=arm, corner_radius=corner, side=side)
+    return {"arm_length": arm, "corner_radius": corner}
+
+
+def _t_junction(
+    cfg: BlocksConfig, rng: np.random.Generator, lanes: int, lane_width: float, sign: float
+) -> dict:
+    return {**_junction(cfg, rng, lanes, lane_width, sign), "side": "left" if sign > 0 else "right"}
+
+
+Sampler = Callable[[BlocksConfig, np.random.Generator, int, float, float], dict]
+"""``(cfg, rng, lanes, lane_width, sign) -> fields``: a block's parameters drawn from the
+config's ranges; ``sign`` (+1 or -1, drawn for every block) turns curves and branches left
+or right and puts a T's side road on the left or right."""
+
+#: How each block kind of :data:`citygen.geometry.roads.BLOCK_KINDS` is sampled, by its class.
+SAMPLERS: dict[type, Sampler] = {
+    Straight: _straight,
+    Curve: _curve,
+    Roundabout: _roundabout,
+    Diverge: _branching,
+    Merge: _branching,
+    Intersection: _junction,
+    TIntersection: _t_junction,
+}
+_MODELS = {kind.name: model for model, kind in BLOCK_KINDS.items()}
 
 
 class _Network:

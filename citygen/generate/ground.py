@@ -51,9 +51,8 @@ from citygen.generate.zoning import (
     snap,
     to_zones,
 )
-from citygen.geometry.roads import block_geometry
+from citygen.geometry.roads import block_geometry, block_kind
 from citygen.seeding import child, uniform
-from citygen.spec.blocks import Straight
 from citygen.spec.config import GroundConfig
 from citygen.spec.scene import Bounds
 from citygen.spec.zones import Zone
@@ -96,13 +95,14 @@ def street_bands(blocks: Sequence, cfg: GroundConfig, rng: np.random.Generator):
     for k, (block, g) in enumerate(zip(blocks, geoms, strict=True)):
         r = child(rng, k)
         sites = g.crossings
-        if isinstance(block, Straight):
+        midblock = block_kind(block).midblock
+        if midblock:
             sites = sites if r.random() < cfg.midblock_crosswalk_probability else ()
         for site in sites:
             depth = uniform(r, cfg.crosswalk_width)
             if site.room < depth + 0.5:
                 continue
-            offset = site.offset + (site.room - depth) / 2 if isinstance(block, Straight) else site.offset
+            offset = site.offset + (site.room - depth) / 2 if midblock else site.offset
             d = np.array([math.cos(site.yaw), math.sin(site.yaw)])
             n = np.array([-d[1], d[0]])
             start = np.array(site.origin) + offset * d

@@ -24,9 +24,8 @@ import shapely
 from shapely.geometry import Polygon
 
 from citygen.generate.placement import base_of
-from citygen.geometry.roads import block_geometry
+from citygen.geometry.roads import block_geometry, block_kind
 from citygen.geometry.terrain import height_at
-from citygen.spec.blocks import Intersection, TIntersection
 from citygen.spec.placements import Placement
 from citygen.spec.signals import Head, Phase, Signal
 from citygen.spec.terrain import Terrain
@@ -74,7 +73,7 @@ def signalise(blocks: Sequence, zones: Sequence[Zone]) -> tuple[Signal, ...]:
     lanes_of = {b.id: b.lanes for b in blocks}
     out = []
     for block in blocks:
-        if not isinstance(block, Intersection | TIntersection):
+        if not block_kind(block).signalised:
             continue
         g = block_geometry(block)
         centre = np.asarray(block.pose.position) + block.arm_length * np.array(

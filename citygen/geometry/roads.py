@@ -34,9 +34,10 @@ for a roundabout.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import shapely
@@ -152,83 +153,148 @@ def branch_length(block: Diverge | Merge) -> float:
 
 @lru_cache(maxsize=65_536)
 def block_geometry(block) -> BlockGeometry:
-    """The outline, road ends and crosswalk sites of one block (cached: blocks are frozen)."""
+    """The outline, road ends and crosswalk sites of one block (cached: blocks are frozen),
+    laid out by its kind's builder (:data:`BLOCK_KINDS`)."""
+    return block_kind(block).lay_out(block)
+
+
+def _entry(block) -> tuple[np.ndarray, float, float, float, Arm]:
+    """The block's entry point, heading, half width, the heading back out, and its entry arm."""
     p0 = np.array(block.pose.position, dtype=float)
     yaw = block.pose.yaw
     w = half_width(block)
     back = wrap(yaw + math.pi)
-    entry = Arm("in", _pt(p0), back, w)
-    if isinstance(block, Straight):
-        end = p0 + block.length * _dir(yaw)
-        arms = (entry, Arm("out", _pt(end), wrap(yaw), w))
-        crossings = (CrossingSite(_pt(p0), yaw, w, 0.0, block.length),)
-        return BlockGeometry(_rect(p0, yaw, block.length, w), arms, crossings)
-    if isinstance(block, Curve):
-        side = 1.0 if block.angle >= 0 else -1.0
-        centre = p0 + side * block.radius * _dir(yaw + math.pi / 2)
-        n = max(2, math.ceil(abs(block.angle) / (math.pi / (2 * QUAD_SEGS))) + 1)
-        headings = yaw + np.linspace(0.0, block.angle, n)
-        # Points on the centre line, and the road's left and right edges.
-        normals = np.stack([-np.sin(headings), np.cos(headings)], axis=1)
-        centre_line = centre - side * block.radius * normals
-        left, right = centre_line + w * normals, centre_line - w * normals
-        outline = _clean(Polygon(np.concatenate([right, left[::-1]])))
-        arms = (entry, Arm("out", _pt(centre_line[-1]), wrap(yaw + block.angle), w))
-        return BlockGeometry(outline, arms, ())
-    if isinstance(block, Roundabout):
-        reach = block.radius + w + ROUNDABOUT_APPROACH
-        centre = p0 + reach * _dir(yaw)
-        ring = Point(*centre).buffer(block.radius + w, quad_segs=4 * QUAD_SEGS)
-        island = None
-        if block.radius - w > 0.5:
-            island = Point(*centre).buffer(block.radius - w, quad_segs=4 * QUAD_SEGS)
-            ring = ring.difference(island)
-        parts, arms, crossings = [ring], [], []
-        for i in range(block.arms):
-            out = wrap(back + i * 2 * math.pi / block.arms)
-            start = centre + block.radius * _dir(out)
-            parts.append(_rect(start, out, reach - block.radius, w))
-            end = centre + reach * _dir(out)
-            arms.append(entry if i == 0 else Arm(f"arm{i}", _pt(end), out, w))
-            edge = block.radius + w
-            crossings.append(CrossingSite(_pt(centre), out, w, edge + 1.0, reach - edge - 1.0))
-        outline = _clean(shapely.union_all(parts))
-        return BlockGeometry(outline, tuple(arms), tuple(crossings), island)
-    if isinstance(block, Diverge | Merge):
-        main = _rect(p0, yaw, block.length, w)
-        wb = block.branch_lanes * block.lane_width
-        lb = branch_length(block)
-        end = p0 + block.length * _dir(yaw)
-        if isinstance(block, Diverge):
-            joint = p0 + DIVERGE_AT * block.length * _dir(yaw)
-            out = wrap(yaw + block.branch_angle)
-            branch = _rect(joint, out, lb, wb)
-            tip = joint + lb * _dir(out)
-        else:
-            joint = p0 + MERGE_AT * block.length * _dir(yaw)
-            out = wrap(yaw - block.branch_angle + math.pi)
-            branch = _rect(joint, out, lb, wb)
-            tip = joint + lb * _dir(out)
-        outline = _clean(_close(main.union(branch), BRANCH_FILLET))
-        arms = (entry, Arm("out", _pt(end), wrap(yaw), w), Arm("branch", _pt(tip), out, wb))
-        return BlockGeometry(outline, arms, ())
-    if isinstance(block, Intersection | TIntersection):
-        a = block.arm_length
-        centre = p0 + a * _dir(yaw)
-        names = [("in", back), ("out", wrap(yaw))]
-        if isinstance(block, Intersection):
-            names += [("left", wrap(yaw + math.pi / 2)), ("right", wrap(yaw - math.pi / 2))]
-        else:
-            names.append(("side", wrap(yaw + (1 if block.side == "left" else -1) * math.pi / 2)))
-        parts, arms, crossings = [], [], []
-        for name, out in names:
-            parts.append(_rect(centre - w * _dir(out), out, a + w, w))
-            arms.append(entry if name == "in" else Arm(name, _pt(centre + a * _dir(out)), out, w))
-            offset = w + block.corner_radius + 0.5
-            crossings.append(CrossingSite(_pt(centre), out, w, offset, a - offset))
-        outline = _clean(_close(shapely.union_all(parts), block.corner_radius))
-        return BlockGeometry(outline, tuple(arms), tuple(crossings))
-    raise TypeError(f"not a block: {block!r}")
+    return p0, yaw, w, back, Arm("in", _pt(p0), back, w)
+
+
+def _straight(block: Straight) -> BlockGeometry:
+    p0, yaw, w, _, entry = _entry(block)
+    end = p0 + block.length * _dir(yaw)
+    arms = (entry, Arm("out", _pt(end), wrap(yaw), w))
+    crossings = (CrossingSite(_pt(p0), yaw, w, 0.0, block.length),)
+    return BlockGeometry(_rect(p0, yaw, block.length, w), arms, crossings)
+
+
+def _curve(block: Curve) -> BlockGeometry:
+    p0, yaw, w, _, entry = _entry(block)
+    side = 1.0 if block.angle >= 0 else -1.0
+    centre = p0 + side * block.radius * _dir(yaw + math.pi / 2)
+    n = max(2, math.ceil(abs(block.angle) / (math.pi / (2 * QUAD_SEGS))) + 1)
+    headings = yaw + np.linspace(0.0, block.angle, n)
+    # Points on the centre line, and the road's left and right edges.
+    normals = np.stack([-np.sin(headings), np.cos(headings)], axis=1)
+    centre_line = centre - side * block.radius * normals
+    left, right = centre_line + w * normals, centre_line - w * normals
+    outline = _clean(Polygon(np.concatenate([right, left[::-1]])))
+    arms = (entry, Arm("out", _pt(centre_line[-1]), wrap(yaw + block.angle), w))
+    return BlockGeometry(outline, arms, ())
+
+
+def _roundabout(block: Roundabout) -> BlockGeometry:
+    p0, yaw, w, back, entry = _entry(block)
+    reach = block.radius + w + ROUNDABOUT_APPROACH
+    centre = p0 + reach * _dir(yaw)
+    ring = Point(*centre).buffer(block.radius + w, quad_segs=4 * QUAD_SEGS)
+    island = None
+    if block.radius - w > 0.5:
+        island = Point(*centre).buffer(block.radius - w, quad_segs=4 * QUAD_SEGS)
+        ring = ring.difference(island)
+    parts, arms, crossings = [ring], [], []
+    for i in range(block.arms):
+        out = wrap(back + i * 2 * math.pi / block.arms)
+        start = centre + block.radius * _dir(out)
+        parts.append(_rect(start, out, reach - block.radius, w))
+        end = centre + reach * _dir(out)
+        arms.append(entry if i == 0 else Arm(f"arm{i}", _pt(end), out, w))
+        edge = block.radius + w
+        crossings.append(CrossingSite(_pt(centre), out, w, edge + 1.0, reach - edge - 1.0))
+    outline = _clean(shapely.union_all(parts))
+    return BlockGeometry(outline, tuple(arms), tuple(crossings), island)
+
+
+def _branching(block: Diverge | Merge) -> BlockGeometry:
+    """A diverge's branch leaves at :data:`DIVERGE_AT` of the length, a merge's joins at
+    :data:`MERGE_AT`."""
+    p0, yaw, w, _, entry = _entry(block)
+    main = _rect(p0, yaw, block.length, w)
+    wb = block.branch_lanes * block.lane_width
+    lb = branch_length(block)
+    end = p0 + block.length * _dir(yaw)
+    if isinstance(block, Diverge):
+        joint = p0 + DIVERGE_AT * block.length * _dir(yaw)
+        out = wrap(yaw + block.branch_angle)
+    else:
+        joint = p0 + MERGE_AT * block.length * _dir(yaw)
+        out = wrap(yaw - block.branch_angle + math.pi)
+    branch = _rect(joint, out, lb, wb)
+    tip = joint + lb * _dir(out)
+    outline = _clean(_close(main.union(branch), BRANCH_FILLET))
+    arms = (entry, Arm("out", _pt(end), wrap(yaw), w), Arm("branch", _pt(tip), out, wb))
+    return BlockGeometry(outline, arms, ())
+
+
+def _junction(block: Intersection | TIntersection) -> BlockGeometry:
+    """Arms of ``arm_length`` from the centre: four for an intersection, three for a T."""
+    p0, yaw, w, back, entry = _entry(block)
+    a = block.arm_length
+    centre = p0 + a * _dir(yaw)
+    names = [("in", back), ("out", wrap(yaw))]
+    if isinstance(block, Intersection):
+        names += [("left", wrap(yaw + math.pi / 2)), ("right", wrap(yaw - math.pi / 2))]
+    else:
+        names.append(("side", wrap(yaw + (1 if block.side == "left" else -1) * math.pi / 2)))
+    parts, arms, crossings = [], [], []
+    for name, out in names:
+        parts.append(_rect(centre - w * _dir(out), out, a + w, w))
+        arms.append(entry if name == "in" else Arm(name, _pt(centre + a * _dir(out)), out, w))
+        offset = w + block.corner_radius + 0.5
+        crossings.append(CrossingSite(_pt(centre), out, w, offset, a - offset))
+    outline = _clean(_close(shapely.union_all(parts), block.corner_radius))
+    return BlockGeometry(outline, tuple(arms), tuple(crossings))
+
+
+@dataclass(frozen=True)
+class BlockKind:
+    """One road block class and what the readers of a road network need of it."""
+
+    model: type
+    """The spec's block class."""
+    lay_out: Callable[[Any], BlockGeometry]
+    """Its outline, road ends and crosswalk sites, from its entry socket."""
+    signalised: bool = False
+    """A junction that gets traffic signals (:mod:`citygen.generate.signals`)."""
+    midblock: bool = False
+    """A road between junctions: its crosswalk site is a mid-block crossing, placed by chance
+    and centred in the site's room (:func:`citygen.generate.ground.street_bands`)."""
+
+    @property
+    def name(self) -> str:
+        """The kind's name in the spec (its ``kind`` field)."""
+        return self.model.model_fields["kind"].annotation.__args__[0]
+
+
+#: Every block kind, by its spec class, in the spec's order (:data:`~citygen.spec.blocks.BLOCK_TYPES`).
+BLOCK_KINDS: dict[type, BlockKind] = {
+    Straight: BlockKind(Straight, _straight, midblock=True),
+    Curve: BlockKind(Curve, _curve),
+    Roundabout: BlockKind(Roundabout, _roundabout),
+    Diverge: BlockKind(Diverge, _branching),
+    Merge: BlockKind(Merge, _branching),
+    Intersection: BlockKind(Intersection, _junction, signalised=True),
+    TIntersection: BlockKind(TIntersection, _junction, signalised=True),
+}
+
+
+def block_kind(block) -> BlockKind:
+    """The registry's entry for ``block``'s class.
+
+    >>> block_kind(Straight(id="b0", kind="straight", pose=Pose2(position=(0, 0)), length=5)).name
+    'straight'
+    """
+    try:
+        return BLOCK_KINDS[type(block)]
+    except KeyError:
+        raise TypeError(f"not a block: {block!r}") from None
 
 
 def block_outline(block) -> Polygon:
