@@ -40,8 +40,6 @@ LAYERS = {
     "citygen.exporters": "exporters",
     "citygen.runner": "runner",
     "citygen.cli": "cli",
-    "citygen.cli_runner": "cli",
-    "citygen.cli_train": "cli",
     "citygen.__main__": "cli",
     "citygen": "package",
 }

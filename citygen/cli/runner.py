@@ -1,6 +1,6 @@
 """``citygen bench`` and ``citygen run``: the runner's commands (registered on the app by
-:mod:`citygen.cli`). The runner and MuJoCo are imported when a command runs, so the rest of
-the CLI starts without them."""
+:mod:`citygen.cli.app`). The runner and MuJoCo are imported when a command runs, so the rest
+of the CLI starts without them."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""``citygen train``: PPO on citygen's environments (registered on the app by :mod:`citygen.cli`).
+"""``citygen train``: PPO on citygen's environments (registered on the app by :mod:`citygen.cli.app`).
 Stable-Baselines3 and PyTorch (the optional ``train`` extra) are imported when it runs."""
 
 from __future__ import annotations
