@@ -74,6 +74,7 @@ from citygen.exporters.meshes import (
 from citygen.exporters.options import AUTO, check_options, output_name, resolution_option, scene_dir_of
 from citygen.geometry.features import feature_boxes
 from citygen.geometry.terrain import MIN_THICKNESS, tile_boxes, tile_mesh
+from citygen.geometry.tiles import tile_kind
 from citygen.io import write_atomic
 from citygen.spec.placements import Placement
 from citygen.spec.scene import Scene
@@ -461,7 +462,7 @@ def _add_terrain(
             for lo, hi in boxes:
                 _element(link, kind, ("box", {"size": _v(hi - lo)}), (lo + hi) / 2, material=material)
         slabs = [_slab(area, min(floor, h - MIN_THICKNESS), h) for area, h in split.get(mu, [])]
-        meshes = [k for k in members.tolist() if not isinstance(t.tiles[k], FlatTile | StairTile)]
+        meshes = [k for k in members.tolist() if tile_kind(t.tiles[k]).boxes is None]
         if meshes:
             slabs.append(_tiles(t, np.asarray(meshes), floor, resolution))
         slabs = [(v, f) for v, f in slabs if len(f)]

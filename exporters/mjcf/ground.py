@@ -18,8 +18,9 @@ from citygen.exporters.mjcf.text import nums
 from citygen.geometry.convex import as_rectangle, convex_pieces, polygons
 from citygen.geometry.features import feature_boxes
 from citygen.geometry.terrain import MIN_THICKNESS
+from citygen.geometry.tiles import tile_kind
 from citygen.spec.surfaces import FRICTION
-from citygen.spec.terrain import StairTile, peak
+from citygen.spec.terrain import peak
 
 #: Default of the ``apron`` option: width (m) of the flat ground around the scene.
 DEFAULT_APRON = 20.0
@@ -71,7 +72,9 @@ def add_ground(b: Builder) -> None:
         gx0, gy0, gx1, gy1 = grid.bounds
         bx0, by0, bx1, by1 = min(bx0, gx0), min(by0, gy0), max(bx1, gx1), max(by1, gy1)
         lows = [
-            t.height + min(0.0, peak(t, s)) for t in terrain.tiles if level(t) or isinstance(t, StairTile)
+            t.height + min(0.0, peak(t, s))
+            for t in terrain.tiles
+            if level(t) or tile_kind(t).boxes is not None
         ]
         b.floor = min(FLOOR, min(lows, default=0.0) - MIN_THICKNESS)
     scene_rect = rect(bx0, by0, bx1, by1)

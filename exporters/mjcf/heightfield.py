@@ -18,8 +18,9 @@ from citygen.exporters.mjcf.builder import DEFAULT_FRICTION, GROUND_RGBA, ZONE_R
 from citygen.exporters.mjcf.text import ints, nums
 from citygen.geometry.convex import AREA_EPS
 from citygen.geometry.terrain import tile_boxes, tile_grid
+from citygen.geometry.tiles import tile_kind
 from citygen.spec.surfaces import FRICTION
-from citygen.spec.terrain import FlatTile, RoughTile, SlopeTile, StairTile
+from citygen.spec.terrain import RoughTile, SlopeTile, StairTile
 
 #: Thickness (m) of every heightfield below its lowest sample.
 HFIELD_BASE = 1.0
@@ -35,11 +36,7 @@ MAX_HFIELD_SIDE = 257
 
 def level(tile: Any) -> bool:
     """Whether a tile is flat ground at its height (slabs rather than boxes or a heightfield)."""
-    return (
-        isinstance(tile, FlatTile)
-        or (isinstance(tile, SlopeTile) and tile.angle == 0.0)
-        or (isinstance(tile, RoughTile) and tile.amplitude == 0.0)
-    )
+    return tile_kind(tile).level(tile)
 
 
 def own_friction(tile: Any) -> float | None:

@@ -20,9 +20,10 @@ from citygen.errors import ExportError
 from citygen.exporters import ExportWarning, lod
 from citygen.geometry.features import box_corners, feature_boxes
 from citygen.geometry.terrain import DEFAULT_ROUGH_CELLS, MAX_ROUGH_CELLS, height_grid, tile_mesh
+from citygen.geometry.tiles import tile_kind
 from citygen.spec.scene import Scene
 from citygen.spec.surfaces import FRICTION
-from citygen.spec.terrain import FlatTile, RoughTile, SlopeTile, Terrain, edge_profile
+from citygen.spec.terrain import RoughTile, Terrain, edge_profile
 
 #: Material and friction of ground no zone covers (as the terrain spec says).
 UNZONED_MATERIAL = "concrete"
@@ -55,12 +56,7 @@ class FlatGrid:
 def _level(tile) -> bool:
     """Whether a tile is level ground at its height with no material of its own (the zones
     then carry its ground)."""
-    level = (
-        isinstance(tile, FlatTile)
-        or (isinstance(tile, SlopeTile) and tile.angle == 0.0)
-        or (isinstance(tile, RoughTile) and tile.amplitude == 0.0)
-    )
-    return level and not _own_surface(tile)
+    return tile_kind(tile).level(tile) and not _own_surface(tile)
 
 
 def _own_surface(tile) -> bool:
