@@ -1,5 +1,7 @@
 """The hierarchical generator: one module per stage (blocks, ground, terrain, placement,
-agents, task), each a pure function ``stage(previous_outputs, cfg, rng) -> outputs``.
+agents, task), each a pure function ``stage(previous_outputs, cfg, rng) -> outputs``; one
+module (or folder) per layout in :mod:`citygen.generate.layouts`; the stage loop in
+:mod:`citygen.generate.pipeline`.
 
 >>> from citygen.spec.config import GeneratorConfig
 >>> scene = generate(GeneratorConfig(size=(10.0, 10.0)), seed=7)

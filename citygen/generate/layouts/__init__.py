@@ -9,7 +9,7 @@
 ======================  =====================================================================
 
 Each follows :class:`~.base.Layout`: a class with the layout's ``kind``, a ``plan`` for
-stages 1 and 2, and the later stages' steps (:class:`~.base.Stages` unless it overrides
+stages 1 and 2, and the later stages' steps (:class:`~.base.BaseLayout` unless it overrides
 them). :data:`LAYOUTS` maps ``GeneratorConfig.layout`` to it; a new layout is one module
 and its line here.
 
@@ -19,7 +19,7 @@ and its line here.
 
 from __future__ import annotations
 
-from citygen.generate.layouts.base import Layout, Plan, Stages
+from citygen.generate.layouts.base import BaseLayout, Layout, Plan
 from citygen.generate.layouts.blocks import Blocks
 from citygen.generate.layouts.city import City
 from citygen.generate.layouts.curriculum import Curriculum
@@ -31,4 +31,4 @@ LAYOUTS: dict[str, type[Layout]] = {
     layout.kind: layout for layout in (Region, Blocks, Curriculum, Track, City)
 }
 
-__all__ = ["LAYOUTS", "Layout", "Plan", "Stages"]
+__all__ = ["LAYOUTS", "BaseLayout", "Layout", "Plan"]

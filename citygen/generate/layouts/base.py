@@ -3,7 +3,7 @@
 A *layout* (``GeneratorConfig.layout``) decides how a scene's ground is laid out (stages 1
 and 2: :meth:`Layout.plan`, from the ``blocks`` and ``ground`` stages' generators) and how
 the later stages fill it: the task's endpoints, the terrain, the objects and the people.
-:class:`Stages` runs those later stages for any ground; a layout that does something of
+:class:`BaseLayout` runs those later stages for any ground; a layout that does something of
 its own (a city's curbs and street furniture, a track's units) overrides the step it
 changes and calls the rest as they are. The pipeline (:mod:`citygen.generate.pipeline`)
 calls the steps in order and keeps those a rebuild keeps.
@@ -88,9 +88,10 @@ class Layout(Protocol):
         ...
 
 
-class Stages:
-    """The stages after the ground as most layouts run them, on ``scene`` (which holds the
-    outputs of stages 1 and 2) with the generator config and seed it came from."""
+class BaseLayout:
+    """What the layouts share: the stages after the ground as most layouts run them, on
+    ``scene`` (which holds the outputs of stages 1 and 2) with the generator config and seed it
+    came from. A layout subclasses it with its ``kind`` and ``plan`` (see :class:`Layout`)."""
 
     #: People walk straight lines that stay on walkable ground (a city's streets).
     straight_walks: ClassVar[bool] = False

@@ -4,7 +4,7 @@ Stage 1 connects ``blocks.count`` road blocks (or ``blocks.sequence``) inside th
 each ``ground_margin`` metres from its edge (:func:`~citygen.generate.blocks.connect_blocks`,
 from the ``blocks`` stage's generator); stage 2 divides the ground around them into
 crosswalks, roadway, curbs, sidewalks and lots (:func:`~citygen.generate.ground.plan_ground`,
-from the ``ground`` stage's). The later stages run as :class:`~.base.Stages` runs them.
+from the ``ground`` stage's). The later stages run as :class:`~.base.BaseLayout` runs them.
 """
 
 from __future__ import annotations
@@ -13,13 +13,13 @@ from typing import ClassVar
 
 from citygen.generate.blocks import connect_blocks
 from citygen.generate.ground import ground_margin, plan_ground
-from citygen.generate.layouts.base import Plan, Stages
+from citygen.generate.layouts.base import BaseLayout, Plan
 from citygen.seeding import stage_rng
 from citygen.spec.config import GeneratorConfig
 from citygen.spec.scene import Bounds
 
 
-class Blocks(Stages):
+class Blocks(BaseLayout):
     """A road network and the ground around it."""
 
     kind: ClassVar[str] = "blocks"

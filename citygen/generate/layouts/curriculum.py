@@ -9,12 +9,12 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-from citygen.generate.layouts.base import Plan, Stages
+from citygen.generate.layouts.base import BaseLayout, Plan
 from citygen.spec.config import GeneratorConfig
 from citygen.spec.scene import Bounds
 
 
-class Curriculum(Stages):
+class Curriculum(BaseLayout):
     """No ground plan: the terrain is the scene."""
 
     kind: ClassVar[str] = "curriculum"

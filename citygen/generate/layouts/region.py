@@ -25,7 +25,7 @@ from shapely import affinity
 from shapely.geometry import box
 
 from citygen.errors import GenerationError
-from citygen.generate.layouts.base import Plan, Stages
+from citygen.generate.layouts.base import BaseLayout, Plan
 from citygen.generate.zoning import GRID, QUAD_SEGS, Layer, arrange, polygons, to_zones
 from citygen.seeding import stage_rng, uniform
 from citygen.spec.config import GeneratorConfig, RegionConfig
@@ -33,8 +33,8 @@ from citygen.spec.scene import Bounds
 from citygen.spec.zones import Zone
 
 
-class Region(Stages):
-    """Stages 1 and 2: a region's zones (:func:`plan_region`); the later stages as :class:`Stages`."""
+class Region(BaseLayout):
+    """Stages 1 and 2: a region's zones (:func:`plan_region`); the later stages as :class:`BaseLayout`."""
 
     kind: ClassVar[str] = "region"
 

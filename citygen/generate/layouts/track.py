@@ -19,7 +19,7 @@ from shapely.geometry.base import BaseGeometry
 
 from citygen.errors import GenerationError
 from citygen.generate.agents import place_agents
-from citygen.generate.layouts.base import Plan, Stages
+from citygen.generate.layouts.base import BaseLayout, Plan
 from citygen.generate.placement import place_objects
 from citygen.generate.space import walkable_ground, zone_polygon
 from citygen.generate.task import LEG, Endpoints, robot_clearance
@@ -65,7 +65,7 @@ def track_zones(bounds: Bounds, cfg: TrackConfig, *, seed: int | None = None) ->
     )
 
 
-class Track(Stages):
+class Track(BaseLayout):
     """The stages of a track scene that go unit by unit."""
 
     kind: ClassVar[str] = "track"

@@ -25,7 +25,7 @@ from typing import ClassVar
 from shapely.geometry import LineString
 from shapely.geometry.base import BaseGeometry
 
-from citygen.generate.layouts.base import Plan, Stages
+from citygen.generate.layouts.base import BaseLayout, Plan
 from citygen.generate.layouts.city.furniture import street_furniture
 from citygen.generate.layouts.city.ground import plan_city_ground
 from citygen.generate.layouts.city.streets import plan_city
@@ -39,7 +39,7 @@ from citygen.spec.scene import Bounds
 from citygen.spec.terrain import Terrain
 
 
-class City(Stages):
+class City(BaseLayout):
     """A city: its streets, city blocks, curbs, furniture and signals (see the module docstring)."""
 
     kind: ClassVar[str] = "city"
