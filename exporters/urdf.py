@@ -12,15 +12,29 @@ fixed to the root by a joint named ``joint/<link>`` whose origin places it:
 - ``zone/<id>``: each zone's draped ground surface as its visual (coloured by kind), and
   where the zone lies outside the terrain grid a slab from ``-zone_thickness`` up to
   ``z = 0`` as its collision, with the zone's friction.
-- ``ground/plane``: the rest of the scene's bounds outside the grid, a slab like the zones'.
+- ``ground/plane``: the rest of the scene's bounds outside the grid, a slab like the zones';
+  ``ground/apron``: four boxes ``apron`` metres wide around the scene and its grid at
+  ``z = 0`` (the MJCF's apron), so a body that rolls off the scene stays on the ground.
 - ``ground/terrain/<k>``: the terrain's tiles, one link per friction coefficient (a tile's
   own friction, else its material's, else the zones' frictions averaged by area, rounded
   to :data:`FRICTION_STEP`, with one :class:`ExportWarning` saying how far that is from the
-  zones' on how much of the terrain). Flat tiles (merged into rectangles where neighbours
-  agree) and stair treads are boxes; slope and rough tiles are one triangle mesh flagged ``concave="yes"``, so
-  PyBullet keeps pits and bumps instead of taking their convex hull.
+  zones' on how much of the terrain). Flat tiles are cut where the zone changes, each piece
+  keeping its zone's friction.
 
-Friction is PyBullet's ``<contact><lateral_friction>`` extension, which other readers ignore.
+All ground collision is **convex pieces** (:mod:`citygen.exporters.pieces`), so that loaders
+which take each collision mesh's convex hull (SAPIEN, Genesis, Isaac Sim's importer) get the
+ground PyBullet gets: flat ground is boxes, or prisms where a piece is not a rectangle;
+stairs are their treads' boxes; a slope is one prism (a pyramid or a pit five); a rough tile
+is tilted boxes within ``tolerance`` of ``height_at`` (:mod:`citygen.geometry.pieces`). The
+terrain's visual is its boxes, or its tiles' meshes where it is not made of boxes. Only a
+placement's mesh file stays one concave mesh (``concave="yes"``, PyBullet's extension).
+
+Friction is written as PyBullet reads it (``<contact><lateral_friction>``) and as Gazebo
+does (``<gazebo reference="<link>"><mu1>``, ``<mu2>``); SAPIEN's and Genesis' URDF readers
+read neither, so their recipes set it by hand (docs/simulators/). ``visual=False`` leaves
+every ``<visual>`` out (and its meshes): a loader on a machine without a rendering device
+(SAPIEN) loads the collision geometry alone; :func:`frictions` reads the frictions back.
+
 Meshes are Wavefront OBJ files (:func:`obj_bytes`) under ``<out_dir>/assets/``, named by their content
 (:func:`~citygen.exporters.shared_file`), so scenes exported to one folder share them.
 Agents and the task cannot be expressed: each raises an :class:`ExportWarning`. Units are
@@ -72,14 +86,24 @@ from citygen.exporters.meshes import (
     zone_rgba,
 )
 from citygen.exporters.options import AUTO, check_options, output_name, resolution_option, scene_dir_of
+from citygen.exporters.pieces import (
+    APRON,
+    PIECE_BUDGETS,
+    TILED_PIECE_BUDGET,
+    apron_boxes,
+    flat_pieces,
+    terrain_pieces,
+    tolerance_option,
+)
 from citygen.geometry.features import feature_boxes
+from citygen.geometry.pieces import Pieces, axis_boxes, prism_mesh
 from citygen.geometry.terrain import MIN_THICKNESS, tile_boxes, tile_mesh
 from citygen.geometry.tiles import tile_kind
 from citygen.io import write_atomic
 from citygen.spec.placements import Placement
 from citygen.spec.scene import Scene
 from citygen.spec.surfaces import FRICTION
-from citygen.spec.terrain import FlatTile, RoughTile, StairTile, Terrain
+from citygen.spec.terrain import FlatTile, RoughTile, Terrain
 
 ROOT = "scene/world"
 #: Thickness (m) of the slabs that carry the flat ground's collision outside the terrain grid.
@@ -88,7 +112,10 @@ ZONE_THICKNESS = 0.1
 FLOOR = -1.0
 CAPSULES = ("mesh", "pybullet")
 
-_OPTIONS = ("name", "scene_dir", "resolution", "floor", "zone_thickness", "capsules", "tile")
+_OPTIONS = (
+    "name", "scene_dir", "resolution", "floor", "zone_thickness", "capsules", "tile", "visual", "apron",
+    "tolerance",
+)  # fmt: skip
 #: Most links (about one a zone and one an object) a scene's URDF holds in one file; a
 #: larger scene is cut into tiles of about :data:`TILE_LINKS` links each. PyBullet 3.2.7
 #: loads the 15,000 links of urban-tra-city's one-file URDF in about 95 s and crashes
@@ -121,10 +148,12 @@ def obj_bytes(vertices: np.ndarray, faces: np.ndarray) -> bytes:
 class _Writer:
     """Builds the URDF tree and writes its meshes, each once, under ``out_dir/assets``."""
 
-    def __init__(self, out_dir: Path, name: str, assets: dict | None = None) -> None:
+    def __init__(self, out_dir: Path, name: str, assets: dict | None = None, visual: bool = True) -> None:
         self.out_dir = out_dir
         #: Each catalog asset's meshes as already written (shared by the tiles of one export).
         self.assets: dict[str, tuple] = {} if assets is None else assets
+        #: Whether links get ``<visual>`` elements (and their meshes and materials).
+        self.visual = visual
         self.robot = ET.Element("robot", name=name)
         self.materials: dict[str, RGBA] = {}
         self.files: dict[Path, None] = {}
@@ -151,10 +180,22 @@ class _Writer:
         ET.SubElement(joint, "parent", link=ROOT)
         ET.SubElement(joint, "child", link=name)
         ET.SubElement(joint, "origin", xyz=_v(xyz), rpy=_v((0.0, 0.0, yaw)))
-        if friction is not None:
+        if friction is not None:  # PyBullet's extension, and Gazebo's (SDFormat's URDF reader)
             contact = ET.SubElement(link, "contact")
             ET.SubElement(contact, "lateral_friction", value=_f(friction))
+            gazebo = ET.SubElement(self.robot, "gazebo", reference=name)
+            ET.SubElement(gazebo, "mu1").text = _f(friction)
+            ET.SubElement(gazebo, "mu2").text = _f(friction)
         return link
+
+    def pieces(self, link: ET.Element, pieces: Pieces, offset=(0.0, 0.0, 0.0)) -> None:
+        """Convex pieces as ``link``'s collision elements, moved by ``offset``: boxes as
+        ``<box>``, prisms as meshes (written in the pieces' frame, so tiles alike share them)."""
+        for centre, half, (roll, pitch, yaw) in pieces.boxes:
+            box = ("box", {"size": _v(2.0 * half)})
+            _element(link, "collision", box, centre + offset, yaw, pitch=-pitch, roll=roll)
+        for top in pieces.prisms:
+            _element(link, "collision", _mesh_geometry(self.mesh(*prism_mesh(top, pieces.bottom))), offset)
 
     def text(self) -> str:
         for i, (name, colour) in enumerate(sorted(self.materials.items())):
@@ -181,10 +222,11 @@ def _element(
     material: str | None = None,
     concave: bool = False,
     pitch: float = 0.0,
+    roll: float = 0.0,
 ) -> None:
     """A ``<visual>`` or ``<collision>`` element of ``link`` (``pitch`` raises its +x end)."""
     el = ET.SubElement(link, kind, {"concave": "yes"} if concave else {})
-    ET.SubElement(el, "origin", xyz=_v(xyz), rpy=_v((0.0, -pitch, yaw)))
+    ET.SubElement(el, "origin", xyz=_v(xyz), rpy=_v((roll, -pitch, yaw)))
     geo = ET.SubElement(el, "geometry")
     ET.SubElement(geo, geometry[0], geometry[1])
     if material is not None:
@@ -207,17 +249,16 @@ def _add_placement(w: _Writer, pl: Placement, index: int, folder: Path | None, c
     k = pl.scale
     if pl.is_mesh:
         mesh = file_mesh(pl, index, folder)
-        for colour, faces in colour_groups(mesh):
+        for colour, faces in colour_groups(mesh) if w.visual else ():
             material = w.material(_colour_name("mesh", colour), tuple(c / 255 for c in colour))
             _element(link, "visual", _mesh_geometry(w.mesh(*submesh(mesh, faces)), k), material=material)
         _element(link, "collision", _mesh_geometry(w.mesh(mesh.vertices, mesh.faces), k), concave=True)
         return
     if pl.asset not in w.assets:  # an asset's meshes are the same wherever it stands: made once
         asset = catalog_asset(pl, index)
-        visual = asset.visual_mesh()
         names = {tuple(round(c * 255) for c in p.material.rgba): p.material.name for p in asset.parts}
         looks = []
-        for colour, faces in colour_groups(visual):
+        for colour, faces in colour_groups(visual := asset.visual_mesh()) if w.visual else ():
             path = shared_file(w.out_dir, obj_bytes(*submesh(visual, faces)), ".obj")
             look = _colour_name(names.get(colour, "part"), colour)
             looks.append((look, tuple(c / 255 for c in colour), path))
@@ -285,31 +326,42 @@ def _slab(geom: shapely.Geometry, bottom: float, top: float) -> tuple[np.ndarray
     return np.concatenate(verts), np.concatenate(faces)
 
 
-def _add_ground(w: _Writer, scene: Scene, polys: list, resolution: float | None, thickness: float) -> None:
+def _add_ground(
+    w: _Writer, scene: Scene, polys: list, resolution: float | None, thickness: float, apron: np.ndarray
+) -> None:
+    """Each zone's link (its draped surface as the visual, its flat ground outside the
+    terrain grid as convex pieces), the rest of the bounds (``ground/plane``) and the apron's
+    boxes (``ground/apron``)."""
     grid = grid_box(scene)
-    surfaces = drape(scene, polys, resolution=resolution)
+    surfaces = drape(scene, polys, resolution=resolution) if w.visual else [((), ())] * len(polys)
     for zone, poly, (verts, faces) in zip(scene.zones, polys, surfaces, strict=True):
         link = w.link(f"zone/{zone.id}", friction=zone.mu)
         if len(faces):
             material = w.material(f"zone-{zone.kind}", zone_rgba(zone.kind))
             filename = w.mesh(verts + np.array([0.0, 0.0, ZONE_LIFT]), faces)
             _element(link, "visual", _mesh_geometry(filename), material=material)
-        flat = poly if grid is None else poly.difference(grid)
-        sv, sf = _slab(flat, -thickness, 0.0)
-        if len(sf):
-            _element(link, "collision", _mesh_geometry(w.mesh(sv, sf)), concave=True)
+        w.pieces(link, flat_pieces(poly if grid is None else poly.difference(grid), -thickness, 0.0))
     (x0, y0), (x1, y1) = scene.bounds.min, scene.bounds.max
     rest = shapely.box(x0, y0, x1, y1)
     if grid is not None:
         rest = rest.difference(grid)
     if polys:
         rest = rest.difference(shapely.union_all(polys))
-    sv, sf = _slab(rest, -thickness, 0.0)
-    if len(sf):
+    if not rest.is_empty and rest.area > 1e-9:
         link = w.link("ground/plane", friction=FRICTION["concrete"])
-        filename = w.mesh(sv, sf)
-        _element(link, "visual", _mesh_geometry(filename), material=w.material("ground", GROUND_RGBA))
-        _element(link, "collision", _mesh_geometry(filename), concave=True)
+        sv, sf = _slab(rest, -thickness, 0.0)
+        if w.visual and len(sf):
+            _element(
+                link, "visual", _mesh_geometry(w.mesh(sv, sf)), material=w.material("ground", GROUND_RGBA)
+            )
+        w.pieces(link, flat_pieces(rest, -thickness, 0.0))
+    if len(apron):
+        link = w.link("ground/apron", friction=FRICTION["concrete"])
+        for centre, half, _ in apron:
+            if w.visual:
+                box = ("box", {"size": _v(2.0 * half)})
+                _element(link, "visual", box, centre, material=w.material("ground", GROUND_RGBA))
+        w.pieces(link, Pieces(apron, (), -thickness))
 
 
 #: Step (m) tile frictions are rounded to, so tiles share links.
@@ -428,11 +480,14 @@ def _split_flat(
 
 
 def _add_terrain(
-    w: _Writer, scene: Scene, polys: list, friction: np.ndarray, resolution: float | None, floor: float
-) -> None:
+    w: _Writer, scene: Scene, polys: list, friction: np.ndarray, resolution: float | None, floor: float,
+    tolerance: float,
+) -> None:  # fmt: skip
     """The terrain's links, one per friction coefficient. ``friction`` is each tile's
     (:func:`tile_friction`); flat tiles without a friction of their own are instead cut
-    where the zone changes (:func:`_split_flat`), each piece a slab with its zone's."""
+    where the zone changes (:func:`_split_flat`), each piece a slab with its zone's. The
+    collision is convex pieces (:mod:`citygen.exporters.pieces`, rough tiles within
+    ``tolerance`` m); the visual is boxes where the ground is boxes, else the tiles' meshes."""
     t = scene.terrain
     if t is None:
         return
@@ -442,25 +497,34 @@ def _add_terrain(
     friction = np.round(friction, 6)
     split = _split_flat(t, np.flatnonzero(flat & ~own), polys, [z.mu for z in scene.zones])
     values = list(dict.fromkeys([*friction[~(flat & ~own)].tolist(), *split]))  # deterministic order
-    terrain_material = w.material("terrain", TERRAIN_RGBA)
+    terrain_material = w.material("terrain", TERRAIN_RGBA) if w.visual else None
+    shaped = np.flatnonzero(~flat)
+    pieces = terrain_pieces(scene, shaped[np.isin(friction[shaped], values)], floor, tolerance)
     for g, mu in enumerate(values):
         members = np.flatnonzero((friction == mu) & ~(flat & ~own))
         link = w.link(f"ground/terrain/{g}", friction=mu)
-        # The visual is the collision geometry itself (the zones' surfaces colour it).
         boxes = [
             np.array(
                 [(ox + c0 * s, oy + r0 * s, min(floor, h - MIN_THICKNESS)), (ox + c1 * s, oy + r1 * s, h)]
             )
             for r0, c0, r1, c1, h in _flat_rectangles(t, members)
         ]
+        w.pieces(link, Pieces(axis_boxes(np.array(boxes)), (), floor))
+        for area, h in split.get(mu, []):
+            w.pieces(link, flat_pieces(area, min(floor, h - MIN_THICKNESS), h))
         for k in members.tolist():
-            tile = t.tiles[k]
-            if isinstance(tile, StairTile):
+            if not flat[k]:
+                w.pieces(link, pieces[k], (ox + (k % t.cols) * s, oy + (k // t.cols) * s, 0.0))
+        if not w.visual:
+            continue
+        # The visual: boxes where the ground is made of boxes, else the tiles' meshes (the
+        # zones' surfaces colour it).
+        for k in members.tolist():
+            if not flat[k] and tile_kind(t.tiles[k]).boxes is not None:
                 corner = np.array([ox + (k % t.cols) * s, oy + (k // t.cols) * s, 0.0])
-                boxes += list(tile_boxes(tile, s, floor=floor) + corner)
-        for kind, material in (("visual", terrain_material), ("collision", None)):
-            for lo, hi in boxes:
-                _element(link, kind, ("box", {"size": _v(hi - lo)}), (lo + hi) / 2, material=material)
+                boxes += list(tile_boxes(t.tiles[k], s, floor=floor) + corner)
+        for lo, hi in boxes:
+            _element(link, "visual", ("box", {"size": _v(hi - lo)}), (lo + hi) / 2, material=terrain_material)
         slabs = [_slab(area, min(floor, h - MIN_THICKNESS), h) for area, h in split.get(mu, [])]
         meshes = [k for k in members.tolist() if tile_kind(t.tiles[k]).boxes is None]
         if meshes:
@@ -470,9 +534,7 @@ def _add_terrain(
             offsets = np.cumsum([0] + [len(v) for v, _ in slabs[:-1]])
             verts = np.concatenate([v for v, _ in slabs])
             faces = np.concatenate([f + o for (_, f), o in zip(slabs, offsets, strict=True)])
-            filename = w.mesh(verts, faces)
-            _element(link, "visual", _mesh_geometry(filename), material=terrain_material)
-            _element(link, "collision", _mesh_geometry(filename), concave=True)
+            _element(link, "visual", _mesh_geometry(w.mesh(verts, faces)), material=terrain_material)
     # Terrain features: oriented boxes, one link per friction.
     groups: dict[float, list] = {}
     for f in t.features or ():
@@ -482,8 +544,9 @@ def _add_terrain(
         for f in group:
             for centre, half, yaw, pitch in feature_boxes(f):
                 for kind, material in (("visual", terrain_material), ("collision", None)):
-                    size = ("box", {"size": _v(2.0 * np.asarray(half))})
-                    _element(link, kind, size, centre, yaw, material=material, pitch=pitch)
+                    if kind == "collision" or w.visual:
+                        size = ("box", {"size": _v(2.0 * np.asarray(half))})
+                        _element(link, kind, size, centre, yaw, material=material, pitch=pitch)
 
 
 def _tiles(t: Terrain, members: np.ndarray, floor: float, resolution: float | np.ndarray | None):
@@ -515,16 +578,21 @@ def _write(
     """One URDF file of ``piece``: its path, its meshes, its rough tiles' coarsest cell size
     and its links. ``lod_choice`` is :func:`_auto_lod`'s, None for an explicit ``resolution``."""
     view, placements = piece.scene, piece.scene.placements
-    if lod_choice is None:
+    if not options["visual"]:
+        visual = terrain = None  # no visual meshes: no level of detail to choose
+    elif lod_choice is None:
         visual = terrain = fit_terrain(view, options["resolution"], "urdf", None)
     else:
         visual, cells = lod_choice
         terrain = (
             None if cells is None else view.terrain.tile_size / np.maximum(cells[piece.terrain_tiles], 1)
         )
-    w = _Writer(out, name, options.get("assets"))
-    _add_ground(w, view, piece.zones, visual, options["thickness"])
-    _add_terrain(w, view, piece.zones, friction[piece.terrain_tiles], terrain, options["floor"])
+    w = _Writer(out, name, options.get("assets"), options["visual"])
+    apron = apron_boxes(options["model"], options["apron"], -options["thickness"], piece.box)
+    _add_ground(w, view, piece.zones, visual, options["thickness"], apron)
+    _add_terrain(
+        w, view, piece.zones, friction[piece.terrain_tiles], terrain, options["floor"], options["tolerance"]
+    )
     for i in piece.placements:
         _add_placement(w, placements[i], i, folder, options["capsules"])
     path = out / f"{name}.urdf"
@@ -563,6 +631,22 @@ def _auto_lod(model: Scene, pieces: list[tiles.Piece]) -> tuple[float | None, np
     return visual, cells
 
 
+def frictions(path: str | Path) -> dict[str, float]:
+    """Each link's friction coefficient as a URDF file of this exporter gives it, for loaders
+    that read none from the file (SAPIEN: ``loader.set_link_material(link, mu, mu, 0.0)``).
+
+    >>> import tempfile, warnings
+    >>> with tempfile.TemporaryDirectory() as out, warnings.catch_warnings():
+    ...     warnings.simplefilter("ignore")
+    ...     mu = frictions(export("examples/nav_static_10m.json", out, visual=False)[0])
+    >>> mu["ground/apron"]  # concrete's
+    0.75
+    """
+    root = ET.parse(path).getroot()
+    found = ((link.get("name"), link.find("contact/lateral_friction")) for link in root.iter("link"))
+    return {name: float(el.get("value")) for name, el in found if el is not None}
+
+
 def links(scene: Scene) -> int:
     """About how many links the scene's URDF has in one file."""
     return 2 + len(scene.zones) + len(scene.placements) + (8 if scene.terrain is not None else 0)
@@ -593,7 +677,11 @@ def export(scene: Scene | str | Path, out_dir: str | Path, **options: Any) -> li
     default -1), ``zone_thickness`` (m, default 0.1), ``capsules`` (``"mesh"``, the
     default, writes capsules as convex meshes every reader loads; ``"pybullet"`` writes
     PyBullet's ``<capsule>``), ``tile`` (m, side of the URDF tiles; 0 writes one file
-    whatever the size; default :func:`tile_side`).
+    whatever the size; default :func:`tile_side`), ``visual`` (default True; False writes
+    collision geometry only), ``apron`` (m, width of the ground around the scene, default
+    :data:`~citygen.exporters.pieces.APRON`; 0 for none), ``tolerance`` (m, how far rough
+    tiles' convex pieces may lie from ``height_at``; default 0.01, coarser with one warning
+    where they would exceed :data:`~citygen.exporters.pieces.PIECE_BUDGETS`).
     """
     check_options(options, _OPTIONS, "urdf")
     name = output_name(scene, options, "urdf")
@@ -612,9 +700,21 @@ def export(scene: Scene | str | Path, out_dir: str | Path, **options: Any) -> li
     if isinstance(side, bool) or not isinstance(side, int | float) or not math.isfinite(side) or side < 0:
         raise ExportError(f"urdf export: expected tile >= 0 (m; 0 for one file), got {side!r}")
     resolution = resolution_option(options.get("resolution", AUTO), "urdf")
+    visual, apron = options.get("visual", True), options.get("apron", APRON)
+    if not isinstance(visual, bool):
+        raise ExportError(f"urdf export: expected visual True or False, got {visual!r}")
+    if (
+        isinstance(apron, bool)
+        or not isinstance(apron, int | float)
+        or not (math.isfinite(apron) and apron >= 0)
+    ):
+        raise ExportError(f"urdf export: expected apron >= 0 (m; 0 for none), got {apron!r}")
+    budget = PIECE_BUDGETS["urdf"] if side == 0 else TILED_PIECE_BUDGET
     settings = {
         "resolution": AUTO if resolution is None else resolution,
-        "thickness": thickness, "floor": floor, "capsules": capsules, "assets": {},
+        "thickness": thickness, "floor": floor, "capsules": capsules, "assets": {}, "visual": visual,
+        "apron": float(apron), "model": model,
+        "tolerance": tolerance_option(options.get("tolerance", AUTO), model, "urdf", budget),
     }  # fmt: skip
     out = Path(out_dir)
     polys = zone_polygons(model)
@@ -626,7 +726,7 @@ def export(scene: Scene | str | Path, out_dir: str | Path, **options: Any) -> li
             0, 0, (*model.bounds.min, *model.bounds.max), model, polys, list(range(len(model.zones))),
             list(range(len(model.placements))), np.arange(len(model.terrain.tiles) if model.terrain else 0),
         )  # fmt: skip
-        choice = _auto_lod(model, [whole]) if settings["resolution"] == AUTO else None
+        choice = _auto_lod(model, [whole]) if settings["resolution"] == AUTO and visual else None
         path, files, _, _ = _write(out, name, whole, folder, friction, settings, choice)
         written = [path]
     else:
@@ -651,7 +751,7 @@ def _write_tiles(
 ) -> tuple[list[Path], list[Path]]:  # fmt: skip
     """Every tile's URDF and the index."""
     pieces = tiles.plan(model, side, polys)
-    choice = _auto_lod(model, pieces) if settings["resolution"] == AUTO else None
+    choice = _auto_lod(model, pieces) if settings["resolution"] == AUTO and settings["visual"] else None
     digits = tiles.width(pieces)
     paths, files, entries = [], [], []
     for piece in pieces:

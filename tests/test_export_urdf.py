@@ -2,8 +2,8 @@
 
 Rays cast in PyBullet from above must hit each object where the spec puts it (at the top
 of the asset's parts there, on the placement's own link), the terrain at ``height_at``
-(pits included, so its meshes stay concave) and the flat zones at z = 0 with their
-friction. The scene builders here are shared with the GLB and HTML tests.
+(pits included: its convex pieces keep them; rough tiles within their tolerance) and the
+flat zones at z = 0 with their friction. The scene builders here are shared with the GLB and HTML tests.
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ from citygen import validate
 from citygen.assets import resolve
 from citygen.errors import ExportError
 from citygen.exporters import ExportWarning, glb, urdf
+from citygen.geometry.pieces import ROUGH_TOLERANCE
 from citygen.geometry.terrain import height_at
 from citygen.io import load_scene, save_scene
 from citygen.spec import Scene
@@ -267,7 +268,7 @@ def test_every_thing_is_a_link_fixed_to_the_root(street, tmp_path, bullet):
     assert files[0] == tmp_path / "street.urdf"
     assert all(f.is_file() and f.parent == tmp_path / "assets" for f in files[1:])
     b = bullet(files[0])
-    expected = {"scene/world", "ground/plane", *(f"zone/{z.id}" for z in scene.zones)}
+    expected = {"scene/world", "ground/plane", "ground/apron", *(f"zone/{z.id}" for z in scene.zones)}
     expected |= {p.id for p in scene.placements}
     # one terrain link per friction coefficient: 0.3, rubber's and the sidewalk's
     expected |= {"ground/terrain/0", "ground/terrain/1", "ground/terrain/2"}
@@ -325,6 +326,11 @@ def _terrain_probes() -> list[tuple[float, float]]:
     return pts
 
 
+#: How far (m) PyBullet's rays may meet the ground from height_at: rough tiles' pieces lie
+#: within their tolerance; convex meshes (slopes' prisms) carry PyBullet's 1 mm margin.
+ROUGH_OFF, MESH_OFF = ROUGH_TOLERANCE + 2e-3, 1.5e-3
+
+
 def test_rays_hit_the_terrain_at_height_at(street, tmp_path, bullet):
     path, scene = street
     b = bullet(export_quiet(path, tmp_path, resolution=0.05)[0])
@@ -335,14 +341,15 @@ def test_rays_hit_the_terrain_at_height_at(street, tmp_path, bullet):
             continue  # an object stands there
         link, z = b.ray(xy)
         expected = float(height_at(scene, *xy))
-        rough = ORIGIN[0] + 5 * TILE <= xy[0] <= ORIGIN[0] + 6 * TILE
+        kind = TILE_ROW[min(int((xy[0] - ORIGIN[0]) // TILE), len(TILE_ROW) - 1)]["kind"]
         assert link is not None and link.startswith("ground/terrain/"), xy
-        assert z == pytest.approx(expected, abs=6e-3 if rough else 1e-4), xy
+        off = {"rough": ROUGH_OFF, "slope": MESH_OFF}.get(kind, 1e-4)
+        assert z == pytest.approx(expected, abs=off), xy
         checked += 1
     assert checked >= 60
-    # The pit's floor is below its rim: PyBullet kept the mesh concave.
+    # The pit's floor is below its rim: its five convex pieces keep it a pit.
     pit = (ORIGIN[0] + 6.5 * TILE, ORIGIN[1] + 0.5 * TILE)
-    assert b.ray(pit) == ("ground/terrain/0", pytest.approx(R2 - math.tan(0.3) * TILE / 3, abs=1e-4))
+    assert b.ray(pit) == ("ground/terrain/0", pytest.approx(R2 - math.tan(0.3) * TILE / 3, abs=MESH_OFF))
 
 
 def test_rays_hit_flat_zones_at_ground_level_with_their_friction(street, tmp_path, bullet):
@@ -372,10 +379,10 @@ def test_yourdfpy_reads_links_transforms_and_meshes(street, tmp_path):
         np.testing.assert_allclose(model.get_transform(pl.id, "scene/world"), expected, atol=1e-6)
     lamp = scene.placements[1]
     assert len(model.link_map[lamp.id].collisions) == len(resolve(lamp.asset).parts)
-    # Everything it loads lies within the scene's bounds, from the slabs' bottom up.
+    # Everything it loads lies within the scene's bounds and the apron around them.
     lo, hi = model.collision_scene.bounds
-    assert lo[:2] == pytest.approx(scene.bounds.min, abs=1e-6)
-    assert hi[:2] == pytest.approx(scene.bounds.max, abs=1e-6)
+    assert lo[:2] == pytest.approx(np.asarray(scene.bounds.min) - urdf.APRON, abs=1e-6)
+    assert hi[:2] == pytest.approx(np.asarray(scene.bounds.max) + urdf.APRON, abs=1e-6)
     visual = model.scene.bounds
     assert visual[1][2] == pytest.approx(
         max(resolve(p.asset).height for p in scene.placements[:-1]), abs=0.05
@@ -428,7 +435,6 @@ def test_a_generated_street_loads_and_matches_height_at(tmp_path, bullet):
     scene = generated_scene(0)
     b = bullet(export_quiet(scene, tmp_path, resolution=0.05)[0])
     rng = np.random.default_rng(0)
-    rough = {k for k, t in enumerate(scene.terrain.tiles) if t.kind == "rough"}
     t = scene.terrain
     for xy in rng.uniform((1.0, 1.0), (59.0, 59.0), size=(200, 2)):
         link, z = b.ray(xy)
@@ -437,7 +443,7 @@ def test_a_generated_street_loads_and_matches_height_at(tmp_path, bullet):
         col = int((xy[0] - t.origin[0]) // t.tile_size)
         row = int((xy[1] - t.origin[1]) // t.tile_size)
         inside = 0 <= col < t.cols and 0 <= row < t.rows
-        tol = 6e-3 if inside and row * t.cols + col in rough else 1e-4
+        tol = ROUGH_OFF if inside and t.tile(row, col).kind == "rough" else MESH_OFF
         if inside and t.tile(row, col).kind == "stair":
             continue  # a probe may fall within a riser's rounding
         assert link is not None, xy

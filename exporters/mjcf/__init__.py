@@ -17,8 +17,11 @@ What the model holds (metres, radians, Z up; ``<compiler angle="radian"/>``):
   slope and rough tiles are one heightfield each, sampled from
   :func:`~citygen.geometry.terrain.tile_height` every ``resolution`` metres or finer
   (rough tiles every ``scale / 8``, at most four times finer than ``resolution``), so
-  every tile edge is exact and meets its neighbour. A non-level tile has one friction: its
-  own (``friction`` or ``material``),
+  every tile edge is exact and meets its neighbour; with ``terrain="convex"`` (for readers
+  without heightfields) they are convex pieces instead, exact for slopes, within
+  ``tolerance`` of ``height_at`` for rough tiles (:mod:`citygen.geometry.pieces`: geoms
+  ``terrain:<kind>:<row>_<col>:<k>``, prisms' meshes ``terrain:mesh:<n>``). A non-level
+  tile has one friction: its own (``friction`` or ``material``),
   else that of the zone covering most of it, else :data:`DEFAULT_FRICTION`; where zones
   of different friction share such a tile an :class:`ExportWarning` says so.
 - **Objects.** One static body per placement (``object:<id>``) whose geoms are the
@@ -121,6 +124,7 @@ from citygen.exporters.mjcf.heightfield import (
     MAX_HFIELD_SIDE,
 )
 from citygen.exporters.mjcf.objects import MAX_MESH_PARTS
+from citygen.exporters.pieces import PIECE_BUDGETS, tolerance_option
 from citygen.geometry.convex import convex_pieces
 from citygen.io import write_atomic
 from citygen.spec.scene import Scene
@@ -128,7 +132,10 @@ from citygen.spec.scene import Scene
 if TYPE_CHECKING:
     import mujoco
 
-_OPTIONS = ("name", "resolution", "apron", "mesh_dir")
+_OPTIONS = ("name", "resolution", "apron", "mesh_dir", "terrain", "tolerance")
+#: The ``terrain`` option's values: slope and rough tiles as heightfields (MuJoCo), or as
+#: convex pieces (readers without heightfields, such as Genesis).
+TERRAINS = ("heightfield", "convex")
 
 
 def _check_options(options: Mapping[str, object]) -> dict[str, Any]:
@@ -152,6 +159,11 @@ def _check_options(options: Mapping[str, object]) -> dict[str, Any]:
     if mesh_dir is not None and not isinstance(mesh_dir, str | Path):
         raise ExportError(f"mjcf export: mesh_dir: expected a folder path, got {mesh_dir!r}")
     out["mesh_dir"] = None if mesh_dir is None else Path(mesh_dir)
+    out["terrain"] = options.get("terrain", "heightfield")
+    if out["terrain"] not in TERRAINS:
+        raise ExportError(
+            f"mjcf export: terrain: expected one of {', '.join(TERRAINS)}, got {out['terrain']!r}"
+        )
     return out
 
 
@@ -167,13 +179,20 @@ def to_mjcf(scene: Scene | str | Path, **options: object) -> MJCF:
     (largest heightfield sample spacing in m; default None: 0.1, or coarser with one
     warning where the scene's heightfields would exceed ``lod.BUDGETS["mjcf"]`` samples),
     ``apron`` (width in m of the flat ground around the scene, default 20; 0 for none),
-    ``mesh_dir`` (the folder mesh paths are relative to, for a scene given as a model).
+    ``mesh_dir`` (the folder mesh paths are relative to, for a scene given as a model),
+    ``terrain`` (``"heightfield"``, the default: slope and rough tiles as heightfields;
+    ``"convex"``: as convex pieces, :mod:`citygen.geometry.pieces`, for readers without
+    heightfields such as Genesis), ``tolerance`` (m, how far a convex rough tile's pieces may
+    lie from ``height_at``; default 0.01, coarser with one warning where the pieces would
+    exceed ``pieces.PIECE_BUDGETS["mjcf"]``).
     Anything the format cannot express is reported as an :class:`~citygen.exporters.ExportWarning`.
     """
     opts = _check_options(options)
     model, base = as_scene(scene)
     file = None if isinstance(scene, Scene) else str(scene)
-    b = Builder(model, file, opts["mesh_dir"] or base, opts["resolution"], opts["apron"])
+    b = Builder(model, file, opts["mesh_dir"] or base, opts["resolution"], opts["apron"], opts["terrain"])
+    if b.terrain == "convex" and model.terrain is not None:
+        b.tolerance = tolerance_option(options.get("tolerance"), model, "mjcf", PIECE_BUDGETS["mjcf"])
     out = assemble(b, scene_name(scene, options.get("name")))
     for message in b.warnings:
         warnings.warn(ExportWarning(message), stacklevel=2)
@@ -245,6 +264,7 @@ __all__ = [
     "SEP",
     "SIGNAL_HEIGHT",
     "STATIC_BIT",
+    "TERRAINS",
     "VEHICLE_HEIGHT",
     "ZONE_RGBA",
     "arena_mb",

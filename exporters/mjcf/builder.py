@@ -12,6 +12,7 @@ from types import MappingProxyType
 
 from citygen.exporters import ZONE_COLORS
 from citygen.exporters.mjcf.text import num, nums
+from citygen.geometry.pieces import ROUGH_TOLERANCE
 from citygen.spec.scene import Scene
 from citygen.spec.surfaces import FRICTION
 
@@ -48,6 +49,10 @@ class Builder:
     base_dir: Path | None
     resolution: float | None
     apron: float
+    #: ``heightfield`` (slope and rough tiles as heightfields) or ``convex`` (as convex pieces
+    #: within ``tolerance`` m of height_at).
+    terrain: str = "heightfield"
+    tolerance: float = ROUGH_TOLERANCE
     root: ET.Element = field(init=False)
     asset: ET.Element = field(init=False)
     world: ET.Element = field(init=False)

@@ -17,6 +17,7 @@ from citygen.exporters import lod
 from citygen.exporters.mjcf.builder import DEFAULT_FRICTION, GROUND_RGBA, ZONE_RGBA, Builder, friction
 from citygen.exporters.mjcf.text import ints, nums
 from citygen.geometry.convex import AREA_EPS
+from citygen.geometry.pieces import Pieces, prism_mesh, rpy_quat, tile_pieces
 from citygen.geometry.terrain import tile_boxes, tile_grid
 from citygen.geometry.tiles import tile_kind
 from citygen.spec.surfaces import FRICTION
@@ -167,6 +168,7 @@ def shaped_tiles(
     terrain = b.scene.terrain
     s = terrain.tile_size
     hfields: dict[tuple, tuple[str, float]] = {}
+    pieces: dict[Any, tuple[Pieces, list[str]]] = {}
     mixed: list[int] = []
     if not shaped:
         return
@@ -188,6 +190,9 @@ def shaped_tiles(
             mixed.append(k)
         prefix = f"terrain:{tile.kind}:{row}_{col}"
         common = {"class": "static", "material": mat, "friction": friction(mu)}
+        if b.terrain == "convex" and not isinstance(tile, StairTile):
+            _convex_tile(b, tile, prefix, (x, y), common, pieces)
+            continue
         if isinstance(tile, StairTile):
             for j, (lo, hi) in enumerate(tile_boxes(tile, s, floor=b.floor)):
                 centre = (lo + hi) / 2 + (x, y, 0.0)
@@ -223,4 +228,32 @@ def shaped_tiles(
         b.warnings.append(
             f"$.terrain.tiles[{mixed[0]}]: {len(mixed)} stair, slope or rough tile(s) lie on zones of "
             "different friction; MJCF gives each tile one friction, that of the zone covering most of it"
+        )
+
+
+def _convex_tile(
+    b: Builder, tile: Any, prefix: str, corner: tuple[float, float], common: dict, built: dict
+) -> None:
+    """A slope or rough tile as convex pieces (``terrain="convex"``,
+    :func:`~citygen.geometry.pieces.tile_pieces`): tilted boxes, and prisms as meshes
+    (``terrain:mesh:<n>``) that tiles alike share."""
+    key = tile.model_copy(update={"material": None, "friction": None})
+    if key not in built:
+        pieces = tile_pieces(tile, b.scene.terrain.tile_size, floor=b.floor, tolerance=b.tolerance)
+        names = []
+        for top in pieces.prisms:
+            names.append(f"terrain:mesh:{sum(len(n) for _, n in built.values()) + len(names)}")
+            ET.SubElement(b.asset, "mesh", name=names[-1], vertex=nums(prism_mesh(top, pieces.bottom)[0]))
+        built[key] = (pieces, names)
+    pieces, names = built[key]
+    shift = np.array([corner[0], corner[1], 0.0])
+    quats = rpy_quat(pieces.boxes[:, 2])
+    for j, ((centre, half, _), quat) in enumerate(zip(pieces.boxes, quats, strict=True)):
+        ET.SubElement(
+            b.world, "geom", name=f"{prefix}:{j}", type="box", pos=nums(centre + shift), size=nums(half),
+            quat=nums(quat), **common,
+        )  # fmt: skip
+    for j, name in enumerate(names, start=len(pieces.boxes)):
+        ET.SubElement(
+            b.world, "geom", name=f"{prefix}:{j}", type="mesh", mesh=name, pos=nums(shift), **common
         )
