@@ -38,6 +38,9 @@ class Problem:
 class CitygenError(Exception):
     """Base of every error caused by input or environment rather than by a bug."""
 
+    #: The CLI's exit status for this error.
+    exit_code = 2
+
     def lines(self) -> list[str]:
         """The error as one or more self-contained lines, ready to print."""
         return [str(self)]
@@ -70,6 +73,31 @@ class GenerationError(CitygenError):
 
 class ExportError(CitygenError):
     """A scene cannot be written in the requested format."""
+
+
+class OutputError(CitygenError, OSError):
+    """A file or folder cannot be written where the user asked: a file where a folder is
+    expected, a read-only or full disk. One line naming the path, what was expected there and
+    what was found. Built from one message, so it survives pickling from a worker process; an
+    :class:`OSError` too, so code that caught the operating system's error still catches it
+    (its ``strerror`` is ``reason``, the line without the path: ``expected ..., got ...``)."""
+
+    def __init__(self, message: str, reason: str | None = None) -> None:
+        super().__init__(message)
+        self.strerror = reason or message
+
+    def __reduce__(self):
+        return type(self), (str(self), self.strerror)
+
+    def __str__(self) -> str:
+        return self.args[0]
+
+
+class Interrupted(CitygenError):
+    """The user stopped a command (Ctrl-C, SIGTERM): what was kept and how to go on. The CLI
+    exits with code 130 (128 + SIGINT), as a shell reports an interrupted command."""
+
+    exit_code = 130
 
 
 class DependencyMissing(CitygenError):

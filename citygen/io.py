@@ -14,6 +14,7 @@ import json
 import math
 import os
 import re
+import stat
 import tempfile
 import tomllib
 from collections.abc import Sequence
@@ -23,6 +24,7 @@ from typing import Any, TypeVar
 from pydantic import BaseModel, ValidationError
 
 from citygen.errors import Problem, SpecError
+from citygen.outputs import OUTPUT_ERRNOS, output_error
 from citygen.spec import limits
 from citygen.spec.base import to_jsonable
 from citygen.spec.config import SplitManifest, check_config
@@ -77,12 +79,17 @@ def _read_text(path: str | Path, what: str) -> str:
     """The UTF-8 text of a document file (BOM dropped), or a :class:`SpecError` saying why not."""
     file, p = str(path), Path(path)
     try:
-        size = p.stat().st_size
+        info = p.stat()
         if p.is_dir():
             raise _fail(file, f"a {what} file", "a directory")
-        if size > limits.MAX_FILE_BYTES:
-            raise _fail(file, f"a file of at most {limits.MAX_FILE_BYTES} bytes", f"{size} bytes")
-        data = p.read_bytes()
+        if not (stat.S_ISREG(info.st_mode) or stat.S_ISFIFO(info.st_mode)):
+            raise _fail(file, f"a {what} file", "a device or socket")
+        if info.st_size > limits.MAX_FILE_BYTES:
+            raise _fail(file, f"a file of at most {limits.MAX_FILE_BYTES:,} bytes", f"{info.st_size:,} bytes")
+        with p.open("rb") as f:  # a pipe has no size: read one byte past the limit at most
+            data = f.read(limits.MAX_FILE_BYTES + 1)
+        if len(data) > limits.MAX_FILE_BYTES:
+            raise _fail(file, f"a file of at most {limits.MAX_FILE_BYTES:,} bytes", "more")
     except FileNotFoundError:
         raise _fail(file, "an existing file", "no such file") from None
     except PermissionError:
@@ -323,7 +330,9 @@ def _format(value: Any, indent: str) -> str:
 
 def write_atomic(path: str | Path, data: bytes, *, durable: bool = False) -> None:
     """Write ``data`` to ``path`` through a temporary file in the same folder and a rename,
-    so a reader (or a killed writer) never sees half a file.
+    so a reader (or a killed writer) never sees half a file. What the operating system
+    refuses (a file where a folder goes, a read-only or full disk) is a one-line
+    :class:`~citygen.errors.OutputError` naming ``path``; the temporary file is gone.
 
     The rename is atomic for every process on the machine whether or not the bytes have
     reached the disk, so a Ctrl-C or a kill never leaves a partial file. Only a power cut
@@ -332,8 +341,11 @@ def write_atomic(path: str | Path, data: bytes, *, durable: bool = False) -> Non
     citygen writes needs it: every file can be made again, and ``citygen dataset --resume``
     re-checks the files it keeps."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    except OSError as exc:
+        raise output_error(exc, path) from None
     try:
         with os.fdopen(fd, "wb") as f:
             os.fchmod(f.fileno(), 0o666 & ~_UMASK)
@@ -342,8 +354,10 @@ def write_atomic(path: str | Path, data: bytes, *, durable: bool = False) -> Non
                 f.flush()
                 os.fsync(f.fileno())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         Path(tmp).unlink(missing_ok=True)
+        if isinstance(exc, OSError) and exc.errno in OUTPUT_ERRNOS:
+            raise output_error(exc, path) from None
         raise
 
 

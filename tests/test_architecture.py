@@ -30,6 +30,7 @@ LAYERS = {
     "citygen._version": "base",
     "citygen.errors": "base",
     "citygen.seeding": "base",
+    "citygen.outputs": "base",
     "citygen.spec": "spec",
     "citygen.geometry": "geometry",
     "citygen.io": "spec",

@@ -9,11 +9,12 @@ import typer
 
 import citygen
 from citygen.cli import assets, export, generate, runner, train, validate
-from citygen.cli.common import print_error
+from citygen.cli.common import ClickException, Guarded, NoArgsIsHelp, print_error, usage_line
 from citygen.errors import CitygenError
 
 app = typer.Typer(
     name="citygen",
+    cls=Guarded,
     help="Seeded urban scenes for robot learning: generate, validate and export them.",
     no_args_is_help=True,
     add_completion=False,
@@ -46,11 +47,22 @@ for group in (validate, export, generate, assets, runner, train):
 def main() -> None:
     """Entry point of the ``citygen`` console script.
 
-    Click handles its own usage errors (exit 2), ``--help`` and Ctrl-C; citygen's
-    errors are printed here, one line per problem, with exit code 2.
+    Every failure a user can cause is one line on stderr: citygen's errors and the
+    operating system's refusals (by :class:`~citygen.cli.common.Guarded`, exit 2; Ctrl-C
+    130) and usage errors (an unknown option, a number out of its range: exit 2).
     """
     try:
-        app()
+        code = app(standalone_mode=False)
+    except NoArgsIsHelp as exc:
+        exc.show()
+        code = exc.exit_code
+    except ClickException as exc:
+        typer.echo(usage_line(exc), err=True)
+        code = exc.exit_code
+    except typer.Abort:
+        typer.echo("aborted", err=True)
+        code = 1
     except CitygenError as exc:
         print_error(exc)
-        sys.exit(2)
+        code = exc.exit_code
+    sys.exit(code if isinstance(code, int) else 0)

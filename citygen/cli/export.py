@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 
 from citygen.exporters.batch import FORMATS as EXPORT_FORMATS
+from citygen.outputs import check_output
 
 
 def render(
@@ -33,6 +34,7 @@ def render(
     from citygen.exporters.picture import render as render_picture
 
     target = out if out is not None else scene.with_suffix(".png")
+    check_output(target, option="--out" if out is not None else None)
     path = render_picture(scene, target, size_px=size, terrain=terrain, legend=legend)
     typer.echo(f"wrote {path}")
 
@@ -79,6 +81,13 @@ def export(
             "process).  [default: every core]",
         ),
     ] = None,
+    validate: Annotated[
+        bool,
+        typer.Option(
+            "--validate/--no-validate",
+            help="Check each scene as `citygen validate` does first, and export only the valid ones.",
+        ),
+    ] = True,
 ) -> None:
     """Compile scenes to the files other simulators load: MJCF, USD, URDF, an occupancy map
     (npz, ROS yaml/pgm, png), GLB, a self-contained HTML viewer, PNG pictures.
@@ -86,8 +95,10 @@ def export(
     A generated scene (`<split>/<part>/NNNN.json`) is written as `<split>-NNNN.*`, any other
     as its file's stem. Assets repeated across scenes are written once, content-addressed,
     under `OUT/assets/`. Whatever a format cannot express or had to coarsen is reported on
-    stderr as `FILE: warning: ...`. A scene or format that fails is reported as
-    `FILE: error: ...` and the rest are still exported; the exit code is then 2. Formats and
+    stderr as `FILE: warning: ...`. Each scene is first checked as `citygen validate` does; an
+    invalid one is reported (one line per problem) and not exported. A scene or format that
+    fails is reported as `FILE: error: ...` and the rest are still exported; the exit code is
+    then 2. Formats and
     scenes are exported in --jobs processes at once; the output is the same, in the same order.
     """
     from citygen.errors import ExportError
@@ -102,9 +113,10 @@ def export(
             f"{occupancy_resolution:g}; pass one"
         )
     chosen = list(EXPORT_FORMATS) if fmt == "all" else [fmt]
-    failed: set[Path] = set()
+    check_output(out, folder=True, option="--out")
+    failed = set(_invalid(scenes)) if validate else set()
     for event in export_batch(
-        scenes, out, chosen, terrain_resolution=terrain_resolution,
+        [s for s in scenes if s not in failed], out, chosen, terrain_resolution=terrain_resolution,
         occupancy_resolution=occupancy_resolution if occupancy_resolution is not None else resolution,
         jobs=default_jobs() if jobs is None else jobs,
     ):  # fmt: skip
@@ -120,6 +132,26 @@ def export(
         )
     if failed:
         raise typer.Exit(2)
+
+
+def _invalid(scenes: list[Path]) -> list[Path]:
+    """The scenes `citygen validate` rejects, each problem printed as its one line."""
+    import citygen
+    from citygen.cli.common import print_error
+    from citygen.errors import SpecError
+
+    bad = []
+    for scene in scenes:
+        try:
+            problems = citygen.validate(citygen.load_scene(scene), base_dir=scene.parent)
+        except SpecError as exc:
+            print_error(exc)
+            bad.append(scene)
+            continue
+        if problems:
+            print_error(SpecError(problems, file=str(scene)))
+            bad.append(scene)
+    return bad
 
 
 def register(app: typer.Typer) -> None:

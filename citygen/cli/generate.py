@@ -11,8 +11,10 @@ from typing import Annotated
 import typer
 
 import citygen
-from citygen.cli.common import print_error
+from citygen.cli.common import plural, print_error, resumable
 from citygen.errors import Problem, SpecError
+from citygen.outputs import check_output
+from citygen.spec.limits import MAX_RUN_SCENES, MAX_SCENE_INDEX
 
 
 def _jobs_option(value: int | None) -> int | None:
@@ -57,11 +59,17 @@ def generate(
     count: Annotated[
         int | None,
         typer.Option(
-            "--count", "-n", min=0, help="Scenes per split.  [default: 1 with --index, else every scene]"
+            "--count",
+            "-n",
+            min=1,
+            max=MAX_RUN_SCENES,
+            help=f"Scenes per split, at most {MAX_RUN_SCENES:,} in one run.  "
+            "[default: 1 with --index, else every scene]",
         ),
     ] = None,
     index: Annotated[
-        int | None, typer.Option("--index", "-i", min=0, help="First scene index.  [default: 0]")
+        int | None,
+        typer.Option("--index", "-i", min=0, max=MAX_SCENE_INDEX, help="First scene index.  [default: 0]"),
     ] = None,
     out: Annotated[Path, typer.Option("--out", "-o", help="Folder to write into.")] = Path("out"),
     jobs: JobsOption = None,
@@ -81,6 +89,10 @@ def generate(
     check_executor(executor)
     chosen = resolve(split, seed=seed)
     total = sum(len(indices(s, index, count)) for s in chosen)
+    if total > MAX_RUN_SCENES:
+        raise SpecError([Problem("--count", f"at most {MAX_RUN_SCENES:,} scenes in one run", f"{total:,}")])
+    check_output(out, folder=True, option="--out")
+    resumable()
     with progress_bar(total, "generating", enabled=sys.stderr.isatty() and total > 1) as advance:
         written = write_scenes(
             chosen,
@@ -96,16 +108,22 @@ def generate(
 
 
 def _report_written(written, out: Path) -> None:
-    kept = sum(w.skipped for w in written)
+    """One line per folder: the scenes written and those kept (``--resume``)."""
     if len(written) == 1:
-        typer.echo(f"wrote {out / written[0].path}")
+        verb = "kept" if written[0].skipped else "wrote"
+        note = " (already there and valid)" if written[0].skipped else ""
+        typer.echo(f"{verb} {out / written[0].path}{note}")
         return
-    folders = list(dict.fromkeys(str(out / Path(w.path).parent) for w in written))
-    for folder in folders:
-        n = sum(str(out / Path(w.path).parent) == folder for w in written)
-        typer.echo(f"wrote {n} scenes to {folder}/")
-    if kept:
-        typer.echo(f"({kept} already there and valid, kept)")
+    folders: dict[str, list[int]] = {}
+    for w in written:
+        tally = folders.setdefault(str(out / Path(w.path).parent), [0, 0])
+        tally[w.skipped] += 1
+    for folder, (new, kept) in folders.items():
+        if not new:
+            typer.echo(f"kept {plural(kept, 'scene')} already in {folder}/ (valid; none written)")
+        else:
+            note = f" (kept {kept:,} already there and valid)" if kept else ""
+            typer.echo(f"wrote {plural(new, 'scene')} to {folder}/{note}")
 
 
 dataset_app = typer.Typer(
@@ -144,12 +162,14 @@ def dataset(
 
     check_executor(executor)
     total = dataset_size(manifest)
+    check_output(out, folder=True, option="--out")
+    resumable()
     with progress_bar(total, "dataset", enabled=sys.stderr.isatty()) as advance:
         written = write_dataset(
             out, manifest=manifest, jobs=jobs, resume=resume, on_progress=advance, executor=executor
         )
     _report_written(written, out)
-    typer.echo(f"wrote {out / INDEX_NAME} ({len(written)} scenes)")
+    typer.echo(f"wrote {out / INDEX_NAME} ({plural(len(written), 'scene')})")
 
 
 @dataset_app.command("verify")
@@ -166,7 +186,8 @@ def dataset_verify(
     problems = verify_dataset(folder, manifest=manifest, lock=lock)
     if problems:
         print_error(SpecError(problems))
-        typer.echo(f"{folder}: {len(problems)} problems", err=True)
+        if len(problems) > 1:
+            typer.echo(f"{folder}: {plural(len(problems), 'problem')}", err=True)
         raise typer.Exit(2)
     from citygen.generate.dataset import lock_path
 
@@ -186,8 +207,9 @@ def dataset_lock(
     and say in the commit what changed."""
     import tempfile
 
-    from citygen.generate.dataset import dataset_size, progress_bar, write_dataset, write_lock
+    from citygen.generate.dataset import dataset_size, lock_path, progress_bar, write_dataset, write_lock
 
+    check_output(out if out is not None else lock_path(manifest), option="--out" if out is not None else None)
     with tempfile.TemporaryDirectory(prefix="citygen-lock-") as tmp:
         with progress_bar(dataset_size(manifest), "locking", enabled=sys.stderr.isatty()) as advance:
             written = write_dataset(tmp, manifest=manifest, jobs=jobs, on_progress=advance)
@@ -198,10 +220,10 @@ def dataset_lock(
                 print_error(SpecError(problems, file=w.path))
                 bad += 1
         if bad:
-            typer.echo(f"{bad} scenes are invalid; the lock file was not written", err=True)
+            typer.echo(f"{plural(bad, 'scene')} invalid; the lock file was not written", err=True)
             raise typer.Exit(2)
     path = write_lock(written, manifest=manifest, path=out)
-    typer.echo(f"wrote {path} ({len(written)} scenes)")
+    typer.echo(f"wrote {path} ({plural(len(written), 'scene')})")
 
 
 def rebuild(
@@ -248,6 +270,7 @@ def rebuild(
         raise SpecError([Problem("--from", f"one of {', '.join(STAGES)}", repr(stage))])
     edited = citygen.load_scene(scene)
     target = out if out is not None else scene
+    check_output(target, option="--out" if out is not None else None)
     try:
         generator_config = config_for(edited, config)
         result = rebuild_scene(edited, stage, generator_config, seed=seed)

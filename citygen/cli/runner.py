@@ -12,11 +12,18 @@ from typing import Annotated, get_args
 
 import typer
 
-from citygen.errors import SpecError
+from citygen.errors import Problem, SpecError
+from citygen.outputs import check_output
 from citygen.spec.task import TASK_KINDS
 from citygen.spec.task import Robot as RobotName  # the registry's BUILTIN (tests check)
 
 TASKS = TASK_KINDS
+#: Bounds on what sizes a run's time and memory.
+MAX_EPISODES = 10_000
+MAX_STEPS = 1_000_000
+MAX_JOBS = 256
+#: Pictures ``run`` keeps in memory for --frames and --animation (640 x 480 RGB: 0.9 MB each).
+MAX_FRAMES = 2_000
 
 
 def _robot_help() -> str:
@@ -34,6 +41,14 @@ def _robot_and_policy(task: str, robot: str | None, policy: str | None, options:
 
     loaded = check_robot(task, robot, options.get("adapter"))
     policy = policy or default_policy(task)
+    if Path(policy).is_dir():  # a run folder of `citygen train`: its exported policy
+        exported = Path(policy, "policy.npz")
+        if not exported.is_file():
+            raise SpecError(
+                f"--policy {policy}: expected a model file (.npz, .zip) or a run folder of "
+                "`citygen train` holding policy.npz, got a folder without one"
+            )
+        policy = str(exported)
     if is_model(policy):
         return loaded, resolve_policy(policy, task, robot, (), **options)
     return loaded, check_policy(task, loaded, policy)
@@ -63,10 +78,12 @@ def bench(
         ),
     ] = None,
     episodes: Annotated[
-        int, typer.Option("--episodes", "-n", min=1, help="Episodes (episode i runs scene i).")
+        int,
+        typer.Option("--episodes", "-n", min=1, max=MAX_EPISODES, help="Episodes (episode i runs scene i)."),
     ] = 16,
     jobs: Annotated[
-        int | None, typer.Option("--jobs", "-j", min=1, help="Worker processes.  [default: every core]")
+        int | None,
+        typer.Option("--jobs", "-j", min=1, max=MAX_JOBS, help="Worker processes.  [default: every core]"),
     ] = None,
     seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of episode 0 (episode i: seed + i).")] = 0,
     output: Annotated[
@@ -77,7 +94,9 @@ def bench(
         typer.Option(
             "--max-steps",
             min=1,
-            help="Cut each episode after this many steps (0.1 s each).  [default: the task's time limit]",
+            max=MAX_STEPS,
+            help="Cut each episode after this many steps (0.1 s each in navigation and the traverse, "
+            "0.02 s in locomotion).  [default: the task's time limit]",
         ),
     ] = None,
 ) -> None:
@@ -90,8 +109,8 @@ def bench(
     split = check_split(task, split or DEFAULT_SPLIT[task])
     options = {} if adapter is None else {"adapter": str(adapter)}
     loaded, policy = _robot_and_policy(task, robot, policy, options)
-    if output is not None and output.exists() and output.is_dir():
-        raise SpecError(f"{output}: expected a file path for --output, got a folder")
+    if output is not None:  # before the episodes run, not after
+        check_output(output, option="--output")
     with progress_bar(episodes, _bar_enabled()) as advance:
         limit = {} if max_steps is None else {"max_steps": max_steps}
         rows = run_bench(task, split, robot=robot, policy=policy, episodes=episodes, jobs=jobs, seed=seed,
@@ -112,10 +131,28 @@ def _print_table(rows: list, *, output: Path | None = None, **header) -> None:
     )
     typer.echo(format_table(doc["summary"], title))
     if output is not None:
-        from citygen.io import write_atomic
-
-        write_atomic(output, (json.dumps(doc, indent=1, sort_keys=True, default=float) + "\n").encode())
+        _write_results(output, (json.dumps(doc, indent=1, sort_keys=True, default=float) + "\n").encode())
         typer.echo(f"wrote {output}")
+
+
+def _write_results(output: Path, data: bytes) -> None:
+    """Write the results to ``output``; if that fails (the disk filled up while the episodes
+    ran), to a file in the temporary folder instead, and say where in the one-line error."""
+    import tempfile
+
+    from citygen.errors import OutputError
+    from citygen.io import write_atomic
+
+    try:
+        write_atomic(output, data)
+    except OutputError as exc:
+        try:
+            fd, rescue = tempfile.mkstemp(prefix=f"citygen-{output.stem}-", suffix=output.suffix or ".json")
+            with open(fd, "wb") as f:
+                f.write(data)
+        except OSError:
+            raise OutputError(f"{exc}; the results are only in the table above") from None
+        raise OutputError(f"{exc}; the results were written to {rescue} instead") from None
 
 
 def _bar_enabled() -> bool:
@@ -175,9 +212,17 @@ def run(
         Path | None, typer.Option("--frames", help="Save every step's picture as PNG here.")
     ] = None,
     animation: Annotated[
-        Path | None, typer.Option("--animation", help="Save the episode as an animated GIF.")
+        Path | None,
+        typer.Option(
+            "--animation", help="Save the episode as an animation: .gif, or .png (animated PNG), or .webp."
+        ),
     ] = None,
-    every: Annotated[int, typer.Option("--every", min=1, help="Keep every k-th frame.")] = 1,
+    every: Annotated[
+        int,
+        typer.Option(
+            "--every", min=1, max=MAX_STEPS, help=f"Keep every k-th frame (at most {MAX_FRAMES:,} are kept)."
+        ),
+    ] = 1,
     output: Annotated[
         Path | None, typer.Option("--output", "-o", help="Write the table and the episode as JSON.")
     ] = None,
@@ -200,11 +245,18 @@ def run(
     check_scene_task(kind, spec.task, str(scene))
     options = {} if adapter is None else {"adapter": str(adapter)}
     loaded, policy = _robot_and_policy(kind, robot, policy, options)
+    _check_run_outputs(output, frames, animation)
     want_pictures = frames is not None or animation is not None
     env = make_env(kind, spec, robot=robot, adapter=None if adapter is None else str(adapter),
                    render_mode="rgb_array" if want_pictures else None)  # fmt: skip
     pictures: list = []
     horizon = int(getattr(env, "horizon", 0)) or None
+    if want_pictures and horizon is not None and horizon // every + 1 > MAX_FRAMES:
+        env.close()
+        raise SpecError([Problem(
+            "--every", f"at most {MAX_FRAMES:,} frames kept (an episode of up to {horizon:,} steps: "
+            f"--every {-(-horizon // MAX_FRAMES)} or more)", str(every),
+        )])  # fmt: skip
 
     with progress_bar(1, _bar_enabled() and horizon is not None, horizon=horizon) as advance:
 
@@ -228,24 +280,53 @@ def run(
         typer.echo(f"wrote {animation}")
 
 
-def _write_frames(folder: Path, pictures: list) -> None:
-    import matplotlib.image
+#: Animation formats of ``run --animation``, by suffix: Pillow's format name.
+ANIMATIONS = {".gif": "GIF", ".png": "PNG", ".webp": "WEBP"}
 
-    folder.mkdir(parents=True, exist_ok=True)
+
+def _check_run_outputs(output: Path | None, frames: Path | None, animation: Path | None) -> None:
+    """Every output of ``citygen run`` writable, and the animation's suffix known, before the episode."""
+    from citygen.outputs import check_output
+
+    if output is not None:
+        check_output(output, option="--output")
+    if frames is not None:
+        check_output(frames, folder=True, option="--frames")
+    if animation is not None:
+        if animation.suffix.lower() not in ANIMATIONS:
+            raise SpecError(
+                [Problem("--animation", f"a file ending in {', '.join(ANIMATIONS)}", str(animation))]
+            )
+        check_output(animation, option="--animation")
+
+
+def _write_frames(folder: Path, pictures: list) -> None:
+    import io
+
+    from PIL import Image
+
+    from citygen.io import write_atomic
+
     for k, img in enumerate(pictures):
-        matplotlib.image.imsave(folder / f"{k:05d}.png", img)
+        buf = io.BytesIO()
+        Image.fromarray(img).save(buf, format="PNG")
+        write_atomic(folder / f"{k:05d}.png", buf.getvalue())
 
 
 def _write_animation(path: Path, pictures: list, fps: int) -> None:
+    import io
+
     from PIL import Image
 
+    from citygen.io import write_atomic
+
     images = [Image.fromarray(p) for p in pictures]
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".part")
+    buf = io.BytesIO()
     images[0].save(
-        tmp, format="GIF", save_all=True, append_images=images[1:], duration=round(1000 / fps), loop=0
-    )
-    tmp.replace(path)
+        buf, format=ANIMATIONS[path.suffix.lower()], save_all=True, append_images=images[1:],
+        duration=round(1000 / fps), loop=0,
+    )  # fmt: skip
+    write_atomic(path, buf.getvalue())
 
 
 def register(app: typer.Typer) -> None:

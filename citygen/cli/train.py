@@ -10,6 +10,9 @@ from typing import Annotated
 
 import typer
 
+from citygen.cli.common import resumable
+from citygen.errors import SpecError
+
 
 def train(
     task: Annotated[
@@ -86,6 +89,7 @@ def train(
         processes=processes,
         init=None if init is None else str(init),
     )
+    _check_run(cfg, out, resume)
     command = (
         "citygen " + shlex.join(sys.argv[1:]) if sys.argv and Path(sys.argv[0]).name == "citygen" else None
     )
@@ -102,6 +106,36 @@ def train(
         f"wrote {result.policy} (evaluate: citygen bench --task {cfg.task} --robot {cfg.robot_name} "
         f"--policy {result.policy})"
     )
+
+
+def _check_run(cfg, out: Path, resume: bool) -> None:
+    """What a run needs, checked before it says it starts: the robot and split fit the task,
+    ``--init`` is there, the run folder can be written."""
+    from citygen.outputs import check_output
+    from citygen.runner.tasks import check_robot, check_split
+
+    check_robot(cfg.task, cfg.robot_name)
+    check_split(cfg.task, cfg.train_split)
+    if cfg.init is not None:
+        init = Path(cfg.init)
+        if not (init.is_file() or (init / "model.zip").is_file()):
+            found = "a folder without model.zip" if init.is_dir() else "no such file"
+            raise SpecError(
+                f"--init {init}: expected a run folder of `citygen train`, its model.zip or a policy.npz, "
+                f"got {found}"
+            )
+        if init.suffix == ".npz":
+            from citygen.runner.learn.export import read_policy
+
+            try:
+                read_policy(init)
+            except ValueError as exc:
+                raise SpecError(
+                    f"--init {init}: expected a policy exported by `citygen train`, got {exc}"
+                ) from None
+    check_output(out, folder=True, option="--out")
+    if not resume:
+        resumable(f"citygen train --resume --out {shlex.quote(str(out))}")
 
 
 def register(app: typer.Typer) -> None:

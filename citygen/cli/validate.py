@@ -68,6 +68,9 @@ def schema(
                 f"{out / name}: out of date with the models; run 'citygen schema --out {out}'", err=True
             )
         raise typer.Exit(2 if stale else 0)
+    from citygen.outputs import check_output
+
+    check_output(out, folder=True, option="--out")
     for path in write_schemas(out):
         typer.echo(f"wrote {path}")
 

@@ -518,6 +518,9 @@ def verify_dataset(
     if not digests:
         return [Problem(str(lock_file), "a lock file of digests (run 'citygen dataset lock')", "none")]
     out = Path(out)
+    if not out.is_dir():
+        found = "a file" if out.exists() else "no such folder"
+        return [Problem(str(out), "a folder 'citygen dataset' wrote", found)]
     problems = []
     for rel, digest in digests.items():
         path = out / rel
@@ -528,6 +531,8 @@ def verify_dataset(
             continue
         if found != digest:
             problems.append(Problem(str(path), f"sha256 {digest} (from {lock_file.name})", f"sha256 {found}"))
+    if len(problems) == len(digests) and all(p.found == "no such file" for p in problems):
+        return [Problem(str(out), f"the {len(digests):,} scene files {lock_file.name} lists", "none of them")]
     known = {Path(out, r) for r in digests}
     folders = sorted({p.parent for p in known})
     for folder in folders:

@@ -27,6 +27,7 @@ from pathlib import Path, PurePosixPath
 from citygen.errors import Problem, SpecError
 from citygen.io import load_manifest, parse, read_document
 from citygen.spec.config import GeneratorConfig, SplitConfig, SplitManifest, check_config
+from citygen.spec.limits import MAX_RUN_SCENES, MAX_SCENE_INDEX
 from citygen.spec.scene import Scene
 
 #: Suffixes that name the part of a split within its family (the folder it is written to).
@@ -191,11 +192,21 @@ def relative_path(split: str, index: int) -> PurePosixPath:
 def indices(split: SplitConfig, index: int | None = None, count: int | None = None) -> range:
     """The scene indices to make: ``count`` from ``index``; by default scene ``index`` alone
     when an index is given, else every scene of the split. Indices past ``split.scenes``
-    extend the split with the same seed derivation."""
-    if index is not None and index < 0:
-        raise SpecError([Problem("--index", "an index >= 0", str(index))])
-    if count is not None and count < 0:
-        raise SpecError([Problem("--count", "a count >= 0", str(count))])
+    extend the split with the same seed derivation, up to index
+    :data:`~citygen.spec.limits.MAX_SCENE_INDEX`; a run holds at most
+    :data:`~citygen.spec.limits.MAX_RUN_SCENES` scenes."""
+    if index is not None and not 0 <= index <= MAX_SCENE_INDEX:
+        raise SpecError([Problem("--index", f"an index from 0 to {MAX_SCENE_INDEX:,}", f"{index:,}")])
+    if count is not None and not 1 <= count <= MAX_RUN_SCENES:
+        raise SpecError([Problem("--count", f"a count from 1 to {MAX_RUN_SCENES:,}", f"{count:,}")])
     start = index or 0
     n = count if count is not None else (1 if index is not None else split.scenes)
+    if n > MAX_RUN_SCENES:
+        raise SpecError([Problem(
+            f"{split.name}: scenes", f"at most {MAX_RUN_SCENES:,} scenes in one run (give --index and "
+            "--count to make a part)", f"{n:,}",
+        )])  # fmt: skip
+    if start + n - 1 > MAX_SCENE_INDEX:
+        last = f"{start:,} + {n:,} scenes, up to {start + n - 1:,}"
+        raise SpecError([Problem("--index", f"scenes up to index {MAX_SCENE_INDEX:,}", last)])
     return range(start, start + n)

@@ -31,3 +31,8 @@ MAX_FEATURES = 200_000
 """Local features (steps, ramps, landings) on a terrain grid."""
 MAX_TEXT = 10_000
 """Characters in a free-text field."""
+
+MAX_SCENE_INDEX = 10_000_000
+"""Highest index of a scene in its split (``meta.index``; ``citygen generate --index``)."""
+MAX_RUN_SCENES = 100_000
+"""Most scenes one ``citygen generate`` run makes (the canonical dataset is 1,536)."""

@@ -32,7 +32,7 @@ class Meta(SpecModel):
     """What wrote the scene, for example ``citygen 0.1.0``; left out in hand-written scenes."""
     split: Identifier | None = None
     """The named split the scene belongs to, for example ``urban-nav-2-train``."""
-    index: bounded_int(0, 10_000_000) | None = None
+    index: bounded_int(0, limits.MAX_SCENE_INDEX) | None = None
     """The scene's index within its split."""
     seed: bounded_int(0, 2**64 - 1) | None = None
     """The scene's own seed, derived from the split's master seed and the index."""

@@ -82,7 +82,8 @@ class NavEnv(_CitygenEnv):
         task = self.scene.task
         if task is None or not hasattr(task, "goal"):
             raise SpecError(
-                f"{self.source.name}: task: expected a navigation task (with a goal), got {task!r}"
+                f"{self.source.name}: $.task: expected a navigation task (with a goal), "
+                f"got {'none' if task is None else f'a {task.kind} task'}"
             )
         self.goal = tuple(task.goal)
         self.tolerance = task.goal_tolerance

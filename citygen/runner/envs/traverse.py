@@ -66,7 +66,8 @@ class TraverseEnv(NavEnv):
         task = self.scene.task
         if task is None or task.kind != "traverse":
             raise SpecError(
-                f"{self.source.name}: task: expected a traverse task (with a route), got {task!r}"
+                f"{self.source.name}: $.task: expected a traverse task (with a route), "
+                f"got {'none' if task is None else f'a {task.kind} task'}"
             )
         self.route = [tuple(p) for p in task.route]
         self.waypoint = 0

@@ -238,28 +238,37 @@ def write_policy(path: str | Path, meta: dict[str, Any], arrays: dict[str, np.nd
 
 
 def read_policy(path: str | Path) -> NumpyPolicy:
-    """An exported policy file, or a :class:`ValueError` saying what is wrong with it."""
+    """An exported policy file, or a :class:`ValueError` saying what was found instead (its
+    message completes ``expected a policy exported by citygen train, got ...``)."""
     try:
+        with open(path, "rb") as f:
+            head = f.read(4)
+        if head != b"PK\x03\x04":
+            raise ValueError("a file that is not an .npz archive (no zip header)")
         with np.load(path, allow_pickle=False) as data:
             arrays = {k: data[k] for k in data.files}
+    except ValueError:
+        raise
     except Exception as exc:
-        raise ValueError(f"an .npz exported by `citygen train` ({type(exc).__name__}: {exc})") from None
+        raise ValueError(f"a damaged .npz archive ({type(exc).__name__}: {exc})") from None
     if "meta" not in arrays:
-        raise ValueError("an .npz exported by `citygen train` (no 'meta' entry)")
+        raise ValueError("an .npz archive without the 'meta' entry `citygen train` writes")
     try:
         meta = json.loads(str(arrays.pop("meta")))
     except json.JSONDecodeError as exc:
-        raise ValueError(f"JSON metadata in its 'meta' entry ({exc})") from None
+        raise ValueError(f"unreadable JSON in its 'meta' entry ({exc})") from None
     if not isinstance(meta, dict) or meta.get("format") != FORMAT:
         found = meta.get("format") if isinstance(meta, dict) else type(meta).__name__
-        raise ValueError(f"format {FORMAT!r} in its metadata, found {found!r}")
+        raise ValueError(f"metadata of format {found!r}, not {FORMAT!r}")
     try:
         policy = NumpyPolicy(meta, arrays)
         probe = {k: np.zeros(s, dtype=np.float32) for k, s in policy.shapes.items()}
         width = policy.features(probe).shape[1]
         if policy.weights[0].shape[1] != width:
-            raise ValueError(f"a first layer reading {width} inputs, found {policy.weights[0].shape[1]}")
+            raise ValueError(
+                f"a first layer reading {policy.weights[0].shape[1]} inputs, its observations {width}"
+            )
         policy.predict(probe)
     except (KeyError, TypeError, IndexError, ValueError) as exc:
-        raise ValueError(f"a complete exported policy ({type(exc).__name__}: {exc})") from None
+        raise ValueError(f"an incomplete exported policy ({type(exc).__name__}: {exc})") from None
     return policy

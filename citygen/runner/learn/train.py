@@ -426,7 +426,9 @@ def _start_from_policy(model: Any, venv: Any, path: Path) -> None:
     try:
         policy = read_policy(path)
     except (OSError, ValueError) as exc:
-        raise TrainError(f"--init: {path}: expected {exc}") from None
+        raise TrainError(
+            f"--init: {path}: expected a policy exported by `citygen train`, got {exc}"
+        ) from None
     p = model.policy
     stacks = getattr(p.features_extractor, "stacks", {})
     # Layers this run adds at the end of a stack group the file's CNN reads, as _start_widened.
@@ -511,6 +513,7 @@ def train(
     from stable_baselines3.common.utils import set_random_seed
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
+    from citygen.io import write_atomic
     from citygen.runner.learn.export import policy_arrays, write_policy
     from citygen.runner.learn.vecenv import make_training_env
     from citygen.runner.scenes import cache_budget
@@ -526,11 +529,6 @@ def train(
         raise TrainError(
             f"--out: {out} already holds a training run; pass --resume to continue it, or another --out"
         )
-    out.mkdir(parents=True, exist_ok=True)
-    doc = {**cfg.model_dump(mode="json"), "robot_name": cfg.robot_name, "train_split": cfg.train_split}
-    if command:
-        doc["command"] = command
-    (out / "config.json").write_text(json.dumps(doc, indent=1) + "\n")
 
     if cfg.torch_threads:
         torch.set_num_threads(cfg.torch_threads)
@@ -594,6 +592,17 @@ def train(
         )
         if cfg.init:
             _start_from(model, venv, Path(cfg.init))
+    # The run folder is made once the environments and the model exist: a run that cannot
+    # start (an unknown robot, a split of another task, a bad --init) leaves nothing behind.
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        doc = {**cfg.model_dump(mode="json"), "robot_name": cfg.robot_name, "train_split": cfg.train_split}
+        if command:
+            doc["command"] = command
+        write_atomic(out / "config.json", (json.dumps(doc, indent=1) + "\n").encode())
+    except BaseException:
+        venv.close()
+        raise
     runs = len(list((out / "logs").glob("run-*"))) if (out / "logs").exists() else 0
     formats = ["csv"]
     try:
