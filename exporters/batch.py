@@ -22,9 +22,11 @@ from __future__ import annotations
 import contextlib
 import importlib
 import multiprocessing
+import os
+import signal
 import sys
 import warnings
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 from pathlib import Path
@@ -34,6 +36,7 @@ from typing import Any
 from citygen.errors import CitygenError
 from citygen.exporters import ExportWarning
 from citygen.io import load_scene
+from citygen.outputs import staged, unstaged
 from citygen.spec.scene import Scene
 
 #: Formats and the exporter modules that write them (``png``: the top-down map and, where
@@ -75,13 +78,18 @@ def export_name(path: Path, scene: Scene) -> str:
     return path.stem
 
 
-def module_options(module: str, terrain_resolution: float | None, occupancy_resolution: float | None) -> dict:
-    """The options a batch passes to an exporter module besides ``name``."""
+def module_options(
+    module: str, terrain_resolution: float | None, occupancy_resolution: float | None,
+    extra: Mapping[str, Mapping[str, Any]] | None = None,
+) -> dict:  # fmt: skip
+    """The options a batch passes to an exporter module besides ``name``: the resolutions,
+    and ``extra[module]`` (``{"urdf": {"visual": False}, "mjcf": {"terrain": "convex"}}``)."""
+    own = dict((extra or {}).get(module, {}))
     if module == "occupancy":
-        return {} if occupancy_resolution is None else {"resolution": occupancy_resolution}
+        return own if occupancy_resolution is None else {"resolution": occupancy_resolution, **own}
     if module in TERRAIN_OPTION and terrain_resolution is not None:
-        return {TERRAIN_OPTION[module]: terrain_resolution}
-    return {}
+        return {TERRAIN_OPTION[module]: terrain_resolution, **own}
+    return own
 
 
 @dataclass(frozen=True)
@@ -95,11 +103,13 @@ class _Unit:
     module: str
     terrain: float | None
     occupancy: float | None
+    extra: tuple[tuple[str, Any], ...] = ()
+    """The module's own options (``export_batch``'s ``options[module]``), as items."""
 
 
 def _steps(
     scenes: Sequence[str | Path], out: Path, formats: Sequence[str], terrain: float | None,
-    occupancy: float | None,
+    occupancy: float | None, options: Mapping[str, Mapping[str, Any]],
 ) -> Iterator[_Unit | list[Event]]:  # fmt: skip
     """The batch in its order: each scene's exporter modules to run, or the error events of a
     scene that cannot be read or would take a name already used."""
@@ -122,7 +132,8 @@ def _steps(
         used[name] = path
         for fmt in formats:
             for module_name in FORMATS[fmt]:
-                yield _Unit(path, out, name, fmt, module_name, terrain, occupancy)
+                extra = tuple(sorted(options.get(module_name, {}).items()))
+                yield _Unit(path, out, name, fmt, module_name, terrain, occupancy, extra)
 
 
 def export_batch(
@@ -133,6 +144,7 @@ def export_batch(
     terrain_resolution: float | None = None,
     occupancy_resolution: float | None = None,
     jobs: int = 1,
+    options: Mapping[str, Mapping[str, Any]] | None = None,
 ) -> Iterator[Event]:
     """Export every scene file to every format into ``out``, yielding what happens as it
     happens; failures are ``error`` events (``FORMAT: message``), never exceptions. A warning
@@ -142,9 +154,10 @@ def export_batch(
     scenes) in up to that many worker processes at once, a process each (:func:`_parallel`):
     the same files and the same events in the same order, each module's as soon as it and
     every one before it have finished. A worker that dies (killed, out of memory) is that
-    format's error; the others go on."""
+    format's error; the others go on. ``options`` are exporter modules' own options by module
+    name (``{"urdf": {"visual": False}}``)."""
     steps: Iterable[_Unit | list[Event]] = _steps(
-        scenes, Path(out), formats, terrain_resolution, occupancy_resolution
+        scenes, Path(out), formats, terrain_resolution, occupancy_resolution, options or {}
     )
     if jobs > 1:
         steps = list(steps)
@@ -164,7 +177,9 @@ def export_batch(
 
 
 def _run(unit: _Unit) -> Iterator[Event]:
-    return _one(unit.path, unit.out, unit.name, unit.fmt, unit.module, unit.terrain, unit.occupancy)
+    return _one(
+        unit.path, unit.out, unit.name, unit.fmt, unit.module, unit.terrain, unit.occupancy, unit.extra
+    )
 
 
 #: About how long each exporter module takes on a city, relative to the others (CPU seconds
@@ -188,6 +203,8 @@ def _worker(conn: Connection, unit: _Unit) -> None:
         events = list(_run(unit))
     except Exception as exc:  # a bug in one exporter must not lose the other formats
         events = [Event("error", unit.path, f"{unit.fmt}: {type(exc).__name__}: {exc}")]
+    except KeyboardInterrupt:  # Ctrl-C reached every process: the batch's process reports it
+        return
     conn.send(events)
     conn.close()
 
@@ -244,6 +261,9 @@ def _parallel(steps: list[_Unit | list[Event]], jobs: int) -> Iterator[list[Even
                 del running[i]
     finally:
         for process, receive in running.values():
+            with contextlib.suppress(OSError):  # Ctrl-C first: the worker removes its staged files
+                os.kill(process.pid, signal.SIGINT)
+            process.join(5)
             process.kill()
             process.join()
             receive.close()
@@ -257,14 +277,16 @@ def _one(
     module_name: str,
     terrain: float | None,
     occupancy: float | None,
+    extra: tuple[tuple[str, Any], ...] = (),
 ) -> Iterator[Event]:
     module = importlib.import_module(f"citygen.exporters.{module_name}")
-    options = {"name": name, **module_options(module_name, terrain, occupancy)}
+    options = {"name": name, **module_options(module_name, terrain, occupancy, {module_name: dict(extra)})}
     written: list[Path] = []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ExportWarning)
         try:
-            written = module.export(path, out, **options)
+            with staged(out) as stage:  # all of a format's files, or none of them
+                written = [unstaged(p, stage, out) for p in module.export(path, stage, **options)]
             failure = None
         except CitygenError as exc:
             failure = f"{fmt}: {' '.join(exc.lines())}"

@@ -88,6 +88,32 @@ def export(
             help="Check each scene as `citygen validate` does first, and export only the valid ones.",
         ),
     ] = True,
+    visual: Annotated[
+        bool,
+        typer.Option(
+            "--visual/--no-visual",
+            help="URDF: write <visual> elements; --no-visual writes collision geometry only, for "
+            "loaders on a machine without a rendering device (SAPIEN).",
+        ),
+    ] = True,
+    mjcf_terrain: Annotated[
+        str,
+        typer.Option(
+            "--mjcf-terrain",
+            help="MJCF: slope and rough tiles as heightfield (MuJoCo) or convex pieces (readers "
+            "without heightfields: Genesis).",
+        ),
+    ] = "heightfield",
+    piece_tolerance: Annotated[
+        float | None,
+        typer.Option(
+            "--piece-tolerance",
+            min=0.001,
+            max=1.0,
+            help="How far (m) rough tiles' convex pieces (URDF, --mjcf-terrain convex) may lie from "
+            "height_at.  [default: 0.01, coarser for a city, with a warning]",
+        ),
+    ] = None,
 ) -> None:
     """Compile scenes to the files other simulators load: MJCF, USD, URDF, an occupancy map
     (npz, ROS yaml/pgm, png), GLB, a self-contained HTML viewer, PNG pictures.
@@ -119,6 +145,7 @@ def export(
         [s for s in scenes if s not in failed], out, chosen, terrain_resolution=terrain_resolution,
         occupancy_resolution=occupancy_resolution if occupancy_resolution is not None else resolution,
         jobs=default_jobs() if jobs is None else jobs,
+        options=_format_options(visual, mjcf_terrain, piece_tolerance),
     ):  # fmt: skip
         if event.kind == "wrote":
             typer.echo(f"wrote {event.text}")
@@ -132,6 +159,17 @@ def export(
         )
     if failed:
         raise typer.Exit(2)
+
+
+def _format_options(visual: bool, mjcf_terrain: str, tolerance: float | None) -> dict[str, dict]:
+    """The exporter modules' own options the flags ask for (only those not at their default)."""
+    urdf: dict = {} if visual else {"visual": False}
+    mjcf: dict = {} if mjcf_terrain == "heightfield" else {"terrain": mjcf_terrain}
+    if tolerance is not None:
+        urdf["tolerance"] = tolerance
+        if mjcf:
+            mjcf["tolerance"] = tolerance
+    return {"urdf": urdf, "mjcf": mjcf}
 
 
 def _invalid(scenes: list[Path]) -> list[Path]:
