@@ -17,8 +17,9 @@ For each pipeline the script
 3. with ``--pyinstrument`` (``pip install pyinstrument``), also writes
    ``DIR/<pipeline>.pyinstrument.txt``, a call tree of the whole pipeline.
 
-The stages are the functions :func:`citygen.generate.pipeline.generate` calls, wrapped for
-the run (the pipeline itself is unchanged); ``serialise`` is :func:`citygen.io.dumps`. The
+The stages are the functions :func:`citygen.generate.pipeline.generate` and the layouts it
+dispatches to (:mod:`citygen.generate.layouts`) call, wrapped for the run in every generator
+module that calls them (the code itself is unchanged); ``serialise`` is :func:`citygen.io.dumps`. The
 last line is one JSON object of the figures.
 """
 
@@ -30,6 +31,7 @@ import json
 import pstats
 import sys
 import time
+import warnings
 from collections import defaultdict
 from collections.abc import Callable
 from contextlib import contextmanager
@@ -37,12 +39,12 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+import citygen.generate.layouts  # noqa: F401  (the layouts call most stage functions)
 from citygen.assets import resolve
-from citygen.generate import pipeline
 from citygen.generate.splits import generate_scene, splits
 from citygen.io import dumps
 
-#: The functions generate() calls, by stage name (names in citygen.generate.pipeline).
+#: The functions generate() and the layouts call, by stage name.
 STAGES = {
     "blocks": "connect_blocks",
     "ground": "plan_ground",
@@ -63,25 +65,34 @@ PIPELINES = {
 }
 
 
+def _callers() -> list:
+    """The generator's modules (the pipeline and the layouts) that call stage functions."""
+    return [m for name, m in sorted(sys.modules.items()) if name.startswith("citygen.generate") and m]
+
+
 @contextmanager
 def wrapped(hook: Callable[[str, Callable, tuple, dict], object]):
-    """Replace each stage function in the pipeline module by ``hook(stage, fn, args, kwargs)``."""
-    saved = {}
+    """Replace each stage function, in every generator module that names it, by
+    ``hook(stage, fn, args, kwargs)``."""
+    saved = []
     for stage, name in STAGES.items():
-        fn = getattr(pipeline, name, None)
-        if fn is None:  # the pipeline no longer calls it by this name
-            continue
-        saved[name] = fn
+        for module in _callers():
+            with warnings.catch_warnings():  # the old module paths kept for a release warn
+                warnings.simplefilter("ignore", DeprecationWarning)
+                fn = getattr(module, name, None)
+            if not callable(fn) or getattr(fn, "__module__", "") == __name__:
+                continue
+            saved.append((module, name, fn))
 
-        def call(*args, _stage=stage, _fn=fn, **kwargs):
-            return hook(_stage, _fn, args, kwargs)
+            def call(*args, _stage=stage, _fn=fn, **kwargs):
+                return hook(_stage, _fn, args, kwargs)
 
-        setattr(pipeline, name, call)
+            setattr(module, name, call)
     try:
         yield
     finally:
-        for name, fn in saved.items():
-            setattr(pipeline, name, fn)
+        for module, name, fn in saved:
+            setattr(module, name, fn)
 
 
 def make(split_name: str, indices: range, hook) -> float:
