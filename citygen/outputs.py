@@ -1,7 +1,8 @@
 """Where citygen writes: output paths checked before the work starts, and the operating
 system's refusals (a file where a folder is expected, a read-only folder, a full disk) as
-one-line :class:`~citygen.errors.OutputError`\\ s naming the path, what was expected there
-and what was found.
+one-line errors (:class:`~citygen.errors.OutputError`) naming the path, what was expected
+there and what was found; and multi-file outputs (a ROS map's yaml and pgm, a city's URDF tiles)
+that appear whole or not at all (:func:`staged`).
 
 A command that computes for a while (``bench``, ``run``, ``generate``, ``train``) calls
 :func:`check_output` first, so a typo in ``--output`` costs nothing; whatever still fails
@@ -19,10 +20,14 @@ citygen.errors.OutputError: --output .../taken/b.json: expected a folder at .../
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import os
 import shutil
+import signal
 import tempfile
+import threading
+from collections.abc import Iterator
 from pathlib import Path
 
 from citygen.errors import OutputError
@@ -116,3 +121,77 @@ def check_output(
     if shutil.disk_usage(home).free == 0:
         raise _error(where, f"free space at {home}", "a full disk")
     return path
+
+
+#: Name prefix of the hidden folders :func:`staged` writes in (``.citygen-stage-<pid>-*``).
+STAGE_PREFIX = ".citygen-stage-"
+
+
+@contextlib.contextmanager
+def staged(out: str | Path) -> Iterator[Path]:
+    """A hidden folder inside ``out`` to write a multi-file output into. When the block ends
+    without an error its files move into ``out`` (same relative paths, each an atomic rename,
+    with Ctrl-C held off until all are in place); otherwise they are removed, so a failure, a
+    full disk or Ctrl-C never leaves part of the output (a yaml naming a missing pgm, 3 of 25
+    tiles). Files that name each other do so by relative path, so they stay valid. Folders
+    a killed process left behind are removed the next time."""
+    out = Path(out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        _remove_orphans(out)
+        stage = Path(tempfile.mkdtemp(prefix=f"{STAGE_PREFIX}{os.getpid()}-", dir=out))
+    except OSError as exc:
+        raise output_error(exc, out) from None
+    try:
+        yield stage
+        with _signals_held():
+            for folder, _, files in os.walk(stage):
+                for name in files:
+                    source = Path(folder, name)
+                    target = out / source.relative_to(stage)
+                    target.parent.mkdir(parents=True, exist_ok=True)
+                    os.replace(source, target)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+
+
+def unstaged(path: Path, stage: Path, out: Path) -> Path:
+    """Where a file written at ``path`` inside ``stage`` is once :func:`staged` moved it to ``out``."""
+    return out / Path(path).relative_to(stage)
+
+
+def _remove_orphans(out: Path) -> None:
+    """Remove staging folders in ``out`` whose process is gone (killed with SIGKILL)."""
+    for folder in out.glob(f"{STAGE_PREFIX}*"):
+        pid = folder.name.removeprefix(STAGE_PREFIX).split("-")[0]
+        if pid.isdigit() and not _alive(int(pid)):
+            shutil.rmtree(folder, ignore_errors=True)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+@contextlib.contextmanager
+def _signals_held() -> Iterator[None]:
+    """Ctrl-C and SIGTERM wait until the block is done (in the main thread; elsewhere the
+    block runs as it is)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    got: list[int] = []
+    held = (signal.SIGINT, signal.SIGTERM)
+    previous = {s: signal.signal(s, lambda number, _frame: got.append(number)) for s in held}
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+        if got:
+            signal.raise_signal(got[0])

@@ -98,6 +98,7 @@ from citygen.geometry.features import feature_mask
 from citygen.geometry.raster import Grid, erode, paint
 from citygen.geometry.terrain import height_at
 from citygen.io import write_atomic
+from citygen.outputs import staged
 from citygen.spec.scene import Scene
 from citygen.spec.surfaces import WALKABLE_ZONES, ZONE_KINDS
 from citygen.spec.terrain import TILE_TYPES
@@ -660,8 +661,9 @@ def export(scene: Scene | str | Path, out_dir: str | Path, **options: object) ->
         lambda: png_bytes(m, size_px=size_px, legend=legend, title=title),
     )
     try:
-        for path, content in zip(paths, contents, strict=True):
-            write_atomic(path, content())
+        with staged(out) as stage:  # the yaml never names a pgm that is not there
+            for path, content in zip(paths, contents, strict=True):
+                write_atomic(stage / path.name, content())
     except OSError as exc:
         raise ExportError(
             f"{out}: cannot write the occupancy map: {exc.strerror or type(exc).__name__}"

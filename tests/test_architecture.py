@@ -31,6 +31,7 @@ LAYERS = {
     "citygen.errors": "base",
     "citygen.seeding": "base",
     "citygen.outputs": "base",
+    "citygen.workers": "base",
     "citygen.spec": "spec",
     "citygen.geometry": "geometry",
     "citygen.io": "spec",

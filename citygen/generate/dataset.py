@@ -24,11 +24,9 @@ the lock file.
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import json
 import os
-import sys
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
@@ -41,6 +39,7 @@ from citygen.generate.splits import generate_scene, indices, relative_path, seed
 from citygen.io import dumps, load_manifest, load_scene, write_atomic
 from citygen.seeding import scene_seed
 from citygen.spec.config import SplitConfig
+from citygen.workers import check_interrupted, die_with_parent, interrupt_only_in
 
 LOCK_FORMAT = "citygen.lock/1"
 INDEX_FORMAT = "citygen.dataset/1"
@@ -107,6 +106,9 @@ def _make_chunk(
     """Make (or, resuming, keep) scenes ``chunk`` of ``split``; runs in a pool worker."""
     done = []
     for i in chunk:
+        check_interrupted()  # Ctrl-C reached this worker: start no new scene
+        if _STOP is not None and _STOP.is_set():  # the run was interrupted: start no new scene
+            raise KeyboardInterrupt
         rel = relative_path(split.name, i).as_posix()
         path = Path(out, rel)
         seed = scene_seed(split.seed, split.name, i)
@@ -135,14 +137,18 @@ def _ray_chunk(split: SplitConfig, chunk: Sequence[int]) -> list[tuple[int, byte
     return [(i, _scene_bytes(split, i)) for i in chunk]
 
 
-def _die_with_parent() -> None:
-    """Pool initializer: a worker ends when the process that started it is killed (Linux)."""
-    if sys.platform.startswith("linux"):
-        import ctypes
-        import signal
+#: In a pool worker: set by the process that started the pool when its run is interrupted.
+_STOP = None
 
-        with contextlib.suppress(OSError, AttributeError):
-            ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+
+def _die_with_parent(stop=None) -> None:
+    """Pool initializer: a worker ends when the process that started it is killed (Linux),
+    starts no new scene once ``stop`` (a multiprocessing Event) is set, and takes Ctrl-C only
+    while it makes scenes (:mod:`citygen.workers`)."""
+    global _STOP
+    _STOP = stop
+    interrupt_only_in(_make_chunk)
+    die_with_parent()
 
 
 def chunks(work: list[tuple[SplitConfig, int]], jobs: int) -> Iterator[tuple[SplitConfig, list[int]]]:
@@ -214,7 +220,10 @@ def write_scenes(
         methods = multiprocessing.get_all_start_methods()
         # fork: workers start with citygen already imported (seconds saved per worker).
         context = multiprocessing.get_context("fork" if "fork" in methods else None)
-        with ProcessPoolExecutor(jobs, mp_context=context, initializer=_die_with_parent) as pool:
+        stop = context.Event()
+        with ProcessPoolExecutor(
+            jobs, mp_context=context, initializer=_die_with_parent, initargs=(stop,)
+        ) as pool:
             futures = [
                 pool.submit(
                     _make_chunk,
@@ -233,6 +242,7 @@ def write_scenes(
                     if on_progress:
                         on_progress(len(done))
             except BaseException:
+                stop.set()
                 for f in futures:
                     f.cancel()
                 raise

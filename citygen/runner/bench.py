@@ -83,7 +83,9 @@ def _episode(spec: BenchSpec, i: int) -> dict[str, Any]:
     """Episode ``i`` of a benchmark: scene ``i`` of the split, seed ``seed + i`` (one env per
     worker process, reused)."""
     from citygen.runner.policies import make_policy
+    from citygen.workers import check_interrupted
 
+    check_interrupted()  # Ctrl-C reached this worker: start no episode the pool had queued
     key = repr(spec)
     if _WORKER.get("key") != key:
         _WORKER.clear()
@@ -130,13 +132,25 @@ def run_bench(
             if progress:
                 progress(i + 1, episodes, rows[i])
         return rows
-    with ProcessPoolExecutor(jobs) as pool:
+    with ProcessPoolExecutor(jobs, initializer=_worker_init) as pool:
         futures = {pool.submit(_episode, spec, i): i for i in range(episodes)}
-        for done, fut in enumerate(as_completed(futures), start=1):
-            rows[futures[fut]] = fut.result()
-            if progress:
-                progress(done, episodes, rows[futures[fut]])
+        try:
+            for done, fut in enumerate(as_completed(futures), start=1):
+                rows[futures[fut]] = fut.result()
+                if progress:
+                    progress(done, episodes, rows[futures[fut]])
+        except BaseException:  # Ctrl-C, or an episode failed: run no more episodes
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
     return rows
+
+
+def _worker_init() -> None:
+    """A bench worker takes Ctrl-C only while it runs an episode (:mod:`citygen.workers`)."""
+    from citygen.workers import die_with_parent, interrupt_only_in
+
+    interrupt_only_in(_episode)
+    die_with_parent()
 
 
 def summary_json(rows: Sequence[dict[str, Any]], **header: Any) -> dict[str, Any]:
