@@ -1,0 +1,153 @@
+"""Exports in the simulators people load them in: the sphere drop (``benchmarks/drop.py``).
+
+About 100 spheres of 5 cm radius dropped from 1 m, 2 s with each simulator's default time
+step, each sphere's bottom against ``citygen.height_at``: through the ground (more than 3 cm
+below) and resting (within 3 cm), spheres over objects and agents left out. Target
+(issue 49): 0 through and >= 95 % resting with each simulator's default loader, as
+``docs/simulators/`` loads the scenes:
+
+- MuJoCo: the MJCF (heightfields), and the MJCF with ``terrain="convex"``;
+- PyBullet: the URDF, ``loadURDF(useFixedBase=True)``;
+- SAPIEN 3 (CPU, no renderer): the URDF without visuals, ``create_urdf_loader()``;
+- Genesis (CPU, ``--genesis``): ``gs.morphs.MJCF`` of the convex MJCF and
+  ``gs.morphs.URDF(fixed=True)`` of the URDF. Its first ``scene.build()`` compiles for about
+  15 minutes on 2 busy cores (cached after), so it is not in the default run.
+
+Scenes: urban-nav-2-test scenes 3, 4 and 7 (stairs, slopes and rough ground, 15 m) and the
+urban-tra-standard track (120 m x 10 m). ``--city``: urban-tra-city scene 0's URDF tiles (the
+two at the scene's south-west corner, without visuals) in SAPIEN, and its convex MJCF in
+MuJoCo, spheres over those tiles (generation and export take a few minutes).
+
+Run: ``python benchmarks/bench_simulators.py [--genesis] [--city]``. Prints a table, then as
+its last line a JSON object of the figures.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from benchmarks import drop
+from citygen.exporters import ExportWarning, mjcf, urdf
+from citygen.generate.splits import generate_split
+from citygen.spec.scene import Bounds
+
+SCENES = {
+    "nav-3": ("urban-nav-2-test", 3),
+    "nav-4": ("urban-nav-2-test", 4),
+    "nav-7": ("urban-nav-2-test", 7),
+    "track": ("urban-tra-standard", 0),
+}
+
+
+def _export(scene, out: Path, name: str) -> dict[str, Path]:
+    """The files each loader reads."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ExportWarning)
+        return {
+            "mjcf": mjcf.export(scene, out / "hfield", name=name)[0],
+            "convex": mjcf.export(scene, out / "convex", name=name, terrain="convex")[0],
+            "urdf": urdf.export(scene, out / "urdf", name=name)[0],
+            "novisual": urdf.export(scene, out / "novisual", name=name, visual=False)[0],
+        }
+
+
+def _loaders(genesis: bool) -> dict:
+    out = {
+        "mujoco mjcf": lambda f, p: drop.mujoco_drop(f["mjcf"], p),
+        "mujoco mjcf convex": lambda f, p: drop.mujoco_drop(f["convex"], p),
+        "pybullet urdf": lambda f, p: drop.pybullet_drop(f["urdf"], p),
+        "sapien urdf": lambda f, p: drop.sapien_drop([f["novisual"]], p),
+    }
+    if genesis:
+        out["genesis mjcf convex"] = lambda f, p: drop.genesis_drop([f["convex"]], p)
+        out["genesis urdf"] = lambda f, p: drop.genesis_drop([f["novisual"]], p)
+    return out
+
+
+def _row(table: list, figures: dict, key: str, scene, points, run, files) -> None:
+    start = time.perf_counter()
+    try:
+        score = drop.score(scene, points, run(files, points))
+    except Exception as exc:  # a simulator missing or failing is a row, not the end
+        table.append((key, f"{type(exc).__name__}: {exc}"[:70]))
+        return
+    seconds = time.perf_counter() - start
+    table.append((key, score, seconds))
+    slug = key.replace(" ", "_").replace("-", "_")
+    figures[f"{slug}_through_pct"] = round(score["through_pct"], 1)
+    figures[f"{slug}_resting_pct"] = round(score["resting_pct"], 1)
+    figures[f"{slug}_s"] = round(seconds, 1)
+
+
+def _city(table: list, figures: dict, folder: Path) -> None:
+    """urban-tra-city's south-west URDF tiles in SAPIEN, its convex MJCF in MuJoCo."""
+    start = time.perf_counter()
+    scene = generate_split("urban-tra-city", index=0)
+    figures["city_generate_s"] = round(time.perf_counter() - start, 1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ExportWarning)
+        start = time.perf_counter()
+        files = urdf.export(scene, folder / "city", name="city", visual=False)
+        figures["city_urdf_export_s"] = round(time.perf_counter() - start, 1)
+        start = time.perf_counter()
+        xml = mjcf.export(scene, folder / "city-mjcf", name="city", terrain="convex")[0]
+        figures["city_mjcf_export_s"] = round(time.perf_counter() - start, 1)
+    index = json.loads(files[0].read_text())
+    tiles = sorted(index["tiles"], key=lambda t: (t["row"], t["col"]))[:2]
+    lo = np.min([t["min"] for t in tiles], axis=0)
+    hi = np.max([t["max"] for t in tiles], axis=0)
+    region = scene.model_copy(update={"bounds": Bounds(min=lo.tolist(), max=hi.tolist())})
+    points = drop.drop_points(region, per_side=12, inset=1.0)
+    runs = {
+        "sapien urdf tiles": lambda f, p: drop.sapien_drop([folder / "city" / t["file"] for t in tiles], p),
+        "mujoco mjcf convex": lambda f, p: drop.mujoco_drop(xml, p),
+    }
+    for key, run in runs.items():
+        _row(table, figures, f"city {key}", scene, points, run, None)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--genesis", action="store_true", help="also Genesis (minutes to compile first)")
+    parser.add_argument("--city", action="store_true", help="also urban-tra-city's URDF tiles and MJCF")
+    args = parser.parse_args()
+    table: list = []
+    figures: dict[str, float] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        for label, (split, index) in SCENES.items():
+            scene = generate_split(split, index=index)
+            start = time.perf_counter()
+            files = _export(scene, folder, label)
+            figures[f"{label.replace('-', '_')}_export_s"] = round(time.perf_counter() - start, 1)
+            points = drop.drop_points(scene)
+            for key, run in _loaders(args.genesis).items():
+                _row(table, figures, f"{label} {key}", scene, points, run, files)
+        if args.city:
+            _city(table, figures, folder)
+    print(f"{'scene and loader':34} {'spheres':>7} {'through':>8} {'resting':>8} {'worst m':>8} {'s':>6}")
+    for row in table:
+        if len(row) == 2:
+            print(f"{row[0]:34} {row[1]}")
+            continue
+        key, s, seconds = row
+        print(f"{key:34} {s['spheres']:7d} {s['through_pct']:7.1f}% {s['resting_pct']:7.1f}% "
+              f"{s['worst_m']:8.3f} {seconds:6.1f}")  # fmt: skip
+    rows = [r for r in table if len(r) == 3]
+    figures["drop_through_max_pct"] = max(r[1]["through_pct"] for r in rows)
+    figures["drop_resting_min_pct"] = min(r[1]["resting_pct"] for r in rows)
+    print(json.dumps(figures))
+
+
+if __name__ == "__main__":
+    main()
