@@ -28,10 +28,13 @@ def train(
         str | None, typer.Option("--robot", "-r", help="Robot.  [default: wheeled; quadruped for locomotion]")
     ] = None,
     steps: Annotated[
-        int | None, typer.Option("--steps", "-n", help="Environment steps in all.  [default: 1000000]")
+        int | None,
+        typer.Option(
+            "--steps", "-n", min=1, max=10**10, help="Environment steps in all.  [default: 1000000]"
+        ),
     ] = None,
     envs: Annotated[
-        int | None, typer.Option("--envs", help="Parallel sub-environments.  [default: 8]")
+        int | None, typer.Option("--envs", min=1, max=4096, help="Parallel sub-environments.  [default: 8]")
     ] = None,
     out: Annotated[
         Path, typer.Option("--out", "-o", help="Run folder: checkpoints, logs, curve, model.")
@@ -43,10 +46,17 @@ def train(
     resume: Annotated[
         bool, typer.Option("--resume", help="Continue the run in --out from its last checkpoint.")
     ] = False,
-    seed: Annotated[int | None, typer.Option("--seed", help="Seed of the run.  [default: 0]")] = None,
+    seed: Annotated[
+        int | None, typer.Option("--seed", min=0, max=2**32 - 1, help="Seed of the run.  [default: 0]")
+    ] = None,
     scenes: Annotated[
         int | None,
-        typer.Option("--scenes", help="Distinct training scenes.  [default: every scene of the split]"),
+        typer.Option(
+            "--scenes",
+            min=1,
+            max=100_000,
+            help="Distinct training scenes.  [default: every scene of the split]",
+        ),
     ] = None,
     processes: Annotated[
         int | None,

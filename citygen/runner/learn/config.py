@@ -13,6 +13,7 @@ A ``--config FILE`` (TOML or JSON) holds any of the fields; command-line options
 
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -41,6 +42,14 @@ TRAIN_SPLIT = {
 }
 
 PositiveInt = Annotated[int, Field(ge=1)]
+#: Bounds on what sizes a run's memory: a layer's width, the hidden layers' weights in all,
+#: and the samples of one rollout (sub-environments x steps).
+Width = Annotated[int, Field(ge=1, le=4096)]
+Channels = Annotated[int, Field(ge=1, le=1024)]
+Kernel = Annotated[int, Field(ge=1, le=64)]
+"""A CNN layer's kernel size or stride."""
+MAX_HIDDEN_WEIGHTS = 20_000_000
+MAX_ROLLOUT = 1_000_000
 
 
 class TrainConfig(BaseModel):
@@ -61,7 +70,7 @@ class TrainConfig(BaseModel):
         "process per core (a group each beyond the cores; see citygen.runner.vector); default 1 "
         "when the machine has more than one core and envs > 1.",
     )
-    seed: Annotated[int, Field(ge=0)] = 0
+    seed: Annotated[int, Field(ge=0, le=2**32 - 1)] = 0
     scenes: Annotated[int, Field(ge=1, le=100_000)] | None = Field(
         None,
         description="Distinct training scenes (the split's first N, extended past its end); "
@@ -73,7 +82,9 @@ class TrainConfig(BaseModel):
         "all sub-environments run the same scene, a new one every rollout.",
     )
     # PPO (paper defaults)
-    n_steps: PositiveInt = Field(200, description="Rollout steps per sub-environment (the horizon).")
+    n_steps: Annotated[int, Field(ge=1, le=100_000)] = Field(
+        200, description="Rollout steps per sub-environment (the horizon)."
+    )
     learning_rate: Annotated[float, Field(gt=0, le=1)] = 4e-4
     lr_schedule: Literal["constant", "linear"] = Field(
         "constant",
@@ -86,10 +97,14 @@ class TrainConfig(BaseModel):
     vf_coef: Annotated[float, Field(ge=0)] = 1.0
     ent_coef: Annotated[float, Field(ge=0)] = 5e-4
     max_grad_norm: Annotated[float, Field(gt=0)] = 0.5
-    n_epochs: PositiveInt = 5
-    minibatches: PositiveInt = Field(4, description="SGD minibatches per rollout batch.")
-    net_arch: tuple[PositiveInt, ...] = Field(
-        (128, 128), description="Hidden layer widths (actor and critic)."
+    n_epochs: Annotated[int, Field(ge=1, le=1000)] = 5
+    minibatches: Annotated[int, Field(ge=1, le=100_000)] = Field(
+        4, description="SGD minibatches per rollout batch."
+    )
+    net_arch: Annotated[tuple[Width, ...], Field(max_length=16)] = Field(
+        (128, 128),
+        description=f"Hidden layer widths (actor and critic): at most 16 layers of at most 4,096 units, "
+        f"{MAX_HIDDEN_WEIGHTS:,} weights between them in all.",
     )
     activation: Literal["tanh", "relu", "elu"] = "tanh"
     log_std_init: Annotated[float, Field(ge=-5, le=2)] = Field(
@@ -107,12 +122,12 @@ class TrainConfig(BaseModel):
         "on that noise to leave places where its mean stands still or circles. Narrowing it "
         "late in the run trains the policy that is evaluated.",
     )
-    conv: tuple[tuple[PositiveInt, PositiveInt, PositiveInt], ...] = Field(
+    conv: Annotated[tuple[tuple[Channels, Kernel, Kernel], ...], Field(max_length=8)] = Field(
         ((16, 5, 2), (32, 3, 2)),
         description="CNN over image-like keys (local_map): (channels, kernel, stride) per layer, "
         "then a linear layer of map_features units; () flattens them into the MLP.",
     )
-    map_features: PositiveInt = Field(128, description="Units the CNN's linear layer gives the MLP.")
+    map_features: Width = Field(128, description="Units the CNN's linear layer gives the MLP.")
     target_kl: Annotated[float, Field(gt=0)] | None = Field(
         None, description="Stop a rollout's epochs early past this approximate KL (None: never)."
     )
@@ -195,6 +210,27 @@ class TrainConfig(BaseModel):
     )
     checkpoint_every: Annotated[int, Field(ge=1)] = Field(50_000, description="Steps between checkpoints.")
     keep_checkpoints: Annotated[int, Field(ge=1)] = 3
+
+    @field_validator("net_arch")
+    @classmethod
+    def _net_arch_fits_in_memory(cls, net_arch: tuple[int, ...]) -> tuple[int, ...]:
+        weights = sum(a * b for a, b in itertools.pairwise(net_arch))
+        if weights > MAX_HIDDEN_WEIGHTS:
+            raise ValueError(
+                f"hidden layers of at most {MAX_HIDDEN_WEIGHTS:,} weights in all (these have {weights:,})"
+            )
+        return net_arch
+
+    @field_validator("n_steps")
+    @classmethod
+    def _rollout_fits_in_memory(cls, n_steps: int, info: ValidationInfo) -> int:
+        envs = info.data.get("envs", 1)
+        if envs * n_steps > MAX_ROLLOUT:
+            raise ValueError(
+                f"a rollout of at most {MAX_ROLLOUT:,} samples (envs x n_steps; {envs} x this is "
+                f"{envs * n_steps:,})"
+            )
+        return n_steps
 
     @field_validator("stack")
     @classmethod
