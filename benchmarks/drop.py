@@ -139,22 +139,20 @@ def pybullet_drop(urdf: str | Path, points: np.ndarray) -> np.ndarray:
 # --- SAPIEN --------------------------------------------------------------------------------
 
 
-def sapien_scene():
-    """A SAPIEN scene with physics only (no render system: no rendering device needed)."""
-    import sapien
-
-    return sapien.Scene([sapien.physx.PhysxCpuSystem()])
-
-
 def sapien_drop(urdfs: list[str | Path], points: np.ndarray) -> np.ndarray:
     """The spheres dropped on URDF files (a scene, or a city's tiles) in SAPIEN on the CPU
-    (its 1/100 s steps), each loaded with ``create_urdf_loader`` as a fixed body."""
+    (its 1/100 s steps), each loaded with ``create_urdf_loader`` as a fixed body with each
+    link's friction (:func:`citygen.exporters.urdf.frictions`), as docs/simulators/sapien.md."""
     import sapien
 
-    scene = sapien_scene()
+    from citygen.exporters.urdf import frictions
+
+    scene = sapien.Scene([sapien.physx.PhysxCpuSystem()])  # no renderer: no rendering device needed
     for urdf in urdfs:
         loader = scene.create_urdf_loader()
         loader.fix_root_link = True
+        for link, mu in frictions(urdf).items():
+            loader.set_link_material(link, mu, mu, 0.0)
         loader.load_multiple(str(urdf))
     balls = []
     for p in points:
