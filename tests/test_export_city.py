@@ -80,6 +80,13 @@ def coarsening(stderr: str, fmt: str) -> list[float]:
     return [float(line.split("(up to ")[1].split(" cm")[0]) for line in lines]
 
 
+def pieces_tolerance(stderr: str, fmt: str) -> float:
+    """How far (cm) ``fmt``'s convex pieces of rough ground may lie from height_at: 1 cm unless
+    a line says the budget raised it."""
+    lines = [line for line in stderr.splitlines() if f"$.terrain: {fmt} lays the" in line]
+    return float(lines[0].split("convex pieces within ")[1].split(" cm")[0]) if lines else 1.0
+
+
 def test_every_format_is_written_and_each_coarsening_is_one_warning_line(city, scene):
     _, out, done = city
     for fmt, proc in done.items():
@@ -172,7 +179,8 @@ def test_the_tiles_along_the_route_load_in_pybullet_on_the_ground(city, scene, u
     import pybullet
 
     _, out, done = city
-    error = coarsening(done["urdf"].stderr, "URDF")[0] / 100
+    # Rays meet the collision ground: its convex pieces, within their tolerance.
+    error = pieces_tolerance(done["urdf"].stderr, "URDF") / 100
     task = scene.task
     points = [task.start.position, *task.route]
     by_tile: dict[str, list] = {}
