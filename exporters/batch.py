@@ -269,6 +269,13 @@ def _parallel(steps: list[_Unit | list[Event]], jobs: int) -> Iterator[list[Even
             receive.close()
 
 
+def _one_line(exc: BaseException, named: bool = True) -> str:
+    """An exception as one line: its type and its message's first line (Qhull's error runs to
+    a dozen lines of options)."""
+    text = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+    return f"{type(exc).__name__}: {text}" if named else text
+
+
 def _one(
     path: Path,
     out: Path,
@@ -292,12 +299,14 @@ def _one(
             failure = f"{fmt}: {' '.join(exc.lines())}"
         except RuntimeError as exc:
             if module_name != "view":
-                failure = f"{fmt}: {type(exc).__name__}: {exc}"
+                failure = f"{fmt}: {_one_line(exc)}"
             else:
                 failure = None
-                yield Event("skipped", path, f"skipped the perspective picture: {exc}")
+                yield Event(
+                    "skipped", path, f"skipped the perspective picture: {_one_line(exc, named=False)}"
+                )
         except (OSError, MemoryError, ValueError) as exc:
-            failure = f"{fmt}: {type(exc).__name__}: {exc}"
+            failure = f"{fmt}: {_one_line(exc)}"
     for w in caught:
         if issubclass(w.category, ExportWarning):
             yield Event("warning", path, str(w.message))
