@@ -5,8 +5,9 @@ scene is sound) and never raises for bad content. Checks, in order: bounds;
 unique ids; block connections; zone polygons (valid, inside the bounds, not
 overlapping); the terrain grid (size, inside the bounds, neighbours agreeing on
 shared edges); placements (assets resolvable, mesh paths inside the scene's
-folder, inside the bounds, not overlapping each other or buildings); agents and
-the task (inside the bounds, on walkable ground, not inside an object).
+folder, their meshes with volume, inside the bounds, not overlapping each other or
+buildings, standing on the ground under them); agents and the task (inside the bounds, on
+walkable ground, not inside an object).
 
 Geometry work is vectorised with shapely's STRtree, so the cost grows with the
 number of items and their actual neighbours, not with their pairs.
@@ -28,6 +29,7 @@ from citygen.errors import Problem
 from citygen.geometry.features import feature_polygon
 from citygen.spec import limits
 from citygen.spec.agents import Person
+from citygen.spec.placements import Placement
 from citygen.spec.scene import Scene
 from citygen.spec.surfaces import WALKABLE_ZONES
 from citygen.spec.task import NavTask, TraverseTask
@@ -386,8 +388,35 @@ def _mesh_footprint(path: Path) -> np.ndarray | str:
         return f"an unreadable mesh ({type(exc).__name__})"
     if len(mesh.vertices) < 3:
         return "a mesh with no vertices"
+    flat = _flat_part(mesh)
+    if flat is not None:
+        return flat
     hull = shapely.MultiPoint(mesh.vertices[:, :2]).convex_hull
     return np.asarray(hull.exterior.coords) if isinstance(hull, Polygon) else "a mesh with no footprint"
+
+
+#: Connected parts of a mesh asset checked one by one (the MJCF exporter collides each part as
+#: its convex hull, up to 64 parts; beyond, the whole mesh).
+MAX_MESH_PARTS = 64
+
+
+def _flat_part(mesh) -> str | None:
+    """What stops the engines from colliding a mesh asset: a connected part (after trimesh drops
+    degenerate faces) without four points off one plane has no convex hull (Qhull fails)."""
+    parts = mesh.split(only_watertight=False) if mesh.body_count > 1 else [mesh]
+    if len(parts) > MAX_MESH_PARTS:
+        parts = [mesh]
+    for k, part in enumerate(parts):
+        points = np.unique(np.asarray(part.vertices), axis=0)
+        spread = np.linalg.svd(points - points.mean(axis=0), compute_uv=False) if len(points) >= 4 else ()
+        if len(points) < 4 or spread[2] <= 1e-9 * max(spread[0], 1e-12):
+            what = f"part {k + 1} of {len(parts)}" if len(parts) > 1 else "the mesh"
+            return (
+                f"a mesh without volume: {what} has {len(points)} distinct vertices"
+                f"{' in one plane' if len(points) >= 4 else ''} after its degenerate faces are dropped "
+                "(no convex hull for the engines to collide)"
+            )
+    return None
 
 
 def _placement_footprints(
@@ -459,6 +488,74 @@ def _check_placements(
     )
     lots = _lot_assets(scene)
     problems += _inside_zones(scene, footprints, zones, present, lots)
+    problems += _on_the_ground(scene, footprints)
+    return problems
+
+
+#: How far (m) an object's base may sit above the highest ground under it, or below the lowest.
+REST_TOL = 0.01
+
+
+def ground_under(scene: Scene, footprints: Sequence[Polygon | None]) -> list[tuple[float, float] | None]:
+    """The lowest and highest ground (m) under each footprint (its corners and its centre, as
+    the placement stage measures them); None where there is no footprint or no sound terrain."""
+    from citygen.geometry.terrain import height_at
+
+    rings = [
+        None if fp is None else np.vstack([np.asarray(fp.exterior.coords), pl.position[:2]])
+        for fp, pl in zip(footprints, scene.placements, strict=True)
+    ]
+    points = [r for r in rings if r is not None]
+    if not points:
+        return [None] * len(rings)
+    try:
+        z = height_at(scene, *np.vstack(points).T) if scene.terrain is not None else None
+    except ValueError:  # a malformed terrain grid (its own problem): no ground to measure
+        return [None] * len(rings)
+    out: list[tuple[float, float] | None] = []
+    k = 0
+    for ring in rings:
+        if ring is None:
+            out.append(None)
+            continue
+        part = z[k : k + len(ring)] if z is not None else np.zeros(1)
+        k += len(ring)
+        out.append((float(part.min()), float(part.max())))
+    return out
+
+
+def reseated(scene: Scene, base_dir: str | Path | None = None) -> tuple[Placement, ...]:
+    """The scene's objects, each that floats above the ground under it or is buried in it
+    (after a hand edit) moved to stand on it, at the lowest ground under its base as the
+    placement stage puts it; every other object as it is. Mesh assets are measured only
+    with ``base_dir`` (the scene's folder)."""
+    footprints, _ = _placement_footprints(scene, base_dir)
+    out = []
+    for pl, ground in zip(scene.placements, ground_under(scene, footprints), strict=True):
+        if ground is not None and not ground[0] - REST_TOL <= pl.position[2] <= ground[1] + REST_TOL:
+            pl = pl.model_copy(update={"position": (*pl.position[:2], round(ground[0], 3) + 0.0)})
+        out.append(pl)
+    return tuple(out)
+
+
+def _on_the_ground(scene: Scene, footprints: Sequence[Polygon | None]) -> list[Problem]:
+    """Every object stands on the ground under it: its base neither floats above the highest
+    ground under it nor is buried below the lowest (after a hand edit of the terrain or of z)."""
+    problems = []
+    for i, (pl, ground) in enumerate(zip(scene.placements, ground_under(scene, footprints), strict=True)):
+        if ground is None:
+            continue
+        low, high = ground
+        z = pl.position[2]
+        if low - REST_TOL <= z <= high + REST_TOL:
+            continue
+        off = f"{z - high:.2f} m above it" if z > high else f"buried {low - z:.2f} m in it"
+        problems.append(Problem(
+            f"$.placements[{i}].position",
+            f"z on the ground under the object ({low:.3f} to {high:.3f} m; "
+            "'citygen rebuild SCENE --from placement' re-seats it)",
+            f"z = {_fmt(z)}, {off}",
+        ))  # fmt: skip
     return problems
 
 

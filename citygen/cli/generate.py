@@ -256,7 +256,8 @@ def rebuild(
     """Re-run the generator stages after `--from` on a hand-edited scene, keeping the rest.
 
     `citygen rebuild scene.json --from placement` keeps the layout (blocks, zones), terrain
-    and objects as they are in the file and makes the agents and the task again, with the
+    and objects as they are in the file (an object an edit left floating or buried is seated
+    on the ground under it) and makes the agents and the task again, with the
     scene's own seed and config: an unedited scene comes back byte for byte. The task's start,
     goal and route belong to the layout: rebuilding from `layout` chooses them again, from any
     later stage keeps them. The result is checked as `citygen validate` does; nothing is
@@ -282,7 +283,12 @@ def rebuild(
     citygen.save_scene(result, target)
     kept = ", ".join(STAGES[: STAGES.index(stage) + 1])
     remade = ", ".join(STAGES[STAGES.index(stage) + 1 :]) or "nothing"
-    typer.echo(f"wrote {target} (kept {kept}; made again: {remade})")
+    note = ""
+    if STAGES.index(stage) >= STAGES.index("placement"):  # the objects kept, some perhaps re-seated
+        pairs = zip(edited.placements, result.placements, strict=True)
+        seated = sum(a.position != b.position for a, b in pairs)
+        note = f"; {plural(seated, 'object')} seated on the ground" if seated else ""
+    typer.echo(f"wrote {target} (kept {kept}; made again: {remade}{note})")
 
 
 def register(app: typer.Typer) -> None:

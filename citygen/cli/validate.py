@@ -14,11 +14,15 @@ from citygen.errors import SpecError
 
 def validate(
     files: Annotated[
-        list[Path], typer.Argument(help="Scene files (.json) or split manifests (.toml).", show_default=False)
+        list[Path],
+        typer.Argument(
+            help="Scene files (.json), split manifests or generator configs (.toml).", show_default=False
+        ),
     ],
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="Print only problems.")] = False,
 ) -> None:
-    """Check scene files (and split manifests): their shape against the schema, then their meaning.
+    """Check scene files (and split manifests, generator configs): their shape against the schema,
+    then their meaning.
 
     Semantic checks: polygons valid and inside the bounds, zones and objects not
     overlapping, neighbouring terrain tiles agreeing on shared edges, agents and the
@@ -26,13 +30,13 @@ def validate(
     when every file is valid, 2 otherwise, with one line per problem:
     `FILE: $.json.path: expected ..., got ...`
     """
-    from citygen.io import load_manifest
+    from citygen.generate.splits import resolve
 
     bad = 0
     for file in files:
         try:
             if file.suffix.lower() == ".toml":
-                load_manifest(file)  # split manifests are checked entirely on loading
+                resolve(str(file))  # manifests and generator configs are checked entirely on loading
                 problems = []
             else:
                 problems = citygen.validate(citygen.load_scene(file), base_dir=file.parent)

@@ -10,7 +10,8 @@ own generator, so its numbering is the order of the spec, not of the calls.
 **Rebuilding.** The stages a user edits and re-runs are :data:`STAGES`: ``layout``
 (blocks and zones), ``terrain``, ``placement`` (objects), ``agents`` and ``task``.
 ``rebuild(scene, "placement")`` keeps the scene's layout, terrain and objects as they
-are in the file and makes its agents and task again, each stage from the generator it
+are in the file (an object left floating or buried by an edit is seated on the ground
+under it) and makes its agents and task again, each stage from the generator it
 had when the scene was generated, so rebuilding an unedited scene from any stage gives
 its bytes back. The task's *endpoints* (start pose, goal, route; a locomotion task's
 start) are chosen with the layout, before the terrain: rebuilding from ``layout`` chooses
@@ -39,6 +40,7 @@ from citygen.spec.config import GeneratorConfig, TaskConfig
 from citygen.spec.scene import SCENE_FORMAT, Bounds, Meta, Scene
 from citygen.spec.task import ROBOTS, LocoTask, NavTask, Task, TraverseTask
 from citygen.spec.terrain import Terrain
+from citygen.validate import reseated
 
 GENERATOR = f"citygen {__version__}"
 
@@ -133,8 +135,8 @@ def _finish(scene: Scene, config: GeneratorConfig, seed: int, *, keep: int) -> S
         passable = (
             crossed if crossed is not None else passable_ground(walkable, terrain, ROBOTS[config.task.robot])
         )
-    if keep >= 2:
-        placements = scene.placements
+    if keep >= 2:  # kept, each object seated on the (perhaps edited) ground under it
+        placements = reseated(scene)
     else:
         placements = stages.objects(terrain, ends, passable, _level(config.placement.density_levels, k))
     if keep >= 3:

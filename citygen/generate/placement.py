@@ -20,7 +20,9 @@ into):
 
 How many: ``config.count`` objects (exact) or ``density_per_100m2`` per 100 m2 of the
 ground the categories suit, times the scene's density level (Urban-Nav-2's 50 %, 100 %,
-150 %). Buildings fill their lots and are not counted. Each scene draws a small palette
+150 %); when an object finds no room in :data:`TRIES` candidates the stage fails with a
+:class:`~citygen.errors.GenerationError` giving the numbers, never places fewer in silence.
+Buildings fill their lots and are not counted. Each scene draws a small palette
 of variants per category, so a street repeats its bench model as real streets do (and
 instancing exporters stay small).
 """
@@ -376,7 +378,7 @@ def place_objects(
     rng = child(rng, 200)
     order = list(slots)
     counts: dict[str, int] = defaultdict(int)
-    for _ in range(wanted):
+    for done in range(wanted):
         for _ in range(TRIES):
             name = order[int(rng.integers(len(order)))]
             asset = resolve(palettes[name][int(rng.integers(PALETTE))])
@@ -409,6 +411,18 @@ def place_objects(
                 )
             )
             break
+        else:  # no room for one more: say so rather than hand back fewer than asked for
+            asked = (
+                f"placement.count = {cfg.count}"
+                if cfg.count is not None
+                else f"placement.density_per_100m2 = {cfg.density_per_100m2:g}"
+            )
+            raise GenerationError("placement", seed, (
+                f"placed {done} of the {wanted} objects asked for ({asked}, density level {level:g}): "
+                f"{TRIES} candidates for the next found no room in the {area:,.0f} m2 of zones they suit, "
+                f"{cfg.clearance:g} m apart; "
+                "ask for fewer objects, a smaller clearance or a larger scene"
+            ))  # fmt: skip
     return tuple(placed)
 
 

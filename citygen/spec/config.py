@@ -198,6 +198,9 @@ class TerrainConfig(SpecModel):
 
 
 MAX_COUNT = 1_000_000
+#: Smallest side of a region scene whose walkable region may be a plaza: its islands are
+#: 0.5 m to 12 % of the smaller side across (citygen.generate.layouts.region).
+MIN_PLAZA_SIDE_M = 4.2
 
 
 def _density_is_none(value: object) -> object:
@@ -416,6 +419,17 @@ def check_config(config: BaseModel, path: str = "$") -> list[Problem]:
                     f"{len(config.track.units)} units of {config.track.unit_length:g} m = {span:g} m",
                 )
             )
+    if (
+        isinstance(config, GeneratorConfig)
+        and config.layout == "region"
+        and config.region.shapes.plaza > 0
+        and min(config.size) < MIN_PLAZA_SIDE_M
+    ):
+        problems.append(Problem(
+            f"{path}.size", f"at least {MIN_PLAZA_SIDE_M:g} m on each side for a region scene that may be a "
+            "plaza (its islands need the room), or region.shapes.plaza = 0",
+            f"[{config.size[0]:g}, {config.size[1]:g}]",
+        ))  # fmt: skip
     if isinstance(config, SplitManifest):
         seen: set[str] = set()
         for i, split in enumerate(config.splits):
