@@ -132,7 +132,10 @@ def _top_offset(boxes: np.ndarray) -> np.ndarray:
 @lru_cache(maxsize=256)
 def _rough_cells(tile: RoughTile, s: float, tolerance: float) -> tuple[np.ndarray, float]:
     """A rough tile at height 0 as tilted boxes of zero depth (their top faces) and the
-    largest error of their planes at the samples; cached, as a scene repeats tiles."""
+    largest error of their planes at the samples; cached, as a scene repeats tiles. A tile
+    whose bumps stay within the tolerance is one level box (its error, the amplitude)."""
+    if tile.amplitude <= tolerance:
+        return np.array([_plate(0.0, s, 0.0, s, (0.0, 0.0, 0.0))]), tile.amplitude
     n = int(min(max(math.ceil(s * SAMPLES_PER_SCALE / tile.scale), 2), MAX_SAMPLES))
     g = np.linspace(0.0, s, n + 1)
     z = tile_grid(tile, s, g, g)  # z[i, j]: v = g[i], u = g[j]
