@@ -125,7 +125,8 @@ def read_json(path: str | Path) -> Any:
         where = f"at line {exc.lineno} column {exc.colno}"
         if exc.pos >= len(text.rstrip()):
             raise fail("valid JSON", f"the end of the file {where} (truncated?)") from None
-        raise fail("valid JSON", f"{exc.msg.lower()} {where}") from None
+        # Some of json's messages end in "at" ("unterminated string starting at"): not twice.
+        raise fail("valid JSON", f"{exc.msg.lower().removesuffix(' at')} {where}") from None
     except _Duplicate as exc:
         raise fail("each key once per object", f"key {str(exc)!r} twice") from None
     except ValueError as exc:
@@ -249,7 +250,8 @@ def _show(value: Any, limit: int = 60) -> str:
 
 def _kind_of(value: Any) -> str:
     names = {dict: "an object", list: "an array", str: "a string", bool: "a boolean", type(None): "null"}
-    return names.get(type(value), "a number") + ("" if isinstance(value, dict | list) else f" {_show(value)}")
+    shown = "" if isinstance(value, dict | list) or value is None else f" {_show(value)}"
+    return names.get(type(value), "a number") + shown
 
 
 def _suggest(word: Any, quoted_choices: str) -> str:

@@ -94,8 +94,30 @@ def _os_line(exc: OSError) -> str | None:
     return f"expected a writable disk, got {exc.strerror or type(exc).__name__}"
 
 
+def splits_line() -> str:
+    """The named splits, for ``citygen --help``: ``urban-nav-1 (train, test), ...``."""
+    from citygen.generate.manifests import PARTS, splits
+
+    parts: dict[str, list[str]] = {}
+    for name in splits():
+        family, _, part = name.rpartition("-")
+        if part in PARTS:
+            parts.setdefault(family, []).append(part)
+        else:
+            parts[name] = []
+    listed = ", ".join(f"{f} ({', '.join(p)})" if p else f for f, p in parts.items())
+    return f"Named splits (`--split NAME`; a family name means all its parts): {listed}."
+
+
 class Guarded(TyperGroup):
-    """The app's group: every command's failures as one line (see the module docstring)."""
+    """The app's group: every command's failures as one line (see the module docstring); its
+    help lists the named splits (read from seeds/ when the help is shown)."""
+
+    def format_help(self, ctx, formatter) -> None:
+        if ctx.parent is None and self.help and "Named splits" not in self.help:
+            with contextlib.suppress(CitygenError):
+                self.help = f"{self.help}\n\n{splits_line()}"
+        return super().format_help(ctx, formatter)
 
     def invoke(self, ctx: typer.Context):
         _RESUME.set(None)

@@ -191,7 +191,9 @@ def dataset_verify(
         raise typer.Exit(2)
     from citygen.generate.dataset import lock_path
 
-    typer.echo(f"{folder}: {len(read_lock(lock or lock_path(manifest)))} scenes match the lock file")
+    typer.echo(
+        f"{folder}: {plural(len(read_lock(lock or lock_path(manifest))), 'scene')} match the lock file"
+    )
 
 
 @dataset_app.command("lock")

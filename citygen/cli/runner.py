@@ -12,6 +12,7 @@ from typing import Annotated, get_args
 
 import typer
 
+from citygen.cli.common import plural
 from citygen.errors import Problem, SpecError
 from citygen.outputs import check_output
 from citygen.spec.task import TASK_KINDS
@@ -274,7 +275,7 @@ def run(
     _print_table([result], output=output, **header)
     if frames is not None:
         _write_frames(frames, pictures)
-        typer.echo(f"wrote {len(pictures)} frames to {frames}/")
+        typer.echo(f"wrote {plural(len(pictures), 'frame')} to {frames}/")
     if animation is not None:
         _write_animation(animation, pictures, fps=max(1, round(1.0 / (env.dt * every))))
         typer.echo(f"wrote {animation}")
