@@ -83,7 +83,8 @@ def generate(
     Scene `i` of split `S` gets the seed derived from (master seed, `S`, `i`), written into its
     `meta`; files go to `OUT/<family>/<part>/<index:04d>.json`, e.g. `out/urban-nav-2/train/0000.json`.
     """
-    from citygen.generate.dataset import check_executor, progress_bar, write_scenes
+    from citygen.cli.progress import scenes_progress
+    from citygen.generate.dataset import check_executor, write_scenes
     from citygen.generate.splits import indices, resolve
 
     check_executor(executor)
@@ -93,7 +94,7 @@ def generate(
         raise SpecError([Problem("--count", f"at most {MAX_RUN_SCENES:,} scenes in one run", f"{total:,}")])
     check_output(out, folder=True, option="--out")
     resumable()
-    with progress_bar(total, "generating", enabled=sys.stderr.isatty() and total > 1) as advance:
+    with scenes_progress(total, "generating") as advance:
         written = write_scenes(
             chosen,
             out,

@@ -163,25 +163,39 @@ def _bar_enabled() -> bool:
 @contextlib.contextmanager
 def progress_bar(episodes: int, enabled: bool, horizon: int | None = None):
     """A rich progress bar on stderr like ``citygen generate``'s: episodes (or, for one
-    episode, its steps against the horizon), steps so far, success so far, elapsed and ETA.
-    Yields ``advance(done, total, row)`` (an episode's row when one ends, else None)."""
+    episode, its steps against the horizon), steps so far, success so far, elapsed and ETA;
+    with ``enabled`` False (stderr is not a terminal), a line every few seconds instead
+    (:class:`~citygen.cli.progress.LineProgress`). Yields ``advance(done, total, row)`` (an
+    episode's row when one ends, else None)."""
+    tally = {"steps": 0, "success": 0.0, "ended": 0}
+
+    def count(row: dict | None) -> str:
+        if row is not None:
+            tally["steps"] += int(row.get("steps", 0))
+            tally["success"] += float(row.get("success_rate", row.get("balance", 0.0)))
+            tally["ended"] += 1
+        return f"{tally['success'] / tally['ended']:.0f} %" if tally["ended"] else "-"
+
+    unit = "steps" if horizon else "episodes"
     if not enabled:
-        yield lambda done, total, row=None: None
+        from citygen.cli.progress import LineProgress
+
+        lines = LineProgress("running", horizon or episodes, unit)
+
+        def say(done: int, total: int, row: dict | None = None) -> None:
+            rate = count(row)
+            lines.update(done, "" if horizon else f", success {rate}")
+
+        yield say
         return
     from citygen.generate.dataset import rich_bar
 
-    unit = "steps" if horizon else "episodes"
     with rich_bar("{task.fields[steps]} steps", "success {task.fields[success]}") as bar:
         job = bar.add_task(unit, total=horizon or episodes, steps=0, success="-")
-        tally = {"steps": 0, "success": 0.0, "ended": 0}
 
         def advance(done: int, total: int, row: dict | None = None) -> None:
-            if row is not None:
-                tally["steps"] += int(row.get("steps", 0))
-                tally["success"] += float(row.get("success_rate", row.get("balance", 0.0)))
-                tally["ended"] += 1
+            rate = count(row)
             steps = done if horizon else tally["steps"]
-            rate = f"{tally['success'] / tally['ended']:.0f} %" if tally["ended"] else "-"
             bar.update(job, completed=done, total=total, steps=steps, success=rate)
 
         yield advance

@@ -28,6 +28,8 @@ its own way. This module runs the stages in order for every layout.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
+from contextvars import ContextVar
 
 from citygen._version import __version__
 from citygen.errors import GenerationError, Problem, SpecError
@@ -47,6 +49,16 @@ GENERATOR = f"citygen {__version__}"
 #: The stages :func:`rebuild` can keep up to, in order.
 STAGES = ("layout", "terrain", "placement", "agents", "task")
 
+#: Called with a stage's name as it starts, in this context (``citygen generate``'s progress on
+#: one large scene: a city takes half a minute); None: nothing is said.
+on_stage: ContextVar[Callable[[str], None] | None] = ContextVar("citygen_on_stage", default=None)
+
+
+def _starting(stage: str) -> None:
+    hook = on_stage.get()
+    if hook is not None:
+        hook(stage)
+
 
 def layout(
     config: GeneratorConfig, seed: int, *, split: str | None = None, index: int | None = None
@@ -54,6 +66,7 @@ def layout(
     """Stages 1 and 2: the road blocks (for ``layout="blocks"`` and ``"city"``) and the zones of a
     scene, as its layout (:data:`~citygen.generate.layouts.LAYOUTS`) plans them."""
     bounds = Bounds(min=(0.0, 0.0), max=config.size)
+    _starting("layout")
     plan = LAYOUTS[config.layout].plan(bounds, config, seed)
     meta = Meta(generator=GENERATOR, split=split, index=index, seed=seed)
     return Scene(
@@ -128,6 +141,7 @@ def _finish(scene: Scene, config: GeneratorConfig, seed: int, *, keep: int) -> S
     if keep >= 1:
         terrain = scene.terrain
     else:
+        _starting("terrain")
         terrain, crossed = stages.terrain(ends, walkable)
     # The ground the task's robot can cross: walkable zones less the tiles it cannot cross.
     passable = walkable
@@ -138,11 +152,14 @@ def _finish(scene: Scene, config: GeneratorConfig, seed: int, *, keep: int) -> S
     if keep >= 2:  # kept, each object seated on the (perhaps edited) ground under it
         placements = reseated(scene)
     else:
+        _starting("placement")
         placements = stages.objects(terrain, ends, passable, _level(config.placement.density_levels, k))
     if keep >= 3:
         agents = scene.agents
     else:
+        _starting("agents")
         agents = stages.people(placements, ends, walkable, _level(config.agents.density_levels, k))
+    _starting("task")
     task = _task(config.task, ends, terrain, seed, kept_task)
     return scene.model_copy(
         update={"terrain": terrain, "placements": placements, "agents": agents, "task": task}

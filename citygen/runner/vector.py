@@ -203,6 +203,27 @@ def _groups(count: int, workers: int) -> list[int]:
     return [q + (k < r) for k in range(workers)]
 
 
+@contextlib.contextmanager
+def _main_not_rerun():
+    """Start a worker without re-running a main script that is not a file: a script read from
+    standard input (``python - <<EOF``) has ``__main__.__file__ == '<stdin>'``, which spawn and
+    forkserver workers would try to run again and die on (a BrokenPipe or EOFError here). The
+    workers need nothing from it: their environments come cloudpickled."""
+    import os
+    import sys
+
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    if path is None or os.path.exists(path):
+        yield
+        return
+    del main.__file__
+    try:
+        yield
+    finally:
+        main.__file__ = path
+
+
 class VectorEnv(gymnasium.vector.VectorEnv):
     """``len(env_fns)`` sub-environments, each built by its function, batched (see the module
     docstring). ``processes``: worker processes step the sub-environments (``context``: the
@@ -299,7 +320,8 @@ class VectorEnv(gymnasium.vector.VectorEnv):
             args = (makes, start, raw, spaces, n, step_infos, same, self._spin, child)
             name = f"citygen-vector-{start}" + (f"-{start + count - 1}" if count > 1 else "")
             proc = ctx.Process(target=_worker, args=args, daemon=True, name=name)
-            proc.start()
+            with _main_not_rerun():
+                proc.start()
             child.close()
             self._conns.append(parent)
             self._procs.append(proc)
