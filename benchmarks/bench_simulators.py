@@ -10,8 +10,10 @@ below) and resting (within 3 cm), spheres over objects and agents left out. Targ
 - PyBullet: the URDF, ``loadURDF(useFixedBase=True)``;
 - SAPIEN 3 (CPU, no renderer): the URDF without visuals, ``create_urdf_loader()``;
 - Genesis (CPU, ``--genesis``): ``gs.morphs.MJCF`` of the convex MJCF and
-  ``gs.morphs.URDF(fixed=True)`` of the URDF. Its first ``scene.build()`` compiles for about
-  15 minutes on 2 busy cores (cached after), so it is not in the default run.
+  ``gs.morphs.URDF(fixed=True)`` of the URDF without visuals, rough tiles within 2 cm, after
+  docs/simulators/genesis.md's recipe run as written. Its first ``scene.build()`` compiles for
+  about 15 minutes on 2 busy cores, and its memory grows with the square of a scene's geoms,
+  so it is not in the default run.
 
 Scenes: urban-nav-2-test scenes 3, 4 and 7 (stairs, slopes and rough ground, 15 m) and the
 urban-tra-standard track (120 m x 10 m). ``--city``: urban-tra-city scene 0's URDF tiles (the
@@ -26,6 +28,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import re
+import shlex
+import subprocess
 import sys
 import tempfile
 import time
@@ -39,6 +45,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from benchmarks import drop
 from citygen.exporters import ExportWarning, mjcf, urdf
 from citygen.generate.splits import generate_split
+from citygen.geometry.terrain import height_at
+from citygen.io import load_scene
 from citygen.spec.scene import Bounds
 
 SCENES = {
@@ -49,16 +57,27 @@ SCENES = {
 }
 
 
-def _export(scene, out: Path, name: str) -> dict[str, Path]:
+#: The rough tiles' tolerance (m) of Genesis' files, as docs/simulators/genesis.md exports them.
+GENESIS_TOLERANCE = 0.02
+
+
+def _export(scene, out: Path, name: str, genesis: bool) -> dict[str, Path]:
     """The files each loader reads."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ExportWarning)
-        return {
+        files = {
             "mjcf": mjcf.export(scene, out / "hfield", name=name)[0],
             "convex": mjcf.export(scene, out / "convex", name=name, terrain="convex")[0],
             "urdf": urdf.export(scene, out / "urdf", name=name)[0],
             "novisual": urdf.export(scene, out / "novisual", name=name, visual=False)[0],
         }
+        if genesis:
+            tol = GENESIS_TOLERANCE
+            files["genesis mjcf"] = mjcf.export(scene, out / "g", name=name, terrain="convex", tolerance=tol)[
+                0
+            ]
+            files["genesis urdf"] = urdf.export(scene, out / "g", name=name, visual=False, tolerance=tol)[0]
+        return files
 
 
 def _loaders(genesis: bool) -> dict:
@@ -69,8 +88,8 @@ def _loaders(genesis: bool) -> dict:
         "sapien urdf": lambda f, p: drop.sapien_drop([f["novisual"]], p),
     }
     if genesis:
-        out["genesis mjcf convex"] = lambda f, p: drop.genesis_drop([f["convex"]], p)
-        out["genesis urdf"] = lambda f, p: drop.genesis_drop([f["novisual"]], p)
+        out["genesis mjcf convex"] = lambda f, p: drop.genesis_drop([f["genesis mjcf"]], p)
+        out["genesis urdf"] = lambda f, p: drop.genesis_drop([f["genesis urdf"]], p)
     return out
 
 
@@ -116,6 +135,38 @@ def _city(table: list, figures: dict, folder: Path) -> None:
         _row(table, figures, f"city {key}", scene, points, run, None)
 
 
+ROBOT_URDF = """<?xml version="1.0"?>
+<robot name="box"><link name="base">
+  <inertial><mass value="5"/><inertia ixx="0.05" ixy="0" ixz="0" iyy="0.08" iyz="0" izz="0.1"/></inertial>
+  <collision><geometry><box size="0.4 0.3 0.2"/></geometry></collision>
+</link></robot>
+"""
+
+
+def genesis_recipe(folder: Path, figures: dict) -> None:
+    """docs/simulators/genesis.md's recipe as written (its commands, then its Python lines with
+    a box for a robot); the robot must end on the ground. Figures: its seconds, and whether."""
+    page = (Path(__file__).resolve().parents[1] / "docs" / "simulators" / "genesis.md").read_text()
+    shell = re.search(r"<!-- recipe-shell -->\n```bash\n(.*?)```", page, re.S).group(1)
+    code = re.search(r"<!-- recipe -->\n```python\n(.*?)```", page, re.S).group(1)
+    (folder / "robot.urdf").write_text(ROBOT_URDF)
+    start = time.perf_counter()
+    for line in shell.strip().splitlines():
+        subprocess.run([sys.executable, "-m", "citygen", *shlex.split(line)[1:]], cwd=folder, check=True,
+                       capture_output=True)  # fmt: skip
+    here = os.getcwd()
+    os.chdir(folder)
+    try:
+        namespace: dict = {}
+        exec(compile(code, "genesis.md", "exec"), namespace)
+        x, y, z = np.asarray(namespace["robot"].get_pos()).reshape(-1)[:3]
+    finally:
+        os.chdir(here)
+    ground = float(height_at(load_scene(folder / "out/urban-nav-2/test/0003.json"), x, y))
+    figures["genesis_recipe_s"] = round(time.perf_counter() - start, 1)
+    figures["genesis_recipe_robot_on_ground"] = bool(ground + 0.05 < z < ground + 2.5)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--genesis", action="store_true", help="also Genesis (minutes to compile first)")
@@ -125,10 +176,13 @@ def main() -> None:
     figures: dict[str, float] = {}
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
+        if args.genesis:  # first: the recipe calls gs.init itself
+            (folder / "recipe").mkdir()
+            genesis_recipe(folder / "recipe", figures)
         for label, (split, index) in SCENES.items():
             scene = generate_split(split, index=index)
             start = time.perf_counter()
-            files = _export(scene, folder, label)
+            files = _export(scene, folder, label, args.genesis)
             figures[f"{label.replace('-', '_')}_export_s"] = round(time.perf_counter() - start, 1)
             points = drop.drop_points(scene)
             for key, run in _loaders(args.genesis).items():
