@@ -136,6 +136,7 @@ def staged(out: str | Path) -> Iterator[Path]:
     tiles). Files that name each other do so by relative path, so they stay valid. Folders
     a killed process left behind are removed the next time."""
     out = Path(out)
+    made = not out.exists()
     try:
         out.mkdir(parents=True, exist_ok=True)
         _remove_orphans(out)
@@ -153,6 +154,9 @@ def staged(out: str | Path) -> Iterator[Path]:
                     os.replace(source, target)
     finally:
         shutil.rmtree(stage, ignore_errors=True)
+        if made:  # a folder made for nothing goes too
+            with contextlib.suppress(OSError):
+                out.rmdir()
 
 
 def unstaged(path: Path, stage: Path, out: Path) -> Path:

@@ -92,7 +92,7 @@ def test_an_interrupted_run_resumes_from_its_last_checkpoint(run):
     out, r = run["out"], run["resumed"]
     code, stopped = run["stopped"]
     # SIGTERM saved a checkpoint where the run was and said how to go on, in one line
-    assert code == 2 and stopped.count("\n") == 1 and f"--resume --out {out}" in stopped, stopped
+    assert code == 130 and stopped.count("\n") == 1 and f"--resume --out {out}" in stopped, stopped
     assert r.returncode == 0, r.stderr
     last = run["killed_at"]
     assert last < 400
@@ -403,7 +403,7 @@ def test_policy_ppo_resolves_and_runs_for_every_shipped_baseline(cli, task, robo
     assert meta["train"]["command"].startswith("citygen train")  # each made by a documented command
     r = cli("bench", "--task", task, "--robot", robot, "--policy", "ppo", "--episodes", "1", "--jobs", "1")
     assert r.code == 0, r.err
-    assert "Success Rate" in r.out
+    assert ("Balance" if task.startswith("loco") else "Success Rate") in r.out
 
 
 # --- scene sampling -------------------------------------------------------------------------

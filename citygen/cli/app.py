@@ -52,7 +52,7 @@ def main() -> None:
     130) and usage errors (an unknown option, a number out of its range: exit 2).
     """
     try:
-        code = app(standalone_mode=False)
+        code = app(prog_name="citygen", standalone_mode=False)
     except NoArgsIsHelp as exc:
         exc.show()
         code = exc.exit_code

@@ -79,7 +79,14 @@ def usage_line(exc: ClickException) -> str:
     """A usage error as one line: the command, the message, and where help is."""
     ctx = getattr(exc, "ctx", None)
     path = ctx.command_path if ctx is not None else "citygen"
-    message = " ".join(exc.format_message().split())
+    message = " ".join(exc.format_message().split()).removesuffix(".")
+    param = getattr(exc, "param", None)
+    low, high = getattr(param, "min", None), getattr(param, "max", None)
+    if low is not None or high is not None:  # the bound, whichever side the value missed
+        allowed = f"{low:,} to {high:,}" if low is not None and high is not None else (
+            f"at least {low:,}" if low is not None else f"at most {high:,}"
+        )  # fmt: skip
+        message += f"; allowed: {allowed}"
     return f"{path}: {message} (see '{path} --help')"
 
 

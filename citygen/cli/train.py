@@ -85,7 +85,6 @@ def train(
     from citygen.runner.learn.train import require_train
     from citygen.runner.learn.train import train as run
 
-    require_train()
     cfg = load_config(
         config,
         task=task,
@@ -100,6 +99,7 @@ def train(
         init=None if init is None else str(init),
     )
     _check_run(cfg, out, resume)
+    require_train()  # after the cheap checks: PyTorch takes seconds to import
     command = (
         "citygen " + shlex.join(sys.argv[1:]) if sys.argv and Path(sys.argv[0]).name == "citygen" else None
     )

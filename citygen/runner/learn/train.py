@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from citygen.errors import CitygenError
+from citygen.errors import CitygenError, Interrupted
 from citygen.runner.learn.config import TrainConfig
 
 #: The one line printed when the optional dependencies are missing.
@@ -205,17 +205,35 @@ def freeze_actor(policy: Any, frozen: bool) -> None:
         param.requires_grad_(not frozen)
 
 
+@contextlib.contextmanager
+def atomically(path: Path):
+    """A temporary name beside ``path`` (``part-<name>``) for a library that writes files itself
+    (SB3's zips, pickles, matplotlib): renamed to ``path`` when the block succeeds, removed when
+    it fails, so a full disk or Ctrl-C leaves no half file; the operating system's refusals
+    become one-line :class:`~citygen.errors.OutputError` naming ``path``."""
+    from citygen.outputs import OUTPUT_ERRNOS, output_error
+
+    part = path.with_name(f"part-{path.name}")
+    try:
+        yield part
+        part.replace(path)
+    except BaseException as exc:
+        part.unlink(missing_ok=True)
+        if isinstance(exc, OSError) and exc.errno in OUTPUT_ERRNOS:
+            raise output_error(exc, path) from None
+        raise
+
+
 def save_checkpoint(model: Any, venv: Any, out: Path, keep: int) -> None:
     """``checkpoints/model_<steps>.zip`` and its ``vecnormalize_<steps>.pkl``; older ones
     beyond ``keep`` removed. Written to temporary names and renamed (never half a file)."""
     folder = out / "checkpoints"
     folder.mkdir(parents=True, exist_ok=True)
     n = model.num_timesteps
-    stats = folder / f"vecnormalize_{n}.pkl"
-    venv.save(str(stats) + ".part")
-    Path(str(stats) + ".part").replace(stats)
-    model.save(folder / f"part-model_{n}.zip")
-    (folder / f"part-model_{n}.zip").replace(folder / f"model_{n}.zip")
+    with atomically(folder / f"vecnormalize_{n}.pkl") as part:
+        venv.save(str(part))
+    with atomically(folder / f"model_{n}.zip") as part:
+        model.save(part)
     steps = sorted(
         int(p.stem.removeprefix("model_"))
         for p in folder.glob("model_*.zip")
@@ -288,7 +306,8 @@ def plot_curve(out: Path) -> Path | None:
     ax.legend(h1 + h2, l1 + l2, loc="upper left")
     fig.tight_layout()
     png = out / "curve.png"
-    fig.savefig(png)
+    with atomically(png) as part:
+        fig.savefig(part, format="png")
     plt.close(fig)
     return png
 
@@ -643,7 +662,7 @@ def train(
         save_checkpoint(model, venv, out, cfg.keep_checkpoints)
         with contextlib.suppress(BaseException):  # workers that got the Ctrl-C too are gone already
             venv.close()
-        raise TrainError(
+        raise Interrupted(
             f"interrupted at {model.num_timesteps:,} steps; checkpoint saved, "
             f"continue with --resume --out {out}"
         ) from None
@@ -655,8 +674,10 @@ def train(
             bar.stop()
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
-    model.save(out / "model.zip")
-    venv.save(str(out / "vecnormalize.pkl"))
+    with atomically(out / "model.zip") as part:
+        model.save(part)
+    with atomically(out / "vecnormalize.pkl") as part:
+        venv.save(str(part))
     venv.close()
     train_notes = {
         "steps": int(model.num_timesteps),
