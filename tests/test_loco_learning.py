@@ -153,3 +153,18 @@ def test_a_tiny_locomotion_run_trains_and_citygen_bench_runs_it(tmp_path, grid):
     )  # fmt: skip
     assert r.returncode == 0, r.stderr
     assert "Balance" in r.stdout and "X-displacement" in r.stdout
+
+
+def test_the_shipped_quadruped_walks_on_flat_ground_as_the_paper_does():
+    """The shipped LocoFlat model, numpy only, on a test episode: no fall in 20 s and at least
+    90 % of the paper's 19.58 m X-displacement (the paper's table: balance 100 %)."""
+    from citygen.runner.bench import run_episode
+    from citygen.runner.learn.policy import baseline, load_policy
+
+    env = make_env("loco-flat", robot="quadruped")
+    try:
+        policy = load_policy(str(baseline("loco-flat", "quadruped")))
+        result = run_episode(env, policy, seed=3)
+    finally:
+        env.close()
+    assert result["balance"] == 100.0 and result["x_displacement"] >= 0.9 * 19.58
