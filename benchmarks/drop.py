@@ -182,11 +182,12 @@ def genesis_drop(files: list[str | Path], points: np.ndarray) -> np.ndarray:
     (``gs.morphs.MJCF``) or URDF (``gs.morphs.URDF(fixed=True)``) morph with its defaults."""
     gs = genesis_init()
     scene = gs.Scene(show_viewer=False)
+    ground = gs.materials.Rigid(sdf_max_res=32)  # as docs/simulators/genesis.md: coarse SDF grids
     for f in files:
         if str(f).endswith(".xml"):
-            scene.add_entity(gs.morphs.MJCF(file=str(f)))
+            scene.add_entity(gs.morphs.MJCF(file=str(f)), material=ground)
         else:
-            scene.add_entity(gs.morphs.URDF(file=str(f), fixed=True))
+            scene.add_entity(gs.morphs.URDF(file=str(f), fixed=True), material=ground)
     balls = [scene.add_entity(gs.morphs.Sphere(radius=RADIUS, pos=tuple(p.tolist()))) for p in points]
     scene.build()
     for _ in range(round(SECONDS / scene.dt)):
