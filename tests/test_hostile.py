@@ -160,7 +160,7 @@ CASES: dict[str, tuple[list[str], list[str]]] = {
     "export: unknown format": (["export", S, "--format", "obj"], ["--format: expected one of mjcf"]),
     "export: invalid scene": (
         ["export", "float.json", "-f", "mjcf"],
-        ["float.json: $.placements[0].position"],
+        ["float.json: error: $.placements[0].position"],
     ),
     "export: mesh without volume": (["export", "flatmesh.json", "-f", "mjcf"], ["without volume"]),
     "export: mesh, not validated": (
@@ -173,7 +173,7 @@ CASES: dict[str, tuple[list[str], list[str]]] = {
     ),
     "export: resolution too fine": (["export", S, "--terrain-resolution", "0"], ["'--terrain-resolution'"]),
     "export: --jobs 0": (["export", S, "--jobs", "0"], ["'--jobs' / '-j'"]),
-    "export: no such scene": (["export", "nope.json"], ["nope.json: $: expected an existing file"]),
+    "export: no such scene": (["export", "nope.json"], ["nope.json: error: $: expected an existing file"]),
     # generate
     "generate: unknown split": (["generate", "--split", "urban-nav-9"], ["--split: expected a split"]),
     "generate: --index past the bound": (

@@ -173,21 +173,21 @@ def _format_options(visual: bool, mjcf_terrain: str, tolerance: float | None) ->
 
 
 def _invalid(scenes: list[Path]) -> list[Path]:
-    """The scenes `citygen validate` rejects, each problem printed as its one line."""
+    """The scenes `citygen validate` rejects, each problem printed as the batch prints a
+    failure: `FILE: error: $.json.path: expected ..., got ...`."""
     import citygen
-    from citygen.cli.common import print_error
     from citygen.errors import SpecError
 
     bad = []
     for scene in scenes:
         try:
             problems = citygen.validate(citygen.load_scene(scene), base_dir=scene.parent)
+            lines = [str(p) for p in problems]
         except SpecError as exc:
-            print_error(exc)
-            bad.append(scene)
-            continue
-        if problems:
-            print_error(SpecError(problems, file=str(scene)))
+            lines = [line.removeprefix(f"{scene}: ") for line in exc.lines()]
+        for line in lines:
+            typer.echo(f"{scene}: error: {line}", err=True)
+        if lines:
             bad.append(scene)
     return bad
 
