@@ -77,6 +77,7 @@ def export(
             "--jobs",
             "-j",
             min=1,
+            max=256,
             help="Worker processes, each exporting one format of one scene at a time (1: all in this "
             "process).  [default: every core]",
         ),

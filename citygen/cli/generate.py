@@ -4,7 +4,6 @@ stages made again."""
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 from typing import Annotated
 
@@ -16,16 +15,26 @@ from citygen.errors import Problem, SpecError
 from citygen.outputs import check_output
 from citygen.spec.limits import MAX_RUN_SCENES, MAX_SCENE_INDEX
 
+#: Most worker processes a command starts.
+MAX_JOBS = 256
+
 
 def _jobs_option(value: int | None) -> int | None:
     if value is not None and value < 1:
         raise typer.BadParameter(f"expected at least 1 worker, got {value}")
+    if value is not None and value > MAX_JOBS:
+        raise typer.BadParameter(f"expected at most {MAX_JOBS} workers, got {value}")
     return value
 
 
 JobsOption = Annotated[
     int | None,
-    typer.Option("--jobs", "-j", callback=_jobs_option, help="Worker processes.  [default: every core]"),
+    typer.Option(
+        "--jobs",
+        "-j",
+        callback=_jobs_option,
+        help=f"Worker processes, 1 to {MAX_JOBS}.  [default: every core]",
+    ),
 ]
 
 ExecutorOption = Annotated[
@@ -153,19 +162,14 @@ def dataset(
     `OUT/index.json`. Subcommands: `verify DIR`, `lock`."""
     if ctx.invoked_subcommand is not None:
         return
-    from citygen.generate.dataset import (
-        INDEX_NAME,
-        check_executor,
-        dataset_size,
-        progress_bar,
-        write_dataset,
-    )
+    from citygen.cli.progress import scenes_progress
+    from citygen.generate.dataset import INDEX_NAME, check_executor, dataset_size, write_dataset
 
     check_executor(executor)
     total = dataset_size(manifest)
     check_output(out, folder=True, option="--out")
     resumable()
-    with progress_bar(total, "dataset", enabled=sys.stderr.isatty()) as advance:
+    with scenes_progress(total, "dataset") as advance:
         written = write_dataset(
             out, manifest=manifest, jobs=jobs, resume=resume, on_progress=advance, executor=executor
         )
@@ -210,11 +214,12 @@ def dataset_lock(
     and say in the commit what changed."""
     import tempfile
 
-    from citygen.generate.dataset import dataset_size, lock_path, progress_bar, write_dataset, write_lock
+    from citygen.cli.progress import scenes_progress
+    from citygen.generate.dataset import dataset_size, lock_path, write_dataset, write_lock
 
     check_output(out if out is not None else lock_path(manifest), option="--out" if out is not None else None)
     with tempfile.TemporaryDirectory(prefix="citygen-lock-") as tmp:
-        with progress_bar(dataset_size(manifest), "locking", enabled=sys.stderr.isatty()) as advance:
+        with scenes_progress(dataset_size(manifest), "locking") as advance:
             written = write_dataset(tmp, manifest=manifest, jobs=jobs, on_progress=advance)
         bad = 0
         for w in written:
