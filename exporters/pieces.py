@@ -40,8 +40,8 @@ APRON = 20.0
 PIECE_BUDGETS = MappingProxyType({"urdf": 100_000, "mjcf": 200_000})
 TILED_PIECE_BUDGET = 1_000_000
 #: Pieces a rough tile of side ``s``, amplitude ``A`` and wavelength ``L`` takes at tolerance
-#: ``t``, about: ``PIECES_PER_CURVATURE * (s / L)^2 * A / t`` (at least 1; fitted, above most,
-#: to urban-tra-standard's rough tiles at 1 cm).
+#: ``t``, about: ``PIECES_PER_CURVATURE * (s / L)^2 * A / t`` (at least 1, and 1 where ``A <= t``;
+#: fitted, above most, to urban-tra-standard's rough tiles at 1 cm).
 PIECES_PER_CURVATURE = 2.5
 #: Tolerances (m) tried in turn when the default one would exceed a budget.
 TOLERANCES = (0.01, 0.015, 0.02, 0.03, 0.05, 0.08, 0.12, 0.2, 0.5)
@@ -95,6 +95,8 @@ def apron_boxes(scene: Scene, width: float, bottom: float, clip: Any = None) -> 
 
 
 def _estimate(tile: RoughTile, s: float, tolerance: float) -> float:
+    if tile.amplitude <= tolerance:  # one level box
+        return 1.0
     samples = min(max(math.ceil(s * SAMPLES_PER_SCALE / tile.scale), 2), MAX_SAMPLES)
     guess = PIECES_PER_CURVATURE * (s / tile.scale) ** 2 * tile.amplitude / tolerance
     return float(np.clip(guess, 1.0, samples * samples))
