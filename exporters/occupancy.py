@@ -517,6 +517,13 @@ def _rgba(colour: str, alpha: float = 1.0) -> np.ndarray:
     return np.array([int(h[i : i + 2], 16) for i in (0, 2, 4)] + [round(alpha * 255)], dtype=np.uint8)
 
 
+def _blend(base: str, tint: str, alpha: float) -> str:
+    """The colour ``tint`` at ``alpha`` over ``base`` shows as (8-bit alpha, as drawn)."""
+    a = _rgba(tint, alpha)[3] / 255
+    mixed = a * _rgba(tint)[:3].astype(float) + (1 - a) * _rgba(base)[:3].astype(float)
+    return "#" + "".join(f"{round(v):02x}" for v in mixed)
+
+
 def figure(m: OccupancyMap, *, size_px: int = 1600, legend: bool = True, title: str = "") -> Figure:
     """The map as a matplotlib :class:`~matplotlib.figure.Figure` (Agg canvas, no pyplot):
     classes in colour, non-flat terrain tinted, a legend of what the map holds, a scale bar;
@@ -559,10 +566,16 @@ def _figure(m: OccupancyMap, size_px: int, legend: bool, title: str) -> Figure:
     ]
     tints = {m.terrain_classes[i]: TERRAIN_TINTS[m.terrain_classes[i]] for i in kinds.tolist()
              if m.terrain_classes[i] in TERRAIN_TINTS}  # fmt: skip
-    handles += [
-        Patch(facecolor=colour, alpha=alpha, edgecolor="none", label=f"{kind} tile")
-        for kind, (colour, alpha) in tints.items()
-    ]
+    # A tinted tile shows as its class's colour under the tint: one entry per pair drawn.
+    pairs = np.flatnonzero(np.bincount((labels.astype(np.uint16) << 8 | terrain).ravel(), minlength=1 << 16))
+    for kind, (colour, alpha) in tints.items():
+        t = m.terrain_classes.index(kind)
+        for i in (int(c) >> 8 for c in pairs if int(c) & 0xFF == t):
+            name = m.classes[i]
+            handles.append(Patch(
+                facecolor=_blend(CLASS_COLORS.get(name, "#000000"), colour, alpha), edgecolor="#555555",
+                label=f"{name} on a {kind} tile",
+            ))  # fmt: skip
     layout = figure_layout(width_m, height_m, size_px, len(handles), legend)
     fig = Figure(figsize=(layout.width_px / layout.dpi, layout.height_px / layout.dpi), dpi=layout.dpi)
     FigureCanvasAgg(fig)

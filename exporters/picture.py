@@ -620,6 +620,23 @@ def _legend_size(scene: Scene, terrain: bool) -> int:
     return n
 
 
+def _bar_place(fig: Figure, layout: Any, shown: Any) -> tuple[str, tuple[float, float]] | None:
+    """Where the scale bar goes beside the map, in figure fractions, so it never covers the legend:
+    at the foot of the legend's column when the legend ends above the map's foot, else just
+    under the legend when there is room there; None: in the map's lower left corner (a wide,
+    low scene whose legend fills the column)."""
+    foot = ("lower left", (layout.legend_anchor[0], layout.axes[1]))
+    if shown is None:
+        return foot
+    box = shown.get_window_extent(fig.canvas.get_renderer()).transformed(fig.transFigure.inverted())
+    tall = (FONT_PT * 1.4 + 8) / 72 / fig.get_figheight()  # the bar and its label
+    if box.y0 - tall >= layout.axes[1]:
+        return foot
+    if box.y0 - tall >= 0.01:
+        return ("upper left", (layout.legend_anchor[0], box.y0 - 0.2 * tall))
+    return None
+
+
 # --- public API -------------------------------------------------------------------
 
 
@@ -655,29 +672,9 @@ def _figure(scene: Scene, file: str | None, size_px: int, terrain: bool, legend:
     _draw_agents(ax, scene, entries)
     _draw_task(ax, scene, m_per_pt, entries)
 
-    bar = scale_bar_length(width_m)
-    # Beside the map, at the foot of the legend's column, so it never hides anything;
-    # without a legend, in the map's lower left corner.
-    beside = {"bbox_to_anchor": (layout.legend_anchor[0], layout.axes[1]), "bbox_transform": fig.transFigure}
-    ax.add_artist(
-        AnchoredSizeBar(
-            ax.transData,
-            bar,
-            f"{bar:g} m",
-            "lower left",
-            pad=0.3,
-            borderpad=0.0 if legend else 0.6,
-            sep=3,
-            color="black",
-            frameon=not legend,
-            size_vertical=1.8 * m_per_pt,
-            fontproperties=FontProperties(size=FONT_PT),
-            zorder=10,
-            **(beside if legend else {}),
-        )
-    )
+    shown = None
     if legend and entries.handles:
-        fig.legend(
+        shown = fig.legend(
             handles=entries.handles,
             loc="upper left",
             bbox_to_anchor=layout.legend_anchor,
@@ -686,6 +683,25 @@ def _figure(scene: Scene, file: str | None, size_px: int, terrain: bool, legend:
             handlelength=1.8,
             borderaxespad=0.0,
         )
+    bar = scale_bar_length(width_m)
+    place = _bar_place(fig, layout, shown) if legend else None
+    ax.add_artist(
+        AnchoredSizeBar(
+            ax.transData,
+            bar,
+            f"{bar:g} m",
+            place[0] if place else "lower left",
+            pad=0.3,
+            borderpad=0.0 if place else 0.6,
+            sep=3,
+            color="black",
+            frameon=place is None,
+            size_vertical=1.8 * m_per_pt,
+            fontproperties=FontProperties(size=FONT_PT),
+            zorder=10,
+            **({"bbox_to_anchor": place[1], "bbox_transform": fig.transFigure} if place else {}),
+        )
+    )
     ax.apply_aspect()
     return fig
 

@@ -438,7 +438,31 @@ def test_png_legend_lists_what_the_map_holds(kiosk_street):
     texts = [t.get_text() for t in fig.legends[0].get_texts()]
     present = [m.classes[i] for i in np.unique(m.labels).tolist()]
     present = [f"{c} (walkable)" if c in WALKABLE_ZONES else c for c in present]
-    assert texts == [*present, "slope tile", "stair tile", "rough tile"]
+    assert texts[: len(present)] == present
+    # A tinted tile shows its class's colour under the tint: the legend has that blend for
+    # each (class, tile kind) pair the picture draws.
+    k = max(1, -(-max(m.grid.rows, m.grid.cols) // 800))
+    sampled = (m.labels[k // 2 :: k, k // 2 :: k].ravel(), m.terrain[k // 2 :: k, k // 2 :: k].ravel())
+    drawn = zip(*sampled, strict=True)
+    pairs = {
+        (m.classes[c], m.terrain_classes[t])
+        for c, t in set(drawn)
+        if m.terrain_classes[t] in occ.TERRAIN_TINTS
+    }
+    tinted = {tuple(t.removesuffix(" tile").split(" on a ")): t for t in texts[len(present) :]}
+    assert set(tinted) == pairs and {kind for _, kind in pairs} == {"slope", "stair", "rough"}
+    faces = {
+        t.get_text(): h.get_facecolor()
+        for t, h in zip(fig.legends[0].get_texts(), fig.legends[0].legend_handles, strict=True)
+    }
+    for (name, kind), label in tinted.items():
+        tint, alpha = occ.TERRAIN_TINTS[kind]
+        a = round(alpha * 255) / 255
+        rgb = [
+            a * int(tint[i : i + 2], 16) + (1 - a) * int(occ.CLASS_COLORS[name][i : i + 2], 16)
+            for i in (1, 3, 5)
+        ]
+        assert np.allclose(np.array(faces[label][:3]) * 255, rgb, atol=0.6), label
     assert fig.canvas.get_width_height()[0] == 800
 
 
