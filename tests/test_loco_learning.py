@@ -155,9 +155,10 @@ def test_a_tiny_locomotion_run_trains_and_citygen_bench_runs_it(tmp_path, grid):
     assert "Balance" in r.stdout and "X-displacement" in r.stdout
 
 
-def test_the_shipped_quadruped_walks_on_flat_ground_as_the_paper_does():
-    """The shipped LocoFlat model, numpy only, on a test episode: no fall in 20 s and at least
-    90 % of the paper's 19.58 m X-displacement (the paper's table: balance 100 %)."""
+def test_the_shipped_quadruped_walks_a_flat_test_episode():
+    """The shipped LocoFlat model, numpy only, walks a whole test episode: no fall in 20 s and at
+    least 90 % of the paper's 19.58 m X-displacement (over 256 episodes it keeps its balance in
+    81 %, below the paper's 100 %: the baselines README)."""
     from citygen.runner.bench import run_episode
     from citygen.runner.learn.policy import baseline, load_policy
 
