@@ -139,10 +139,11 @@ def pybullet_drop(urdf: str | Path, points: np.ndarray) -> np.ndarray:
 # --- SAPIEN --------------------------------------------------------------------------------
 
 
-def sapien_drop(urdfs: list[str | Path], points: np.ndarray) -> np.ndarray:
+def sapien_drop(urdfs: list[str | Path], points: np.ndarray, static: bool = False) -> np.ndarray:
     """The spheres dropped on URDF files (a scene, or a city's tiles) in SAPIEN on the CPU
     (its 1/100 s steps), each loaded with ``create_urdf_loader`` as a fixed body with each
-    link's friction (:func:`citygen.exporters.urdf.frictions`), as docs/simulators/sapien.md."""
+    link's friction (:func:`citygen.exporters.urdf.frictions`), as docs/simulators/sapien.md
+    does; with ``static``, each link a static actor, as its recipe for large scenes does."""
     import sapien
 
     from citygen.exporters.urdf import frictions
@@ -153,7 +154,14 @@ def sapien_drop(urdfs: list[str | Path], points: np.ndarray) -> np.ndarray:
         loader.fix_root_link = True
         for link, mu in frictions(urdf).items():
             loader.set_link_material(link, mu, mu, 0.0)
-        loader.load_multiple(str(urdf))
+        if not static:
+            loader.load_multiple(str(urdf))
+            continue
+        for builder in loader.parse(str(urdf))[0]:
+            for link in builder.link_builders:
+                link.set_scene(scene)
+                link.initial_pose = link.joint_record.pose_in_parent * link.joint_record.pose_in_child.inv()
+                link.build_static(link.name)
     balls = []
     for p in points:
         builder = scene.create_actor_builder()

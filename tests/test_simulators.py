@@ -76,13 +76,15 @@ def workdir(tmp_path_factory) -> dict[str, Path]:
     return folders
 
 
-def run_recipe(page: str, folder: Path, monkeypatch) -> dict:
-    """The page's Python recipe run in its ``folder``; its variables."""
+def run_recipe(page: str, folder: Path, monkeypatch, marker: str = "<!-- recipe -->") -> dict:
+    """The page's Python recipe (the block after ``marker``) run in its ``folder``; its variables."""
     monkeypatch.chdir(folder)
+    found = re.search(re.escape(marker) + r"\n```python\n(.*?)```", (PAGES / page).read_text(), re.S)
+    assert found is not None, (page, marker)
     namespace: dict = {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ExportWarning)
-        exec(compile(recipe(page)[1], str(PAGES / page), "exec"), namespace)
+        exec(compile(found.group(1), str(PAGES / page), "exec"), namespace)
     return namespace
 
 
@@ -139,6 +141,21 @@ def _drop_ok(figures: dict) -> None:
     assert figures["spheres"] >= 80, figures
     assert figures["through"] == 0, figures
     assert figures["resting_pct"] >= 95.0, figures
+
+
+def test_the_sapien_recipe_for_large_scenes(workdir, monkeypatch):
+    """The same ground as static actors."""
+    pytest.importorskip("sapien")
+    folder = workdir["sapien.md"]
+    ns = run_recipe("sapien.md", folder, monkeypatch, "<!-- recipe: static -->")
+    for _ in range(100):
+        ns["scene"].step()
+    assert_on_the_ground(folder, ns["robot"].get_root_pose().p)
+    scene = load_scene(folder / SCENE)
+    points = drop.drop_points(scene, per_side=6)
+    final = drop.sapien_drop([folder / "export/urban-nav-2-test-0003.urdf"], points, static=True)
+    figures = drop.score(scene, points, final)
+    assert figures["through"] == 0 and figures["resting_pct"] >= 95.0, figures
 
 
 #: Each drop: the page whose files it loads, and how.
