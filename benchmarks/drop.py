@@ -49,10 +49,14 @@ def drop_points(scene: Scene, per_side: int = 10, inset: float = 0.4) -> np.ndar
     return np.c_[xy, z]
 
 
-def _objects(scene: Scene) -> shapely.Geometry:
-    """Where the spheres may rest on an object or an agent: footprints grown by 10 cm."""
+def _objects(scene: Scene, near: np.ndarray) -> shapely.Geometry:
+    """Where the spheres may rest on an object or an agent: footprints grown by 10 cm (of
+    those within 10 m of the points ``near``, so a city's are not all drawn)."""
+    (x0, y0), (x1, y1) = near[:, :2].min(axis=0) - 10.0, near[:, :2].max(axis=0) + 10.0
     shapes = []
     for pl in scene.placements:
+        if not (x0 <= pl.position[0] <= x1 and y0 <= pl.position[1] <= y1):
+            continue
         if pl.is_mesh:
             shapes.append(shapely.Point(pl.position[:2]).buffer(1.0))
             continue
@@ -61,6 +65,8 @@ def _objects(scene: Scene) -> shapely.Geometry:
         xy = (m[:2, :2] @ outline.T).T + m[:2, 3]
         shapes.append(shapely.Polygon(xy))
     for agent in scene.agents:
+        if not (x0 <= agent.start[0] <= x1 and y0 <= agent.start[1] <= y1):
+            continue
         shapes.append(shapely.Point(agent.start[:2]).buffer(getattr(agent, "radius", 0.5) + 2.5))
     return shapely.union_all(shapes).buffer(0.1) if shapes else shapely.GeometryCollection()
 
@@ -69,7 +75,7 @@ def score(scene: Scene, start: np.ndarray, final: np.ndarray) -> dict[str, float
     """The drop's figures: spheres counted, left out (objects), through the ground and
     resting (each as a count and, for the last two, a percentage of those counted)."""
     final = np.asarray(final, dtype=np.float64)
-    objects = _objects(scene)
+    objects = _objects(scene, np.r_[start, final[np.isfinite(final).all(axis=1)]])
     near = shapely.intersects(objects, shapely.points(start[:, :2])) | shapely.intersects(
         objects, shapely.points(final[:, :2])
     )
