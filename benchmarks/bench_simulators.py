@@ -20,7 +20,9 @@ urban-tra-standard track (120 m x 10 m). ``--city``: urban-tra-city scene 0's UR
 two at the scene's south-west corner, without visuals) in SAPIEN as static actors, spheres
 over those tiles (generation and export take a few minutes).
 
-Run: ``python benchmarks/bench_simulators.py [--genesis] [--city]``. Prints a table, then as
+SAPIEN installs with the dev extra; ``--genesis`` needs ``pip install genesis-world==1.4.5``
+(about 8 minutes; it pins Pillow below 12). Run: ``python benchmarks/bench_simulators.py
+[--genesis] [--city]``. Prints a table, then as
 its last line a JSON object of the figures.
 """
 
