@@ -19,8 +19,8 @@ adds what makes the same policy learnable on a laptop in hours:
   0.25 m/s kernel pays nothing to a robot still 1 m/s short of its command, so nothing leads
   a standing robot to walk), a forward-progress term ``v_xy . c_xy / |c_xy|^2`` clipped to
   [-1, 1] (the share of the commanded speed made good along the command: linear from a
-  standstill, so the first steps already pay), ``-0.05 |w_xy|^2``, ``-0.5 |g_xy|^2`` (tilt), ``-1e-5 |tau|^2``,
-  ``-2.5e-7 |qdd|^2`` and a foot air-time reward ``+1.0 sum (t_air - 0.25)`` at each
+  standstill, so the first steps already pay), ``-0.05 |w_xy|^2``, ``-0.5 |g_xy|^2`` (tilt),
+  ``-1e-5 |tau|^2``, ``-2.5e-7 |qdd|^2`` and a foot air-time reward ``+1.0 sum (t_air - 0.25)`` at each
   touch-down while the command asks to move (the stepping that a trot needs).
 """
 
