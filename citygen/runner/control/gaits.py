@@ -1,20 +1,35 @@
 """Model-based locomotion baselines for the legged robots (``quadruped``, ``wheeled_legged``):
-a PD stand controller and an open-loop trot with feedback.
+a PD stand controller and a trot with feedback.
 
 Both compute foot positions, turn them into joint angles by each leg's inverse
 kinematics (:meth:`citygen.runner.robots.Leg.ik`) and return them as a locomotion action
 in ``[-1, 1]^12``, the convention of :meth:`citygen.runner.robots.RobotHandle.joint_action`
 (target = default pose + action scale * action); the joints' PD actuators do the rest.
 
-- :class:`StandController` holds the feet where the default pose puts them, keeps the trunk
-  level (feet expressed in the tilted base frame) and the base at the robot's stand height
-  above the feet (an integral correction of the legs' length makes up for PD sag).
+Each foot's height is the ground's under it (:attr:`RobotHandle.terrain`, the scene's 5 cm
+ground raster, when the handle has one; else the lowest foot's), and the base is held
+:attr:`Robot.stand_height` above the mean of the feet carrying it, as far as every leg
+reaches: on a stair the trunk stays level with some feet a step higher than others. A hip
+below the base origin's level (the trunk rolled or pitched) gets a longer leg, and the
+reverse (levelling); the feet's ``x, y`` stay in the base frame, so the hips' PD also
+resists a tilt. An integral correction of the legs' length makes up for the PD's sag.
+
+- :class:`StandController` stands a little wider than the default pose. Its footholds are
+  chosen once, when it starts (the robot may still be dropping onto the ground): a foot
+  whose shin would come down on a step's edge (on a stair the knees, behind the feet, reach
+  over the riser behind) moves forward or back to where it clears, on level ground.
 - :class:`TrotController` trots: diagonal leg pairs (FR+RL, FL+RR) alternate stance and swing
-  every half period; stance feet move back under the body at the commanded velocity
-  ``(vx, vy, wz)`` (m/s, m/s, rad/s, robot frame), swing feet arc forward ``step_height``
-  high to a Raibert foothold. Feedback: forward/lateral speed and yaw-rate errors raise the
-  stride (proportional), a heading integrator holds the commanded turn, and the body is
-  levelled as by the stand controller.
+  every half period. A stance foot moves back under the body at the commanded velocity
+  ``(vx, vy, wz)`` (m/s, m/s, rad/s, robot frame) plus a proportional feedback of the
+  speed error; a swing foot leaves and lands at the ground's speed under the body (a cubic
+  Hermite curve), ``step_height`` high, on a Raibert foothold (half a stride ahead of the
+  default pose, further by ``raibert`` s per m/s the body runs ahead). A heading
+  integrator holds the commanded turn; the yaw rate itself is not fed back (it swings at
+  the gait's frequency, and feeding it back tipped the robots over). The legs' soft PD
+  lags the stance sweep, so the robots walk slower than commanded: about 0.55 m/s (the
+  quadruped) and 0.75 m/s (the wheeled-legged robot, on its braked wheels) at a 1 m/s
+  command on flat ground. A faster stride (an integral of the speed error did it) made
+  them fall within seconds.
 
 Call ``act(handle, data, t)`` at the control rate (50 Hz is fine; ``t`` in s, the
 simulation time) and pass the action to ``handle.joint_action``.
@@ -23,6 +38,7 @@ simulation time) and pass the action to ``handle.joint_action``.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -34,6 +50,14 @@ from citygen.runner.robots import RobotHandle, yaw_of
 LEG_ORDER = ("FR", "FL", "RR", "RL")
 # Phase offset (fraction of the period) of each leg in a trot: diagonal pairs together.
 _TROT_PHASE = (0.0, 0.5, 0.5, 0.0)
+# Leg lengths (hip to foot centre, fractions of thigh + calf) the base height keeps within.
+_SHORTEST, _LONGEST = 0.4, 0.85
+# How far back (fraction of the leg's reach) the stand looks for a foothold that clears its knee.
+_KNEE_SEARCH = 0.45
+# Points along the shin (fractions of the way from the foot to the knee) the stand keeps clear.
+_SHIN = np.array([0.25, 0.5, 0.75, 1.0])
+# Half the length (m) of ground a stand's foothold must find level (on a tread, not an edge).
+_TREAD = 0.03
 
 
 def _tilt(data: Any, handle: RobotHandle) -> np.ndarray:
@@ -46,11 +70,14 @@ def _tilt(data: Any, handle: RobotHandle) -> np.ndarray:
 
 
 class _FootController:
-    """Shared machinery: nominal feet, levelling, height integral, IK to an action."""
+    """Shared machinery: nominal feet, ground under them, posture feedback, IK to an action.
+
+    ``height_gain`` (1/s: leg-length integral per metre of height error), ``level_gain``
+    (m of leg per m a hip sits below the base origin's level: 1 levels the trunk as far
+    as the legs reach)."""
 
     def __init__(self, height_gain: float = 2.0, level_gain: float = 1.0) -> None:
-        self.height_gain = height_gain  # 1/s: leg-length integral per metre of height error
-        self.level_gain = level_gain  # leg extension per metre a hip sits below level
+        self.height_gain, self.level_gain = height_gain, level_gain
         self._dz = 0.0
         self._t: float | None = None
 
@@ -74,42 +101,120 @@ class _FootController:
         self._t = t
         return dt
 
-    def _height(self, handle: RobotHandle, data: Any, dt: float) -> None:
-        """Integrate the base's height error over the stance feet (ground = lowest foot)."""
-        feet = handle.foot_geom_ids
-        ground = float(np.min(data.geom_xpos[feet][:, 2])) - handle.robot.legs[0].foot_radius
-        err = handle.robot.stand_height - (data.qpos[handle.qadr + 2] - ground)
-        self._dz = float(np.clip(self._dz + self.height_gain * err * dt, -0.05, 0.05))
+    def _ground(self, handle: RobotHandle, data: Any, xy: np.ndarray) -> np.ndarray:
+        """Ground heights (m) at the world points ``xy`` (4 x 2): the handle's terrain, or
+        everywhere the ground under the lowest foot."""
+        if handle.terrain is not None:
+            return np.array([handle.terrain.ground_at(float(x), float(y)) for x, y in xy])
+        low = float(np.min(data.geom_xpos[handle.foot_geom_ids][:, 2])) - handle.robot.legs[0].foot_radius
+        return np.full(len(xy), low)
 
-    def _action(self, handle: RobotHandle, data: Any, level_feet: np.ndarray) -> np.ndarray:
-        """The action putting the feet at ``level_feet`` (4 x 3, m, base origin, yaw frame)."""
+    def _base_height(self, handle: RobotHandle, ground: np.ndarray) -> float:
+        """World height (m) of the base origin over feet on ``ground``: the stand height over
+        their mean, within what the shortest and longest leg allow."""
+        leg = handle.robot.legs[0]
+        reach, r = leg.thigh + leg.calf, leg.foot_radius
+        z = float(np.mean(ground)) + handle.robot.stand_height
+        low = float(np.max(ground)) + r + _SHORTEST * reach
+        high = float(np.min(ground)) + r + _LONGEST * reach
+        return min(max(z, low), high) if low <= high else (low + high) / 2
+
+    def _action(self, handle: RobotHandle, data: Any, feet: np.ndarray, ground: np.ndarray,
+                stance: np.ndarray, dt: float) -> np.ndarray:  # fmt: skip
+        """The action putting the feet at ``feet`` (4 x 3, m: x, y from the base origin in
+        the base frame, z above the ground under the foot, ``ground``, 4 world heights);
+        ``stance`` (4 bools) the feet that carry the body (they set its height); ``dt`` (s)
+        since the last call."""
         tilt = _tilt(data, handle)
+        base_z = float(data.qpos[handle.qadr + 2])
+        target = self._base_height(handle, ground[stance] if stance.any() else ground)
+        self._dz = float(np.clip(self._dz + self.height_gain * (target - base_z) * dt, -0.05, 0.05))
         q = np.empty(12)
         for i, leg in enumerate(handle.robot.legs):
+            hip = np.array([leg.hip_x, leg.hip_y, 0.0])
             # a hip below the base origin's level (tilt) gets a longer leg, and the reverse
-            hip_z = float(tilt[2] @ (leg.hip_x, leg.hip_y, 0.0))
-            p = level_feet[i] + (0.0, 0.0, self.level_gain * hip_z - self._dz)
-            q[3 * i : 3 * i + 3] = leg.ik(p - (leg.hip_x, leg.hip_y, 0.0))
+            lower = float(tilt[2] @ hip)
+            height = ground[i] + leg.foot_radius - target - self._dz + self.level_gain * lower
+            q[3 * i : 3 * i + 3] = leg.ik(feet[i] + np.array([0.0, 0.0, height]) - hip)
         return np.clip((q - handle.default) / handle.scale, -1.0, 1.0)
+
+    def _world_xy(self, data: Any, handle: RobotHandle, feet: np.ndarray) -> np.ndarray:
+        """World ``(x, y)`` (n x 2) of points given (n x 2 or n x 3, m) from the base origin
+        along the robot's heading and to its left."""
+        yaw = yaw_of(data.qpos[handle.qadr + 3 : handle.qadr + 7])
+        c, s = math.cos(yaw), math.sin(yaw)
+        x, y = data.qpos[handle.qadr], data.qpos[handle.qadr + 1]
+        return np.stack([x + c * feet[:, 0] - s * feet[:, 1], y + s * feet[:, 0] + c * feet[:, 1]], axis=1)
 
 
 class StandController(_FootController):
-    """Stand still with a level trunk at the robot's stand height (see the module)."""
+    """Stand still with a level trunk at the robot's stand height over the ground under its
+    feet (see the module); ``widen`` (m) moves each foot out sideways from the default pose,
+    ``knee_margin`` (m) is the clearance its footholds keep under the knees
+    (:meth:`footholds`, chosen at the first call)."""
+
+    def __init__(self, widen: float = 0.03, knee_margin: float = 0.08, **gains: float) -> None:
+        super().__init__(**gains)
+        self.widen, self.knee_margin = widen, knee_margin
+        self._feet: np.ndarray | None = None
+
+    def footholds(self, handle: RobotHandle, data: Any) -> np.ndarray:
+        """Feet (4 x 3, m, yaw frame from the base origin, z 0): the default pose's, ``widen``
+        further out, each moved forward or back (up to :data:`_KNEE_SEARCH` of the leg's
+        reach) as little as puts it on a tread (not an edge) with its shin ``knee_margin``
+        above the ground under it at the knee (less towards the foot), the base at the
+        height the default footholds give it (a foot moved up a step only raises it), and
+        no ground higher than the foot between where it is and there (it would hit a riser)."""
+        feet = self.nominal(handle)
+        feet[:, 1] += np.sign(feet[:, 1]) * self.widen
+        feet[:, 2] = 0.0
+        z = self._base_height(handle, self._ground(handle, data, self._world_xy(data, handle, feet)))
+        edge = np.array([[-_TREAD, 0.0, 0.0], [0.0, 0.0, 0.0], [_TREAD, 0.0, 0.0]])
+        now = data.geom_xpos[handle.foot_geom_ids]
+        for i, leg in enumerate(handle.robot.legs):
+            hip = np.array([leg.hip_x, leg.hip_y, 0.0])
+            knee_leg = replace(leg, calf=0.0)
+            steps = np.arange(0.0, _KNEE_SEARCH * (leg.thigh + leg.calf), 0.02)
+            for shift in np.stack([steps, -steps], axis=1).ravel()[1:]:
+                foot = feet[i] + (shift, 0.0, 0.0)
+                g = self._ground(handle, data, self._world_xy(data, handle, foot + edge))
+                at = foot + np.array([0.0, 0.0, g[1] + leg.foot_radius - z])
+                knee = hip + knee_leg.fk(leg.ik(at - hip))
+                shin = at + _SHIN[:, None] * (knee - at)
+                under = self._ground(handle, data, self._world_xy(data, handle, shin))
+                to = self._world_xy(data, handle, foot[None])[0]
+                path = now[i, :2] + np.linspace(0.0, 1.0, 8)[:, None] * (to - now[i, :2])
+                bottom = now[i, 2] - leg.foot_radius + 0.01
+                if (
+                    np.ptp(g) < 0.01
+                    and np.all(z + shin[:, 2] - under >= self.knee_margin * _SHIN)
+                    and np.all(self._ground(handle, data, path) <= bottom)
+                ):
+                    feet[i] = foot
+                    break
+        return feet
 
     def act(self, handle: RobotHandle, data: Any, t: float) -> np.ndarray:
         """The action (12 numbers in [-1, 1]) for time ``t`` (s)."""
         self._check(handle)
-        self._height(handle, data, self._dt(t))
-        return self._action(handle, data, self.nominal(handle))
+        if self._feet is None:
+            self._feet = self.footholds(handle, data)
+        ground = self._ground(handle, data, data.geom_xpos[handle.foot_geom_ids][:, :2])
+        return self._action(handle, data, self._feet, ground, np.ones(4, dtype=bool), self._dt(t))
 
 
 class TrotController(_FootController):
-    """Trot at ``command = (vx, vy, wz)`` (m/s, m/s, rad/s in the robot's frame).
+    """Trot at ``command = (vx, vy, wz)`` (m/s, m/s, rad/s in the robot's frame; see the module).
 
-    ``frequency`` (Hz, gait cycles per second; default by leg length: 2.5 Hz for the
-    quadruped), ``step_height`` (m, default 18 % of the leg's length), ``speed_gain`` and
-    ``yaw_gain`` (dimensionless proportional feedback), ``heading_gain`` (1/s),
-    ``speed_integral`` (1/s: integral feedback of the speed error, capped at 1 m/s).
+    ``frequency`` (Hz, gait cycles per second; default by leg length, as a pendulum's:
+    2.8 Hz for the quadruped, 2.2 Hz for the wheeled-legged robot), ``step_height`` (m,
+    default 15 % of the leg's length), ``duty`` (the share of a cycle a foot is down: above
+    0.5 all four are, twice a cycle), ``max_speed`` (m/s: the forward command is capped
+    there), ``ramp`` (s over which the command grows from 0), ``speed_gain``
+    (dimensionless: the stride's feedback of the speed error), ``heading_gain`` (1/s),
+    ``raibert`` (s: foothold shift per m/s of speed error). Frequency and step height were
+    chosen in the middle of what walks 20 s on flat ground: both robots keep walking with
+    either 10 % off and the step 20 % lower or higher.
     """
 
     def __init__(
@@ -117,56 +222,69 @@ class TrotController(_FootController):
         command: tuple[float, float, float] = (0.5, 0.0, 0.0),
         frequency: float | None = None,
         step_height: float | None = None,
+        duty: float = 0.5,
+        max_speed: float = 1.0,
+        ramp: float = 1.0,
         speed_gain: float = 0.5,
-        yaw_gain: float = 0.5,
         heading_gain: float = 1.0,
-        speed_integral: float = 1.0,
+        raibert: float = 0.09,
+        **gains: float,
     ) -> None:
-        super().__init__()
+        super().__init__(**gains)
         self.command = tuple(float(c) for c in command)
-        self.frequency, self.step_height = frequency, step_height
-        self.speed_gain, self.yaw_gain, self.heading_gain = speed_gain, yaw_gain, heading_gain
+        self.frequency, self.step_height, self.duty = frequency, step_height, duty
+        self.max_speed, self.ramp = max_speed, ramp
+        self.speed_gain, self.heading_gain, self.raibert = speed_gain, heading_gain, raibert
         self._t0: float | None = None
         self._heading: float | None = None
-        self.speed_integral = speed_integral
-        self._integral = np.zeros(2)
+        self._feet: np.ndarray | None = None  # where each foot is (x, y, base frame)
+        self._lift_off = np.zeros((4, 2))  # where each swinging foot left the ground
+        self._swinging = np.zeros(4, dtype=bool)
 
     def act(self, handle: RobotHandle, data: Any, t: float) -> np.ndarray:
         """The action (12 numbers in [-1, 1]) for time ``t`` (s)."""
         self._check(handle)
         leg0 = handle.robot.legs[0]
         reach = leg0.thigh + leg0.calf
-        freq = self.frequency or 2.5 * math.sqrt(0.426 / reach)
-        lift = self.step_height if self.step_height is not None else 0.18 * reach
+        freq = self.frequency or 2.8 * math.sqrt(0.426 / reach)
+        lift = self.step_height if self.step_height is not None else 0.15 * reach
         dt = self._dt(t)
+        nominal = self.nominal(handle)
         if self._t0 is None:
             self._t0 = t
-        self._height(handle, data, dt)
-        vx, vy, wz = self.command
+            self._feet = nominal[:, :2].copy()
+        ramp = min(1.0, (t - self._t0) / self.ramp) if self.ramp > 0 else 1.0
+        vx, vy, wz = (ramp * c for c in self.command)
+        vx = min(vx, self.max_speed)
         vel = handle.velocity(data)
         yaw = yaw_of(data.qpos[handle.qadr + 3 : handle.qadr + 7])
         self._heading = yaw if self._heading is None else self._heading + wz * dt
         heading_err = (self._heading - yaw + math.pi) % (2 * math.pi) - math.pi
-        err = np.array([vx - vel[0], vy - vel[1]])
-        self._integral = np.clip(self._integral + self.speed_integral * err * dt, -1.0, 1.0)
-        vx_c, vy_c = np.array([vx, vy]) + self.speed_gain * err + self._integral
-        wz_c = wz + self.yaw_gain * (wz - vel[3]) + self.heading_gain * heading_err
-        period = 1.0 / freq
-        stance = period / 2
-        nominal = self.nominal(handle)
-        raibert = math.sqrt(handle.robot.stand_height / 9.81)
-        feet = nominal.copy()
+        vx_c, vy_c = vx + self.speed_gain * (vx - vel[0]), vy + self.speed_gain * (vy - vel[1])
+        wz_c = wz + self.heading_gain * heading_err
+        stance_time = self.duty / freq
+        feet = np.zeros((4, 3))
+        stance = np.zeros(4, dtype=bool)
         for i in range(4):
-            fx, fy = nominal[i, 0], nominal[i, 1]
-            stride = stance * np.array([vx_c - wz_c * fy, vy_c + wz_c * fx])
-            land = stride / 2 + raibert * (vel[:2] - (vx, vy)) * 0.5
+            x, y = self._feet[i]
             phase = ((t - self._t0) * freq + _TROT_PHASE[i]) % 1.0
-            if phase < 0.5:  # stance: from the foothold back under the body
-                s = phase / 0.5
-                feet[i, :2] += land - s * stride
-            else:  # swing: arc forward to the next foothold
-                s = (phase - 0.5) / 0.5
-                smooth = 0.5 - 0.5 * math.cos(math.pi * s)
-                feet[i, :2] += (land - stride) + smooth * stride
-                feet[i, 2] += lift * math.sin(math.pi * s)
-        return self._action(handle, data, feet)
+            fx, fy = nominal[i, :2]
+            sweep = np.array([vx_c - wz_c * fy, vy_c + wz_c * fx])  # the body's speed over the foot
+            if phase < self.duty:  # stance: the foot moves back under the body
+                stance[i] = True
+                self._swinging[i] = False
+                self._feet[i] -= dt * np.array([vx_c - wz_c * y, vy_c + wz_c * x])
+            else:  # swing: forward to the next foothold, leaving and landing at the ground's speed
+                if not self._swinging[i]:
+                    self._swinging[i], self._lift_off[i] = True, self._feet[i]
+                s = (phase - self.duty) / (1.0 - self.duty)
+                land = nominal[i, :2] + stance_time * sweep / 2 + self.raibert * (vel[:2] - (vx, vy))
+                swing_time = (1.0 - self.duty) / freq
+                # cubic Hermite from lift-off to landing, both at the velocity -sweep
+                start = self._lift_off[i]
+                along = s * s * (3 - 2 * s) * (land - start) - s * (1 - s) * (1 - 2 * s) * swing_time * sweep
+                self._feet[i] = start + along
+                feet[i, 2] = lift * (0.5 - 0.5 * math.cos(2 * math.pi * s))
+            feet[i, :2] = self._feet[i]
+        ground = self._ground(handle, data, self._world_xy(data, handle, feet))
+        return self._action(handle, data, feet, ground, stance, dt)
