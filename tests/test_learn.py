@@ -361,7 +361,7 @@ def test_a_corrupt_model_file_is_one_line(cli, tmp_path, name):
 
 
 def test_a_model_of_another_tasks_spaces_is_one_line(cli):
-    nav = next(iter(shipped().values()))
+    nav = shipped()[("nav-clear", "quadruped")]
     r = cli(
         "bench",
         "--task",
