@@ -171,6 +171,14 @@ def test_urban_loc_manifests_are_the_papers_curriculum(kind, part):
     assert config.task.kind == f"loco-{kind}"
 
 
+def test_the_general_locomotion_grid_mixes_the_four_kinds_by_column():
+    from citygen.generate.terrain import loc_config
+
+    config = splits()["urban-loc-mixed-train"].config
+    assert config.terrain == loc_config("train", "mixed")
+    assert config.size == (240.0, 240.0)
+
+
 # --- urban-tra-standard: the six-unit track ----------------------------------------------
 
 
