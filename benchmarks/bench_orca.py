@@ -1,4 +1,5 @@
-"""ORCA benchmark: citygen's numpy ORCA against the reference RVO2 library (C++, through pyrvo).
+"""ORCA benchmark: citygen's ORCA (numba kernel) against the reference RVO2 library (C++, through
+pyrvo) and against citygen's plain-numpy reference solver.
 
 What is measured
     The cost of one ORCA step per agent (microseconds per agent-step) for 25, 50, 100 and
@@ -12,9 +13,12 @@ What is measured
 
     Each step sets every agent's preferred velocity (towards its goal, as a runner would)
     and advances all agents. For citygen that is one :func:`citygen.runner.agents.orca.orca_velocities`
-    call and the position update, both numpy; for RVO2 it is ``set_agent_pref_velocity`` per
-    agent, ``do_step`` and reading the positions back (``rvo2_us``), and ``do_step`` alone
-    (``rvo2_core_us``: the C++ without the Python calls a runner cannot avoid). Also
+    call (neighbours and lines in numpy, each agent's linear programs in the numba kernel of
+    :mod:`citygen.runner.agents.orca_kernel`) and the position update; ``citygen_numpy_us``
+    is the same with the plain-numpy reference solver (``reference=True``); for RVO2 it is
+    ``set_agent_pref_velocity`` per agent, ``do_step`` and reading the positions back
+    (``rvo2_us``), and ``do_step`` alone (``rvo2_core_us``: the C++ without the Python calls
+    a runner cannot avoid). Also
     citygen batched: 8 environments of the same agents in one call (``citygen_batch8_us``
     per agent-step), what a vector environment does. Times are CPU time of this process
     (the machine may be shared), best of 3 runs of ``steps`` steps.
@@ -67,8 +71,11 @@ def _pref(pos: np.ndarray, goal: np.ndarray) -> np.ndarray:
     return d / np.maximum(dist, 1e-9) * np.minimum(1.0, dist / DT)
 
 
-def run_citygen(start: np.ndarray, goal: np.ndarray, steps: int, batch: int = 1) -> float:
-    """CPU seconds for ``steps`` steps (``batch`` copies of the scene in one call when > 1)."""
+def run_citygen(
+    start: np.ndarray, goal: np.ndarray, steps: int, batch: int = 1, reference: bool = False
+) -> float:
+    """CPU seconds for ``steps`` steps (``batch`` copies of the scene in one call when > 1; the
+    plain-numpy solver when ``reference``)."""
     pos = np.broadcast_to(start, (batch, *start.shape)).copy() if batch > 1 else start.copy()
     goal = np.broadcast_to(goal, pos.shape)
     vel = np.zeros_like(pos)
@@ -76,7 +83,7 @@ def run_citygen(start: np.ndarray, goal: np.ndarray, steps: int, batch: int = 1)
     for _ in range(steps):
         vel = orca_velocities(
             pos, vel, _pref(pos, goal), RADIUS, MAX_SPEED, dt=DT, tau=TAU,
-            neighbor_dist=NEIGHBOR_DIST, max_neighbors=MAX_NEIGHBORS,
+            neighbor_dist=NEIGHBOR_DIST, max_neighbors=MAX_NEIGHBORS, reference=reference,
         )  # fmt: skip
         pos = pos + vel * DT
     return time.process_time() - t0
@@ -106,10 +113,12 @@ def run_rvo2(start: np.ndarray, goal: np.ndarray, steps: int) -> tuple[float, fl
 
 def measure(n_agents: int, steps: int = 100, kind: str = "circle") -> dict:
     """ORCA cost per agent-step (microseconds) of citygen, RVO2 and their ratio for one scene:
-    ``{"agents", "scene", "citygen_us", "citygen_batch8_us", "rvo2_us", "rvo2_core_us",
-    "citygen_over_rvo2", "citygen_over_rvo2_core"}`` (``rvo2_*`` are ``None`` without pyrvo)."""
+    ``{"agents", "scene", "citygen_us", "citygen_batch8_us", "citygen_numpy_us", "rvo2_us",
+    "rvo2_core_us", "citygen_over_rvo2", "citygen_over_rvo2_core"}`` (``rvo2_*`` are ``None``
+    without pyrvo)."""
     start, goal = scene(kind, n_agents)
     work = n_agents * steps
+    run_citygen(start, goal, 1)  # loads (or compiles, the first time) the kernel
     ours = min(run_citygen(start, goal, steps) for _ in range(REPEATS)) / work * 1e6
     batch = min(run_citygen(start, goal, steps, batch=8) for _ in range(REPEATS)) / (8 * work) * 1e6
     out = {
@@ -117,6 +126,9 @@ def measure(n_agents: int, steps: int = 100, kind: str = "circle") -> dict:
         "scene": kind,
         "citygen_us": round(ours, 2),
         "citygen_batch8_us": round(batch, 2),
+        "citygen_numpy_us": round(
+            min(run_citygen(start, goal, steps, reference=True) for _ in range(REPEATS)) / work * 1e6, 2
+        ),
     }
     try:
         runs = [run_rvo2(start, goal, steps) for _ in range(REPEATS)]
@@ -140,6 +152,7 @@ def main() -> None:
         "agents",
         "citygen us",
         "citygen x8 us",
+        "numpy ref us",
         "RVO2 us",
         "RVO2 core us",
         "ours/RVO2",
@@ -148,7 +161,15 @@ def main() -> None:
     print("ORCA cost per agent-step (CPU microseconds; lower is better)")
     print("  ".join(f"{h:>13}" for h in head))
     for r in rows:
-        keys = ("scene", "agents", "citygen_us", "citygen_batch8_us", "rvo2_us", "rvo2_core_us")
+        keys = (
+            "scene",
+            "agents",
+            "citygen_us",
+            "citygen_batch8_us",
+            "citygen_numpy_us",
+            "rvo2_us",
+            "rvo2_core_us",
+        )
         cells = [r[k] for k in (*keys, "citygen_over_rvo2", "citygen_over_rvo2_core")]
         print("  ".join(f"{'-' if c is None else c:>13}" for c in cells))
     figures: dict[str, object] = {"bench": "orca"}
@@ -156,6 +177,7 @@ def main() -> None:
         key = f"{r['scene']}_{r['agents']}"
         figures[f"orca_{key}_citygen_us_per_agent_step"] = r["citygen_us"]
         figures[f"orca_{key}_citygen_batch8_us_per_agent_step"] = r["citygen_batch8_us"]
+        figures[f"orca_{key}_citygen_numpy_us_per_agent_step"] = r["citygen_numpy_us"]
         figures[f"orca_{key}_rvo2_us_per_agent_step"] = r["rvo2_us"]
         figures[f"orca_{key}_rvo2_core_us_per_agent_step"] = r["rvo2_core_us"]
         figures[f"orca_{key}_citygen_over_rvo2"] = r["citygen_over_rvo2"]

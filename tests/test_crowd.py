@@ -152,10 +152,12 @@ def test_agrees_with_rvo2_in_a_dense_crowd(max_neighbors, monkeypatch):
             sim.set_agent_pref_velocity(i, tuple(pref[i]))
         sim.do_step()
         ref = np.array([sim.get_agent_velocity(i).to_tuple() for i in range(n)])
-        ours = orca_velocities(
-            pos, vel, pref, radius, vmax, dt=DT, tau=2.0, neighbor_dist=4.0, max_neighbors=max_neighbors
-        )
-        worst = max(worst, float(np.abs(ours - ref).max()))
+        for reference in (False, True):  # the numba kernel and the plain-numpy reference
+            ours = orca_velocities(
+                pos, vel, pref, radius, vmax, dt=DT, tau=2.0, neighbor_dist=4.0, max_neighbors=max_neighbors,
+                reference=reference,
+            )  # fmt: skip
+            worst = max(worst, float(np.abs(ours - ref).max()))
     assert sum(infeasible) > 100  # the infeasible case ran for many agents
     assert worst < 0.05  # as in test_agrees_with_rvo2_through_pyrvo
 

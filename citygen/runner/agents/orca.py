@@ -1,5 +1,11 @@
 """ORCA, *Optimal Reciprocal Collision Avoidance* (van den Berg, Guy, Lin and Manocha, 2011),
-as the reference RVO2 library computes it, for every agent at once with numpy.
+as the reference RVO2 library computes it, for every agent at once.
+
+Neighbours and their lines' inputs are arrays over all agents (numpy); each agent's half-planes
+and linear programs run in the numba kernel of :mod:`citygen.runner.agents.orca_kernel` (RVO2's
+own incremental algorithm, line by line). What follows is the plain-numpy form of that solver,
+kept as the reference (``orca_velocities(..., reference=True)``; ``tests/test_orca_kernel.py``
+holds the two together):
 
 RVO2 builds one half-plane of allowed velocities per neighbour (``computeNewVelocity``) and
 solves a small 2-D linear program per agent by an incremental algorithm (``linearProgram2``,
@@ -40,6 +46,8 @@ import functools
 
 import numpy as np
 from scipy.spatial import cKDTree
+
+from citygen.runner.agents import orca_kernel
 
 RVO_EPSILON = 1e-5
 """RVO2's tolerance for parallel lines (its ``RVO_EPSILON``)."""
@@ -400,6 +408,7 @@ def orca_velocities(
     cooperative=None,
     static=None,
     tau_static: float = 1.0,
+    reference: bool = False,
 ) -> np.ndarray:
     """New velocities (m/s) of agents by ORCA, as RVO2's ``computeNewVelocity``, for all at once.
 
@@ -412,7 +421,9 @@ def orca_velocities(
     non-cooperative agent (the robot) keeps its ``vel`` and others take full responsibility
     for avoiding it. ``static``: ``(points (..., N, S, 2), radii (..., N, S))``, per agent
     ``S`` discs standing still (m) it must not run into within ``tau_static`` (s); a negative
-    radius or a non-finite point is no obstacle.
+    radius or a non-finite point is no obstacle. ``reference``: solve with the plain-numpy
+    form of this module instead of the compiled kernel (:mod:`~citygen.runner.agents.orca_kernel`,
+    the default); the two agree to float precision.
 
     >>> import numpy as np
     >>> pos = np.array([[-2.0, 0.05], [2.0, 0.0]])  # walking at each other, 5 cm off the line
@@ -476,7 +487,22 @@ def orca_velocities(
         np.add(own[4], other[4], out=ln[4])
         np.subtract(1.0, 0.5 * other[5], out=ln[5])  # half for a cooperative neighbour
         ln[6] = present
-    line = line.reshape(7, b * n, -1)
+    solver = _solve_reference if reference else orca_kernel.solve
+    out = solver(
+        line.reshape(7, b * n, -1), n_static, 1.0 / tau, 1.0 / tau_static, 1.0 / dt,
+        np.ascontiguousarray(vel.reshape(-1, 2)), np.ascontiguousarray(pref.reshape(-1, 2)),
+        np.ascontiguousarray(vmax.reshape(-1)),
+    )  # fmt: skip
+    if cooperative is not None:
+        out = np.where(coop.reshape(-1)[:, None], out, vel.reshape(-1, 2))
+    return out.reshape(pos.shape)
+
+
+def _solve_reference(
+    line, n_static: int, inv_tau: float, inv_tau_static: float, inv_dt: float, vel, pref, vmax
+):
+    """The plain-numpy form of :func:`citygen.runner.agents.orca_kernel.solve` (same arguments:
+    lines ``(7, A, L)``, the first ``n_static`` static; ``(A, 2)`` velocities out)."""
     valid = line[6] > 0.5
     # Lines no agent has are dropped (absent static discs moved last first): the answer of
     # each agent depends only on its present lines, in order.
@@ -484,20 +510,14 @@ def orca_velocities(
     if cols is not None:
         line, valid = line[:, np.arange(len(cols))[:, None], cols], valid[np.arange(len(cols))[:, None], cols]
     rx, ry, rvx, rvy, comb, share, _ = line
-    inv_tau = 1.0 / tau
     if n_static:
-        inv_tau = np.where(np.arange(line.shape[2]) < n_static, 1.0 / tau_static, inv_tau)
-    vx, vy = vel.reshape(-1, 2).T
-    dx, dy, ux, uy = half_planes(rx, ry, rvx, rvy, comb, inv_tau, 1.0 / dt)
+        inv_tau = np.where(np.arange(line.shape[2]) < n_static, inv_tau_static, inv_tau)
+    vx, vy = vel.T
+    dx, dy, ux, uy = half_planes(rx, ry, rvx, rvy, comb, inv_tau, inv_dt)
     px = vx[:, None] + share * ux
     py = vy[:, None] + share * uy
-    r_max = vmax.reshape(-1)
-    ox, oy = pref[..., 0].reshape(-1), pref[..., 1].reshape(-1)
     if not valid.all():
         px, py, dx, dy = np.where(valid, np.stack([px, py, dx, dy]), _NO_LINE)
     agent_line = valid & (np.arange(valid.shape[1]) >= n_static) if n_static else valid
-    x, y = _linear_program(px, py, dx, dy, agent_line, n_static, r_max, ox, oy)
-    out = np.stack([x, y], axis=-1)
-    if cooperative is not None:
-        out = np.where(coop.reshape(-1)[:, None], out, vel.reshape(-1, 2))
-    return out.reshape(pos.shape)
+    x, y = _linear_program(px, py, dx, dy, agent_line, n_static, vmax, pref[:, 0].copy(), pref[:, 1].copy())
+    return np.stack([x, y], axis=-1)
