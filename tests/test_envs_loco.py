@@ -58,6 +58,24 @@ def test_options_pick_region_and_command(rough):
     assert (int(y // 8), int(x // 8)) == (15, 2)
 
 
+def test_the_start_leaves_room_for_the_whole_walk_inside_the_grid(rough):
+    """Walking off the grid ends an episode as a fall; a drawn start leaves room for the
+    command's walk over the horizon, in every row (42 of a shipped policy's 48 test "falls"
+    on LocoFlat were the grid's edge), and a region given by the curriculum keeps its tile."""
+    (x0, y0), (x1, y1) = rough.scene.bounds.min, rough.scene.bounds.max
+    reach = np.hypot(*rough.scene.task.command[:2]) * rough.horizon * rough.dt
+    rows = set()
+    for seed in range(48):
+        _, info = rough.reset(seed=seed, options={"region": (0, 0)} if seed % 4 == 0 else None)
+        x, y, _, yaw = rough.handle.pose(rough.data)
+        ex, ey = x + reach * np.cos(yaw), y + reach * np.sin(yaw)
+        assert x0 < min(x, ex) and max(x, ex) < x1 and y0 < min(y, ey) and max(y, ey) < y1, (seed, x, y, yaw)
+        rows.add(info["region"][0])
+        if seed % 4 == 0:
+            assert info["region"] == (0, 0)
+    assert {0, rough.scene.terrain.rows - 1} <= rows or len(rows) > 8, rows
+
+
 def test_without_randomize_the_scene_start_and_command_hold():
     env = make_env("loco-flat", robot="quadruped", randomize=False)
     try:

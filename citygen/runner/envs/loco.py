@@ -44,6 +44,13 @@ FALL_FORCE = 1.0
 COMMAND_TURN = (0.0, 0.0)
 #: Locomotion: the start is up to this far (m, each axis) from its region's centre.
 START_JITTER = 0.25
+#: Locomotion: the start leaves room for the walk the command asks for (its speed times the
+#: horizon) plus this margin (m) inside the scene, so that walking off the edge of the grid,
+#: which ends an episode as a fall, is not what a test measures (Isaac Lab's terrains have a
+#: border for the same reason: the paper's robots walk their 20 s, 19.6 m at 1 m/s). Draws
+#: are redrawn up to :data:`START_TRIES` times.
+START_MARGIN = 1.0
+START_TRIES = 64
 
 
 class LocoEnv(_CitygenEnv):
@@ -122,27 +129,54 @@ class LocoEnv(_CitygenEnv):
         self.region = None
         if grid is not None:
             self.region = (int((y - grid.origin[1]) // size), int((x - grid.origin[0]) // size))
-        if self.randomize and grid is not None:
-            row, col = int(rng.integers(grid.rows)), int(rng.integers(grid.cols))
-            jitter = rng.uniform(-START_JITTER, START_JITTER, 2)
-            x = grid.origin[0] + (col + 0.5) * size + float(jitter[0])
-            y = grid.origin[1] + (row + 0.5) * size + float(jitter[1])
-            yaw = float(rng.uniform(-math.pi, math.pi))
-            speed, turn = math.hypot(command[0], command[1]), float(rng.uniform(*COMMAND_TURN))
-            command = (speed * math.cos(turn), speed * math.sin(turn), float(command[2]))
-            self.region = (row, col)
+        fixed = None
         if "region" in options and grid is not None:
-            row, col = (int(v) for v in options["region"])
-            if not (0 <= row < grid.rows and 0 <= col < grid.cols):
+            fixed = tuple(int(v) for v in options["region"])
+            if not (0 <= fixed[0] < grid.rows and 0 <= fixed[1] < grid.cols):
                 raise SpecError(
                     f"options.region: expected (row, col) inside the {grid.rows} x {grid.cols} grid, "
-                    f"got {(row, col)}"
+                    f"got {fixed}"
                 )
-            x, y = grid.origin[0] + (col + 0.5) * size, grid.origin[1] + (row + 0.5) * size
-            self.region = (row, col)
         if "command" in options:
             command = tuple(float(c) for c in options["command"])
+        if self.randomize and grid is not None:
+            speed = math.hypot(command[0], command[1])
+            for _ in range(START_TRIES):
+                row, col = int(rng.integers(grid.rows)), int(rng.integers(grid.cols))
+                jitter = rng.uniform(-START_JITTER, START_JITTER, 2)
+                yaw = float(rng.uniform(-math.pi, math.pi))
+                turn = float(rng.uniform(*COMMAND_TURN))
+                if fixed is not None:
+                    (row, col), jitter = fixed, (0.0, 0.0)
+                x = grid.origin[0] + (col + 0.5) * size + float(jitter[0])
+                y = grid.origin[1] + (row + 0.5) * size + float(jitter[1])
+                drawn = command
+                if "command" not in options:
+                    drawn = (speed * math.cos(turn), speed * math.sin(turn), float(command[2]))
+                if self._room_for(x, y, yaw, drawn):
+                    break
+            command = drawn
+            self.region = (row, col)
+        elif fixed is not None:
+            row, col = fixed
+            x, y = grid.origin[0] + (col + 0.5) * size, grid.origin[1] + (row + 0.5) * size
+            self.region = fixed
         return x, y, yaw, command
+
+    def _room_for(self, x: float, y: float, yaw: float, command: tuple) -> bool:
+        """Whether the walk ``command`` asks for from ``(x, y, yaw)`` over the horizon stays
+        :data:`START_MARGIN` inside the scene: the straight path for a straight command, the
+        disc an arc can reach (its diameter, at most the path's length) for a turning one."""
+        speed = math.hypot(command[0], command[1])
+        reach = speed * self.horizon * self.dt
+        (x0, y0), (x1, y1) = self.scene.bounds.min, self.scene.bounds.max
+        lo_x, lo_y, hi_x, hi_y = x0 + START_MARGIN, y0 + START_MARGIN, x1 - START_MARGIN, y1 - START_MARGIN
+        if abs(command[2]) > 1e-6:
+            r = min(reach, 2.0 * speed / abs(command[2]))
+            return lo_x <= x - r and x + r <= hi_x and lo_y <= y - r and y + r <= hi_y
+        heading = yaw + math.atan2(command[1], command[0])
+        ex, ey = x + reach * math.cos(heading), y + reach * math.sin(heading)
+        return lo_x <= min(x, ex) and max(x, ex) <= hi_x and lo_y <= min(y, ey) and max(y, ey) <= hi_y
 
     def _fall_geoms_for_model(self) -> None:
         """The robot geoms whose pressing on the ground is a fall: the body, not the legs.
