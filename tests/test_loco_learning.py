@@ -3,6 +3,7 @@ terrain curriculum, gait shaping; training only), and a tiny run that ``citygen 
 
 from __future__ import annotations
 
+import json
 import math
 import subprocess
 import sys
@@ -169,3 +170,28 @@ def test_the_shipped_quadruped_walks_a_flat_test_episode():
     finally:
         env.close()
     assert result["balance"] == 100.0 and result["x_displacement"] >= 0.9 * 19.58
+
+
+def test_a_general_model_serves_every_loco_task_without_a_terrain_model(tmp_path, monkeypatch):
+    """A policy trained on the mixed grid is the robot's general locomotion model: `--policy
+    ppo` resolves to it on each loco task that has no terrain model, and
+    ``general_locomotion`` finds it; a robot without one is a one-line error."""
+    from citygen.runner.learn import policy as P
+    from citygen.runner.learn.export import write_policy
+
+    with np.load(P.baseline("loco-flat", "quadruped")) as data:
+        arrays = {k: data[k] for k in data.files}
+    meta = json.loads(str(arrays.pop("meta")))
+    general = {**meta, "train": {**meta["train"], "split": P.GENERAL_LOCO_SPLIT}}
+    write_policy(tmp_path / "loco-general-quadruped.npz", general, arrays)
+    write_policy(tmp_path / "loco-stair-quadruped.npz", {**meta, "task": "loco-stair"}, arrays)
+    monkeypatch.setattr(P, "BASELINES", tmp_path)
+    found = P.shipped()
+    general = tmp_path / "loco-general-quadruped.npz"
+    assert {t: found[(t, "quadruped")].name for t in P.LOCO_TASKS} == {
+        "loco-flat": general.name, "loco-slope": general.name, "loco-rough": general.name,
+        "loco-stair": "loco-stair-quadruped.npz",
+    }  # fmt: skip
+    assert P.general_locomotion("quadruped") == general
+    with pytest.raises(P.PolicyError, match="no general locomotion model shipped for robot humanoid"):
+        P.general_locomotion("humanoid")

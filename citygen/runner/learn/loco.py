@@ -21,7 +21,8 @@ adds what makes the same policy learnable on a laptop in hours:
   [-1, 1] (the share of the commanded speed made good along the command: linear from a
   standstill, so the first steps already pay), ``-0.05 |w_xy|^2``, ``-0.5 |g_xy|^2`` (tilt),
   ``-1e-5 |tau|^2``, ``-2.5e-7 |qdd|^2`` and a foot air-time reward ``+1.0 sum (t_air - 0.25)`` at each
-  touch-down while the command asks to move (the stepping that a trot needs).
+  touch-down while the command asks to move (the stepping that a trot needs; not for a robot
+  whose locomotion action drives wheels, which roll where a foot steps).
 """
 
 from __future__ import annotations
@@ -66,6 +67,7 @@ class LocoTraining(gymnasium.Wrapper):
         self.level: int | None = None
         self._start = (0.0, 0.0)
         self._air = np.zeros(0)
+        self._stepping = True
         self._last_qvel: np.ndarray | None = None
 
     # --- episode setup --------------------------------------------------------------------
@@ -86,6 +88,7 @@ class LocoTraining(gymnasium.Wrapper):
         self._start = tuple(float(v) for v in u.data.qpos[h.qadr : h.qadr + 2])
         self._air = np.zeros(len(h.foot_geom_ids))
         self._foot_index = {int(g): k for k, g in enumerate(h.foot_geom_ids)}
+        self._stepping = not u.robot.loco_wheels
         self._last_qvel = None
         return obs, info
 
@@ -129,7 +132,7 @@ class LocoTraining(gymnasium.Wrapper):
         touching = self._feet_touching()
         landed = touching & (self._air > 0)
         self._air += u.dt
-        if math.hypot(c[0], c[1]) > 0.1 or abs(c[2]) > 0.1:
+        if self._stepping and (math.hypot(c[0], c[1]) > 0.1 or abs(c[2]) > 0.1):
             r += WEIGHTS["air_time"] * float(np.sum((self._air - AIR_TIME) * landed))
         self._air[touching] = 0.0
         return r

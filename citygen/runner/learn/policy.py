@@ -21,6 +21,10 @@ from citygen.runner.learn.export import NumpyPolicy, policy_arrays, read_policy
 
 #: Folder of the shipped baselines.
 BASELINES = Path(__file__).with_name("baselines")
+#: The Urban-Loc split the general locomotion models train on (every terrain kind).
+GENERAL_LOCO_SPLIT = "urban-loc-mixed-train"
+#: The locomotion tasks a general model serves.
+LOCO_TASKS = ("loco-flat", "loco-slope", "loco-stair", "loco-rough")
 #: Suffixes of model files ``--policy`` accepts.
 MODEL_SUFFIXES = (".npz", ".zip")
 
@@ -34,13 +38,41 @@ def is_model(name: str) -> bool:
     return name == "ppo" or name.lower().endswith(MODEL_SUFFIXES)
 
 
-def shipped() -> dict[tuple[str, str], Path]:
-    """The shipped baselines: ``(task, robot) -> file``."""
-    out = {}
+def _shipped_files() -> tuple[dict[tuple[str, str], Path], dict[str, Path]]:
+    """The shipped files: ``(task, robot) -> file`` of the task models and ``robot -> file``
+    of the general locomotion models (trained on :data:`GENERAL_LOCO_SPLIT`)."""
+    tasks: dict[tuple[str, str], Path] = {}
+    general: dict[str, Path] = {}
     for path in sorted(BASELINES.glob("*.npz")):
         meta = read_policy(path).meta
-        out[(meta["task"], meta["robot"])] = path
+        if meta.get("train", {}).get("split") == GENERAL_LOCO_SPLIT:
+            general[meta["robot"]] = path
+        else:
+            tasks[(meta["task"], meta["robot"])] = path
+    return tasks, general
+
+
+def shipped() -> dict[tuple[str, str], Path]:
+    """The shipped baselines: ``(task, robot) -> file``. A robot's general locomotion model
+    serves each locomotion task that has no terrain model of its own."""
+    out, general = _shipped_files()
+    for robot, path in general.items():
+        for task in LOCO_TASKS:
+            out.setdefault((task, robot), path)
     return out
+
+
+def general_locomotion(robot: str) -> Path:
+    """The shipped general locomotion model of ``robot`` (the paper's "general locomotion
+    model", which follows velocity commands on every terrain), or a one-line error naming
+    the robots that have one."""
+    general = _shipped_files()[1]
+    if robot not in general:
+        raise PolicyError(
+            f"no general locomotion model shipped for robot {robot}; "
+            f"shipped for: {', '.join(sorted(general)) or 'none'}"
+        )
+    return general[robot]
 
 
 def baseline(task: str, robot: str) -> Path:
