@@ -50,7 +50,7 @@ ExecutorOption = Annotated[
 
 def generate(
     split: Annotated[
-        str,
+        str | None,
         typer.Option(
             "--split",
             "-s",
@@ -58,7 +58,7 @@ def generate(
             "generator config / split manifest file (.toml, .json).",
             show_default=False,
         ),
-    ],
+    ] = None,
     seed: Annotated[
         int | None,
         typer.Option(
@@ -86,12 +86,37 @@ def generate(
         bool, typer.Option("--resume", help="Keep scene files already written and valid.")
     ] = False,
     executor: ExecutorOption = "local",
+    osm: Annotated[
+        Path | None,
+        typer.Option(
+            "--osm",
+            help="A real place: an OpenStreetMap extract on disk (.osm, .osm.pbf).",
+            show_default=False,
+        ),
+    ] = None,
+    bbox: Annotated[
+        str | None,
+        typer.Option(
+            "--bbox", help="With --osm: the box WEST,SOUTH,EAST,NORTH in degrees.", show_default=False
+        ),
+    ] = None,
 ) -> None:
     """Generate scenes of a named split (or of your own config) as JSON scene files.
 
     Scene `i` of split `S` gets the seed derived from (master seed, `S`, `i`), written into its
     `meta`; files go to `OUT/<family>/<part>/<index:04d>.json`, e.g. `out/urban-nav-2/train/0000.json`.
+    With `--osm FILE --bbox W,S,E,N` (and no `--split`), the real place FILE maps in the box,
+    made with `--seed` (default 0), goes to `OUT/<name>.json`.
     """
+    if osm is not None or bbox is not None:
+        from citygen.cli.place import generate_place
+
+        generate_place(osm, bbox, split=split, seed=seed, out=out)
+        return
+    if split is None:
+        raise SpecError(
+            "--split: expected a split, family or config file (or --osm FILE --bbox W,S,E,N), got none"
+        )
     from citygen.cli.progress import scenes_progress
     from citygen.generate.dataset import check_executor, write_scenes
     from citygen.generate.splits import indices, resolve

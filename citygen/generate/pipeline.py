@@ -68,11 +68,11 @@ def layout(
     bounds = Bounds(min=(0.0, 0.0), max=config.size)
     _starting("layout")
     plan = LAYOUTS[config.layout].plan(bounds, config, seed)
-    meta = Meta(generator=GENERATOR, split=split, index=index, seed=seed)
+    meta = Meta(generator=GENERATOR, split=split, index=index, seed=seed, source=plan.source)
     return Scene(
         format=SCENE_FORMAT,
         meta=meta,
-        bounds=bounds,
+        bounds=plan.bounds or bounds,
         blocks=plan.blocks,
         zones=plan.zones,
         signals=plan.signals,

@@ -18,6 +18,7 @@ from pydantic import BaseModel, BeforeValidator, Field, WithJsonSchema
 
 from citygen.errors import Problem
 from citygen.spec.base import Float, Identifier, Int, SpecModel, Vec2, bounded_float, bounded_int
+from citygen.spec.osm import OsmArea
 from citygen.spec.task import Robot
 
 Range = tuple[Float, Float]
@@ -346,10 +347,11 @@ class GeneratorConfig(SpecModel):
     format: Literal["citygen.config/1"] = "citygen.config/1"
     size: Vec2 = (10.0, 10.0)
     """Width (x) and depth (y) of the scene, in metres."""
-    layout: Literal["region", "blocks", "curriculum", "track", "city"] = "region"
+    layout: Literal["region", "blocks", "curriculum", "track", "city", "osm"] = "region"
     """``region`` for small roadless scenes, ``blocks`` for road networks grown block by block,
     ``city`` for a city's street grid of city blocks, ``curriculum`` for locomotion grids,
-    ``track`` for the Urban-Tra-Standard running track."""
+    ``track`` for the Urban-Tra-Standard running track, ``osm`` for a real place from an
+    OpenStreetMap extract (the ``osm`` table)."""
     region: RegionConfig = RegionConfig()
     blocks: BlocksConfig = BlocksConfig()
     city: CityConfig = CityConfig()
@@ -361,6 +363,8 @@ class GeneratorConfig(SpecModel):
     task: TaskConfig = TaskConfig()
     track: TrackConfig = TrackConfig()
     """The units of a ``track`` layout (ignored by the other layouts)."""
+    osm: OsmArea | None = None
+    """The extract and box of an ``osm`` layout (ignored by the other layouts)."""
 
 
 class SplitConfig(SpecModel):
@@ -419,6 +423,8 @@ def check_config(config: BaseModel, path: str = "$") -> list[Problem]:
                     f"{len(config.track.units)} units of {config.track.unit_length:g} m = {span:g} m",
                 )
             )
+    if isinstance(config, GeneratorConfig) and config.layout == "osm" and config.osm is None:
+        problems.append(Problem(f"{path}.osm", "an osm table (file, bbox) for layout 'osm'", "none"))
     if (
         isinstance(config, GeneratorConfig)
         and config.layout == "region"

@@ -16,6 +16,7 @@ from citygen.spec import limits
 from citygen.spec.agents import Agent
 from citygen.spec.base import Identifier, SpecModel, Vec2, bounded_int
 from citygen.spec.blocks import Block
+from citygen.spec.osm import OsmSource
 from citygen.spec.placements import Placement
 from citygen.spec.signals import Signal
 from citygen.spec.task import Task
@@ -38,6 +39,8 @@ class Meta(SpecModel):
     """The scene's own seed, derived from the split's master seed and the index."""
     description: str | None = Field(default=None, max_length=limits.MAX_TEXT)
     """Free text for people reading the file."""
+    source: OsmSource | None = None
+    """The OpenStreetMap extract, box and projection a real place came from (``layout = "osm"``)."""
 
 
 class Bounds(SpecModel):

@@ -6,6 +6,7 @@
 ``curriculum``          :mod:`.curriculum`: the Urban-Loc locomotion grids, terrain only
 ``track``               :mod:`.track`: the Urban-Tra-Standard track, units run in laps
 ``city``                :mod:`.city`: a city's street grid, city blocks, curbs and signals
+``osm``                 :mod:`.osm`: a real place from an OpenStreetMap extract on disk
 ======================  =====================================================================
 
 Each follows :class:`~.base.Layout`: a class with the layout's ``kind``, a ``plan`` for
@@ -14,7 +15,7 @@ them). :data:`LAYOUTS` maps ``GeneratorConfig.layout`` to it; a new layout is on
 and its line here.
 
 >>> sorted(LAYOUTS)
-['blocks', 'city', 'curriculum', 'region', 'track']
+['blocks', 'city', 'curriculum', 'osm', 'region', 'track']
 """
 
 from __future__ import annotations
@@ -23,12 +24,13 @@ from citygen.generate.layouts.base import BaseLayout, Layout, Plan
 from citygen.generate.layouts.blocks import Blocks
 from citygen.generate.layouts.city import City
 from citygen.generate.layouts.curriculum import Curriculum
+from citygen.generate.layouts.osm import Osm
 from citygen.generate.layouts.region import Region
 from citygen.generate.layouts.track import Track
 
 #: Every layout by its kind (a value of ``GeneratorConfig.layout``).
 LAYOUTS: dict[str, type[Layout]] = {
-    layout.kind: layout for layout in (Region, Blocks, Curriculum, Track, City)
+    layout.kind: layout for layout in (Region, Blocks, Curriculum, Track, City, Osm)
 }
 
 __all__ = ["LAYOUTS", "BaseLayout", "Layout", "Plan"]

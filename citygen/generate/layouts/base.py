@@ -31,6 +31,7 @@ from citygen.seeding import stage_rng
 from citygen.spec.agents import Person, Vehicle
 from citygen.spec.blocks import Block
 from citygen.spec.config import GeneratorConfig
+from citygen.spec.osm import OsmSource
 from citygen.spec.placements import Placement
 from citygen.spec.scene import Bounds, Scene
 from citygen.spec.signals import Signal
@@ -41,11 +42,14 @@ from citygen.spec.zones import Zone
 
 @dataclass(frozen=True)
 class Plan:
-    """Stages 1 and 2 of a scene: its road blocks, the zones tiling it, its junctions' signals."""
+    """Stages 1 and 2 of a scene: its road blocks, the zones tiling it, its junctions' signals;
+    a layout whose bounds come from its source (a real place's box) says them and the source."""
 
     zones: tuple[Zone, ...] = ()
     blocks: tuple[Block, ...] = ()
     signals: tuple[Signal, ...] | None = None
+    bounds: Bounds | None = None
+    source: OsmSource | None = None
 
 
 class Layout(Protocol):

@@ -94,8 +94,8 @@ def street_furniture(
     palettes = _Palettes(child(rng, 0))
     counts: dict[str, int] = {}
     for p in placed:
-        stem = p.id.rpartition("-")[0]
-        counts[stem] = max(counts.get(stem, 0), int(p.id.rpartition("-")[2] or 0))
+        stem, _, tail = p.id.rpartition("-")
+        counts[stem] = max(counts.get(stem, 0), int(tail) if tail.isdigit() else 0)  # bench-n123: mapped
     fits: dict[str, list] = {}
 
     def fitting(name: str) -> list:

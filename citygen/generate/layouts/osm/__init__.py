@@ -1,0 +1,168 @@
+"""The ``osm`` layout: a real place, from an OpenStreetMap extract on disk.
+
+The generator config's ``osm`` table names the extract (``.osm`` XML or ``.osm.pbf``) and the
+box (:class:`~citygen.spec.osm.OsmArea`); nothing is fetched from the network.
+:mod:`.place` reads and projects it. Then the stages run as a city's, on the map's ground:
+
+- stage 1, :mod:`.streets`: the street graph, junctions and road blocks of the mapped streets;
+- stage 2, :mod:`.ground`: buildings, crosswalks, roadway, curbs, sidewalks, walkways, plazas,
+  parking, water and vegetation as mapped, tiling the box; a signal plan
+  (:func:`~citygen.generate.signals.signalise`) at every junction block the map gives traffic
+  signals;
+- stage 3: the terrain flat (the config's terrain mix; no height source is read), with the
+  city's curbs, curb ramps and front steps (:func:`~citygen.generate.layouts.city.terrain.city_features`);
+- stage 4: building massing in the mapped footprints, the mapped furniture and trees where the
+  map puts them (:mod:`.objects`), then the city's rows of street furniture around them and
+  traffic lights at the signals;
+- stage 5 and the task as in the city: people, vehicles on the road blocks, a traverse along
+  the sidewalks and crosswalks (around the mapped objects).
+
+The scene's ``meta.source`` records the file's name, the box and the projection; what came
+from the map keeps its OSM id in its own id (``building-w45``, ``bench-n123``, ``j-n12``).
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import shapely
+from shapely.geometry import LineString, Point
+from shapely.geometry.base import BaseGeometry
+
+from citygen.generate.layouts.base import BaseLayout, Plan
+from citygen.generate.layouts.city import City, _corridor
+from citygen.generate.layouts.city.furniture import street_furniture
+from citygen.generate.layouts.osm.ground import plan_ground, street_ground
+from citygen.generate.layouts.osm.objects import place_mapped
+from citygen.generate.layouts.osm.place import Place, check_area, load_place
+from citygen.generate.layouts.osm.project import Projection
+from citygen.generate.layouts.osm.streets import blocks as street_blocks
+from citygen.generate.placement import base_of
+from citygen.generate.signals import signalise
+from citygen.generate.task import Endpoints, street_route
+from citygen.seeding import child, stage_rng
+from citygen.spec.config import (
+    AgentsConfig,
+    GeneratorConfig,
+    PlacementConfig,
+    TaskConfig,
+    TerrainConfig,
+    TerrainMix,
+)
+from citygen.spec.osm import OsmArea
+from citygen.spec.placements import Placement
+from citygen.spec.scene import Bounds
+from citygen.spec.terrain import Terrain
+from citygen.spec.zones import Zone
+
+#: Room (m) kept around a mapped object when the traverse route is chosen.
+AROUND = 1.0
+
+
+def place_of(config: GeneratorConfig) -> Place:
+    """The place a config's ``osm`` table names (read once per process)."""
+    from citygen.errors import SpecError
+
+    if config.osm is None:
+        raise SpecError("$.osm: expected an osm table (file, bbox) for layout 'osm', got none")
+    return load_place(config.osm)
+
+
+def osm_config(file: str, bbox: tuple[float, float, float, float], **updates) -> GeneratorConfig:
+    """A generator config of the place ``file`` maps in ``bbox`` (``[west, south, east, north]``,
+    degrees): its size that of the projected box, flat terrain tiles of 10 m, the city's street
+    furniture and no scattered objects besides, a pedestrian every 2,500 m2 and a vehicle every
+    10,000 m2, and a wheeled robot's traverse along the sidewalks of at least a third of the
+    box's smaller side. ``updates`` replace any of the config's top-level fields.
+
+    >>> cfg = osm_config("tests/data/osm/town.osm", (8.5397, 47.3697, 8.5443, 47.3720))
+    >>> cfg.layout, [round(v) for v in cfg.size], cfg.task.kind
+    ('osm', [350, 260], 'traverse')
+    """
+    area = OsmArea(file=str(file), bbox=tuple(float(v) for v in bbox))
+    check_area(area)
+    size = Projection.for_box(area.bbox).size
+    people, vehicles = max(2, round(size[0] * size[1] / 2_500)), round(size[0] * size[1] / 10_000)
+    base = GeneratorConfig(
+        size=size,
+        layout="osm",
+        osm=area,
+        terrain=TerrainConfig(tile_size=10.0, mix=TerrainMix(flat=1.0, slope=0.0, stair=0.0, rough=0.0)),
+        placement=PlacementConfig(count=0),
+        agents=AgentsConfig(people=min(people, 2_000), vehicles=min(vehicles, 200)),
+        task=TaskConfig(kind="traverse", min_distance=round(min(size) / 3, 1), time_limit=3_600.0),
+    )
+    return base.model_copy(update=updates)
+
+
+class Osm(City):
+    """A real place (see the module docstring)."""
+
+    kind: ClassVar[str] = "osm"
+
+    @staticmethod
+    def plan(bounds: Bounds, config: GeneratorConfig, seed: int) -> Plan:
+        place = place_of(config)
+        size = place.projection.size
+        blocks = street_blocks(list(place.edges), list(place.junctions), size)
+        layers, sidewalks = street_ground(
+            list(place.streets), list(place.junctions), list(place.crossings), None
+        )
+        zones = plan_ground(size, layers, sidewalks, list(place.walkways), list(place.areas))
+        lit = {f"j-n{n}" for n in place.signalised}
+        signals = signalise([b for b in blocks if b.id in lit], zones) or None
+        return Plan(
+            zones=zones,
+            blocks=blocks,
+            signals=signals,
+            bounds=Bounds(min=(0.0, 0.0), max=size),
+            source=place.source,
+        )
+
+    def endpoints(self, walkable: BaseGeometry) -> Endpoints | None:
+        """A traverse runs along the sidewalks and crosswalks, around the mapped objects."""
+        if self.config.task.kind != "traverse":
+            return BaseLayout.endpoints(self, walkable)
+        scene, seed = self.scene, self.seed
+        spots = [Point(m.position).buffer(AROUND, quad_segs=4) for m in place_of(self.config).mapped]
+        zones = _without(scene.zones, shapely.union_all(spots)) if spots else scene.zones
+        return street_route(scene.bounds, zones, self.config.task, stage_rng(seed, "task"), seed=seed)
+
+    def scatter(
+        self, terrain: Terrain | None, ends: Endpoints | None, passable: BaseGeometry, level: float
+    ) -> tuple[Placement, ...]:
+        """Building massing and any scattered objects, the mapped objects (which move the
+        scattered ones they would touch), then the city's street furniture around them."""
+        place = place_of(self.config)
+        sampled = BaseLayout.scatter(self, terrain, ends, passable, level)
+        rng = child(stage_rng(self.seed, "placement"), 400)
+        lines = shapely.MultiLineString([LineString(s.points) for s in place.streets])
+        mapped, _ = place_mapped(list(place.mapped), list(self.scene.zones), terrain, lines, rng)
+        if mapped:
+            tree = shapely.STRtree([base_of(p) for p in mapped])
+            sampled = tuple(
+                p for p in sampled
+                if p.asset.startswith("building/") or not len(tree.query(base_of(p), predicate="intersects"))
+            )  # fmt: skip
+        rows = child(stage_rng(self.seed, "placement"), 300)
+        return street_furniture(
+            self.scene.zones, terrain, (*sampled, *mapped), rows, keep_clear=_corridor(ends)
+        )
+
+
+def _without(zones: tuple[Zone, ...], holes: BaseGeometry) -> list[Zone]:
+    """The sidewalk and crosswalk zones with ``holes`` cut out (the rest left out): the ground
+    a traverse route may take."""
+    from shapely.geometry import Polygon
+
+    from citygen.generate.zoning import polygons
+
+    out = []
+    for z in zones:
+        if z.kind not in ("sidewalk", "crosswalk"):
+            continue
+        for k, part in enumerate(polygons(Polygon(z.polygon, z.holes).difference(holes))):
+            ring = tuple(part.exterior.coords)[:-1]
+            inner = tuple(tuple(r.coords)[:-1] for r in part.interiors)
+            out.append(Zone.model_construct(id=f"{z.id}-{k}", kind=z.kind, polygon=ring, holes=inner))
+    return out

@@ -1,0 +1,157 @@
+"""Stage 4 for ``layout = "osm"``: street furniture and trees where the map puts them.
+
+Each mapped node of :data:`MAPPED` (``amenity=bench``, ``natural=tree``, ``barrier=bollard``,
+...) becomes an object of citygen's own catalog of the matching category, standing on the
+mapped point and named by its OSM id (``bench-n123``). Its variant is one of a small palette
+per category drawn from the placement stage's generator; it faces the ``direction`` the map
+gives (degrees clockwise from north), else the nearest street.
+
+An object stands only where its category belongs or on open ground (:data:`OPEN_GROUND`: a
+bench on a park's lawn; never on the roadway, a curb, parking, water or in a building) and
+clear of the objects placed before it: where the mapped point is not such a place (the map's
+street is drawn wider than the real one), it moves up to :data:`NUDGE` metres to the nearest
+spot that is, else it is left out (and counted).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from shapely.geometry import Point, Polygon
+
+from citygen.assets.catalog import CATEGORIES
+from citygen.generate.placement import base_of
+from citygen.geometry.terrain import height_at
+from citygen.spec.placements import Placement
+from citygen.spec.terrain import Terrain
+from citygen.spec.zones import Zone
+
+#: (key, value, category): what a mapped node is in citygen's catalog, first match wins.
+MAPPED = (
+    ("amenity", "bench", "bench"),
+    ("leisure", "picnic_table", "bench"),
+    ("amenity", "waste_basket", "trash_bin"),
+    ("amenity", "recycling", "recycling_bin"),
+    ("natural", "tree", "tree"),
+    ("natural", "shrub", "bush"),
+    ("barrier", "bollard", "bollard"),
+    ("highway", "street_lamp", "lamp_post"),
+    ("amenity", "bicycle_parking", "bike_rack"),
+    ("emergency", "fire_hydrant", "fire_hydrant"),
+    ("amenity", "post_box", "mailbox"),
+    ("amenity", "telephone", "telephone_booth"),
+    ("advertising", "column", "advertising_board"),
+    ("advertising", "board", "advertising_board"),
+    ("amenity", "vending_machine", "parking_meter"),
+    ("highway", "bus_stop", "bus_stop_shelter"),
+    ("highway", "stop", "street_sign"),
+    ("highway", "give_way", "street_sign"),
+)
+#: Ground any mapped object may stand on besides its category's (a bench on a park's lawn).
+OPEN_GROUND = frozenset({"sidewalk", "plaza", "trail", "vegetation"})
+#: Variants of each category one scene draws its mapped objects from.
+PALETTE = 4
+#: Farthest (m) a mapped object moves to stand where it belongs.
+NUDGE = 0.45
+
+
+@dataclass(frozen=True)
+class Mapped:
+    """A mapped object: its OSM id, catalog category, position (m) and heading, if mapped."""
+
+    id: str
+    category: str
+    position: tuple[float, float]
+    direction: float | None
+
+
+def category_of(tags: dict) -> str | None:
+    """The catalog category of a mapped node, or None."""
+    for key, value, category in MAPPED:
+        if tags.get(key) == value:
+            return category
+    return None
+
+
+def direction_of(tags: dict) -> float | None:
+    """The yaw (rad, counter-clockwise from east) of a node's ``direction`` tag in degrees."""
+    try:
+        return math.radians(90.0 - float(tags["direction"]))
+    except (KeyError, ValueError):
+        return None
+
+
+def place_mapped(
+    mapped: list[Mapped],
+    zones: list[Zone],
+    terrain: Terrain | None,
+    streets: shapely.Geometry,
+    rng: np.random.Generator,
+) -> tuple[list[Placement], int]:
+    """The placements of ``mapped`` (see the module docstring) and how many were left out.
+    ``streets`` is the street centre lines an object faces when the map gives no direction."""
+    polys = [Polygon(z.polygon, z.holes) for z in zones]
+    kinds = np.array([z.kind for z in zones])
+    tree = shapely.STRtree(polys)
+    palette = {
+        name: [f"{name}/{int(v):04d}" for v in rng.choice(10_000, PALETTE, replace=False)]
+        for name in sorted({m.category for m in mapped})
+    }
+    placed: list[Placement] = []
+    bases: list[Polygon] = []
+    left_out = 0
+    for k, m in enumerate(mapped):
+        asset = palette[m.category][k % PALETTE]
+        yaw = m.direction if m.direction is not None else _facing(m.position, streets)
+        yaw = round(math.remainder(yaw, 2 * math.pi), 6) + 0.0
+        suits = CATEGORIES[m.category].zones | OPEN_GROUND
+        for dx, dy in _nudges():
+            x, y = round(m.position[0] + dx, 3) + 0.0, round(m.position[1] + dy, 3) + 0.0
+            probe = Placement(id="probe", asset=asset, position=(x, y, 0.0), yaw=yaw)
+            base = base_of(probe)
+            hits = tree.query(base, predicate="intersects")
+            if not len(hits) or not all(
+                kinds[i] in suits for i in hits if polys[i].intersection(base).area > 1e-6
+            ):
+                continue
+            if not shapely.union_all([polys[i] for i in hits]).buffer(1e-4).covers(base):
+                continue
+            if any(base.intersects(b) for b in bases):
+                continue
+            ring = np.asarray(base.exterior.coords)
+            z = float(np.min(height_at(terrain, np.append(ring[:, 0], x), np.append(ring[:, 1], y))))
+            placed.append(
+                probe.model_copy(
+                    update={
+                        "id": f"{m.category.replace('_', '-')}-{m.id}",
+                        "position": (x, y, round(z, 3) + 0.0),
+                    }
+                )
+            )
+            bases.append(base)
+            break
+        else:
+            left_out += 1
+    return placed, left_out
+
+
+def _nudges() -> list[tuple[float, float]]:
+    """Offsets (m) tried in turn: none, then rings out to :data:`NUDGE`."""
+    out = [(0.0, 0.0)]
+    for r in (0.15, 0.3, NUDGE):
+        out += [(r * math.cos(a), r * math.sin(a)) for a in np.arange(8) * math.pi / 4]
+    return out
+
+
+def _facing(position: tuple[float, float], streets) -> float:
+    """Heading from ``position`` to the nearest street centre line (rad), 0 without streets."""
+    if streets is None or streets.is_empty:
+        return 0.0
+    p = Point(position)
+    q = streets.interpolate(streets.project(p))
+    if q.distance(p) < 1e-6:
+        return 0.0
+    return math.atan2(q.y - p.y, q.x - p.x)

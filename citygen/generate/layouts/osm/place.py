@@ -1,0 +1,224 @@
+"""A box of an OpenStreetMap extract in scene metres: what the ``osm`` layout's stages read.
+
+:func:`load_place` reads the extract (:mod:`.read`), projects it (:mod:`.project`), and sorts
+what it maps into the streets and their graph (:mod:`.streets`), the walkways, the areas, the
+crossings, the signals and the mapped objects. It is cached by the file's path, size and
+modification time and the box, so the stages that need the map after the ground (the mapped
+objects, the traverse route) read the file once per process.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+import shapely
+from shapely.geometry import LineString, Polygon
+
+from citygen.errors import SpecError
+from citygen.generate.layouts.osm.ground import WALKWAYS, area_kind, crossing_at
+from citygen.generate.layouts.osm.objects import Mapped, category_of, direction_of
+from citygen.generate.layouts.osm.project import Projection
+from citygen.generate.layouts.osm.read import Extract, read_extract
+from citygen.generate.layouts.osm.streets import (
+    Edge,
+    Junction,
+    Street,
+    edges_of,
+    is_street,
+    junctions,
+    street,
+)
+from citygen.spec.osm import OsmArea, OsmSource
+
+#: Largest side of a box, in metres: a 3 km x 3 km box stays within the generator's memory
+#: bounds (about 2 GiB for a dense city centre).
+MAX_SIDE_M = 3_000.0
+#: Smallest side of a box, in metres.
+MIN_SIDE_M = 20.0
+#: A mapped traffic signal on a street this near a junction (m) signalises it.
+SIGNAL_REACH = 30.0
+
+
+@dataclass(frozen=True)
+class Place:
+    """A box of an extract in scene metres (see the module docstring)."""
+
+    source: OsmSource
+    projection: Projection
+    streets: tuple[Street, ...]
+    edges: tuple[Edge, ...]
+    junctions: tuple[Junction, ...]
+    walkways: tuple[tuple[str, Polygon], ...]
+    """``(zone kind, shape)`` of mapped footways, paths and cycleways."""
+    areas: tuple[tuple[str, str, Polygon], ...]
+    """``(zone kind, OSM id, polygon)`` of mapped areas (buildings, plazas, parks ...)."""
+    heights: dict
+    """A building's height (m) by its OSM id, where the map gives ``height`` or ``building:levels``."""
+    crossings: tuple[tuple[str, Polygon], ...]
+    """``(OSM id, crosswalk)`` of mapped crossings."""
+    signalised: frozenset[int]
+    """Junction nodes with traffic signals."""
+    mapped: tuple[Mapped, ...]
+
+
+def check_area(area: OsmArea) -> None:
+    """Raise :class:`~citygen.errors.SpecError` (one line) when the box is not a box."""
+    west, south, east, north = area.bbox
+    if not (west < east and south < north and south >= -85.0 and north <= 85.0):
+        raise SpecError(
+            f"--bbox: expected WEST,SOUTH,EAST,NORTH in degrees with west < east, south < north and "
+            f"latitudes within 85, got {_box(area.bbox)}"
+        )
+
+
+def load_place(area: OsmArea) -> Place:
+    """The place of ``area`` (cached; see the module docstring)."""
+    check_area(area)
+    path = Path(area.file)
+    stat = os.stat(path) if path.is_file() else None
+    key = (stat.st_size, stat.st_mtime_ns) if stat else None
+    return _load(str(path), tuple(area.bbox), key)
+
+
+@lru_cache(maxsize=4)
+def _load(file: str, bbox: tuple[float, float, float, float], _key) -> Place:
+    projection = Projection.for_box(bbox)
+    width, depth = projection.size
+    if max(width, depth) > MAX_SIDE_M or min(width, depth) < MIN_SIDE_M:
+        raise SpecError(
+            f"--bbox: expected a box {MIN_SIDE_M:g} m to {MAX_SIDE_M:,.0f} m a side (the memory bounds), "
+            f"got {width:,.0f} m x {depth:,.0f} m ({_box(bbox)})"
+        )
+    data = read_extract(file, bbox)
+    name = Path(file).name
+    if data.extent is None or not _overlaps(data.extent, bbox):
+        found = "no data" if data.extent is None else f"data within {_box(data.extent)}"
+        raise SpecError(f"{name}: expected a --bbox overlapping the file's data, got {_box(bbox)} ({found})")
+    return _sort(data, projection, OsmSource(file=name, bbox=bbox, projection=projection.proj), name)
+
+
+def _sort(data: Extract, projection: Projection, source: OsmSource, name: str) -> Place:
+    def xy(coords) -> np.ndarray:
+        arr = np.asarray(coords, dtype=float)
+        return projection.xy(arr[:, 0], arr[:, 1])
+
+    frame = shapely.box(0.0, 0.0, *projection.size)
+    streets, walkways, crossing_ways = [], [], []
+    for way in data.ways:
+        points = xy(way.coords)
+        if is_street(way.tags):
+            streets.append(street(way.id, way.tags, points, way.nodes))
+        elif way.tags.get("highway") in WALKWAYS and way.tags.get("tunnel", "no") == "no":
+            width, kind = WALKWAYS[way.tags["highway"]]
+            width = _float(way.tags.get("width")) or width
+            line = LineString(points)
+            walkways.append((kind, line.buffer(width / 2, quad_segs=4)))
+            if way.tags.get("footway") == "crossing":
+                crossing_ways.append((way, line, width))
+    if not any(LineString(s.points).intersects(frame) for s in streets):
+        raise SpecError(
+            f"{name}: expected streets (highway=* ways vehicles drive on) inside the box, got none"
+        )
+    edges, degree = edges_of(streets)
+    position = {n: s.points[k] for s in streets for k, n in enumerate(s.nodes)}
+    joints = junctions(edges, degree, position)
+    # Mapped crossings: nodes on a street, then crossing ways without such a node.
+    nodes = {int(f.id[1:]): f for f in data.nodes}
+    crossings, crossing_nodes = [], set()
+    for s in streets:
+        for k, n in enumerate(s.nodes):
+            f = nodes.get(n)
+            if f is not None and f.tags.get("highway") == "crossing" and degree.get(n, 0) < 3:
+                crossings.append((f.id, crossing_at(s.points[k], s, k)))
+                crossing_nodes.add(n)
+    for way, line, width in crossing_ways:
+        if not crossing_nodes.intersection(way.nodes):
+            crossings.append((way.id, line.buffer(width / 2, cap_style="flat")))
+    signalised = _signals(data, streets, joints, nodes, degree)
+    mapped = []
+    for f in data.nodes:
+        category = category_of(f.tags)
+        if category is None:
+            continue
+        ((x, y),) = xy([f.coords])
+        if 0.0 <= x <= projection.size[0] and 0.0 <= y <= projection.size[1]:
+            mapped.append(Mapped(f.id, category, (float(x), float(y)), direction_of(f.tags)))
+    areas, heights = [], {}
+    for f in data.areas:
+        kind = area_kind(f.tags)
+        if kind is None:
+            continue
+        polys = [Polygon(xy(outer), [xy(h) for h in holes]) for outer, holes in f.coords]
+        shape = (
+            shapely.make_valid(shapely.union_all(polys)) if len(polys) > 1 else shapely.make_valid(polys[0])
+        )
+        shape = shape.intersection(frame)
+        if shape.is_empty or shape.area < 0.5:
+            continue
+        areas.append((kind, f.id, shape))
+        if kind == "building" and (h := _height(f.tags)) is not None:
+            heights[f.id] = h
+    return Place(
+        source=source,
+        projection=projection,
+        streets=tuple(streets),
+        edges=tuple(edges),
+        junctions=tuple(joints),
+        walkways=tuple(walkways),
+        areas=tuple(areas),
+        heights=heights,
+        crossings=tuple(crossings),
+        signalised=frozenset(signalised),
+        mapped=tuple(mapped),
+    )
+
+
+def _signals(data: Extract, streets, joints, nodes, degree) -> set[int]:
+    """Junctions with traffic signals: mapped on the junction's node, or on a street within
+    :data:`SIGNAL_REACH` of it."""
+    out = set()
+    where = {j.node: np.asarray(j.position) for j in joints}
+    for s in streets:
+        for k, n in enumerate(s.nodes):
+            f = nodes.get(n)
+            if f is None or f.tags.get("highway") != "traffic_signals":
+                continue
+            if n in where:
+                out.add(n)
+                continue
+            near = [(float(np.hypot(*(p - s.points[k]))), j) for j, p in where.items() if j in s.nodes]
+            if near and min(near)[0] <= SIGNAL_REACH:
+                out.add(min(near)[1])
+    return out
+
+
+def _height(tags: dict) -> float | None:
+    """A building's height (m): ``height``, else 3 m a level of ``building:levels`` plus 1 m."""
+    height = _float(tags.get("height"))
+    if height is not None:
+        return height
+    levels = _float(tags.get("building:levels"))
+    return 3.0 * levels + 1.0 if levels is not None else None
+
+
+def _float(text: str | None) -> float | None:
+    if not text:
+        return None
+    try:
+        value = float(text.strip().removesuffix("m").strip())
+    except ValueError:
+        return None
+    return value if math.isfinite(value) and value > 0 else None
+
+
+def _overlaps(a, b) -> bool:
+    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+
+
+def _box(b) -> str:
+    return ",".join(f"{v:.6g}" for v in b)

@@ -1,0 +1,232 @@
+"""Writes the OpenStreetMap extracts the OSM tests and benchmark read: a made-up town.
+
+Self-made data, CC0 (public domain): the streets, buildings and furniture are drawn by this
+script on a grid of city blocks placed at an arbitrary spot (near 47.37 N, 8.54 E); they map no
+real place. ``python tests/data/osm/make_town.py`` writes ``town.osm`` (XML, 3 x 2 city blocks
+of 100 m) and ``town.osm.pbf`` (the same data through pyosmium's writer) beside this file;
+:func:`write_town` makes larger grids (the 1 km benchmark's, in a temporary folder).
+
+The town has what a real extract maps: residential streets, a primary road (``lanes``,
+``width``), a one-way street, ``sidewalk`` tags, junctions of four and of three streets,
+traffic signals and a mid-block crossing on junction and street nodes, a footway crossing,
+buildings with ``height`` or ``building:levels`` (rectangles, L shapes and a multipolygon with
+a courtyard), a park with a pond, paths, trees, benches and waste baskets, a square with
+bollards and bicycle parking, parking, street lamps and a fire hydrant.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+LAT0, LON0 = 47.37, 8.54
+#: Metres per degree of latitude and of longitude at LAT0 (the sphere is close enough here:
+#: the tests read positions back through the file, never through these numbers).
+M_LAT = 111_320.0
+M_LON = M_LAT * math.cos(math.radians(LAT0))
+
+
+def lonlat(x: float, y: float) -> tuple[float, float]:
+    """Degrees of the town's point ``(x, y)`` metres east and north of its origin."""
+    return round(LON0 + x / M_LON, 8), round(LAT0 + y / M_LAT, 8)
+
+
+class _Map:
+    def __init__(self) -> None:
+        self.nodes: list[str] = []
+        self.ways: list[str] = []
+        self.relations: list[str] = []
+        self.at: dict[tuple[float, float], int] = {}
+        self.next = {"n": 1, "w": 1, "r": 1}
+
+    def _id(self, kind: str) -> int:
+        self.next[kind] += 1
+        return self.next[kind] - 1
+
+    def node(self, x: float, y: float, tags: dict | None = None) -> int:
+        key = (round(x, 3), round(y, 3))
+        if key in self.at and not tags:
+            return self.at[key]
+        nid = self._id("n")
+        lon, lat = lonlat(x, y)
+        body = "".join(f'<tag k="{k}" v="{v}"/>' for k, v in (tags or {}).items())
+        self.nodes.append(f' <node id="{nid}" version="1" lat="{lat}" lon="{lon}">{body}</node>')
+        if not tags:
+            self.at[key] = nid
+        return nid
+
+    def way(self, points, tags: dict, closed: bool = False) -> int:
+        refs = [self.node(x, y) for x, y in points]
+        if closed:
+            refs.append(refs[0])
+        return self.way_of(refs, tags)
+
+    def way_of(self, refs, tags: dict) -> int:
+        wid = self._id("w")
+        body = "".join(f'<nd ref="{r}"/>' for r in refs) + "".join(
+            f'<tag k="{k}" v="{v}"/>' for k, v in tags.items()
+        )
+        self.ways.append(f' <way id="{wid}" version="1">{body}</way>')
+        return wid
+
+    def multipolygon(self, outer, inner, tags: dict) -> int:
+        wo, wi = self.way(outer, {}, closed=True), self.way(inner, {}, closed=True)
+        rid = self._id("r")
+        body = f'<member type="way" ref="{wo}" role="outer"/><member type="way" ref="{wi}" role="inner"/>'
+        body += "".join(f'<tag k="{k}" v="{v}"/>' for k, v in {"type": "multipolygon", **tags}.items())
+        self.relations.append(f' <relation id="{rid}" version="1">{body}</relation>')
+        return rid
+
+    def xml(self, extent) -> str:
+        (w, s), (e, n) = lonlat(*extent[:2]), lonlat(*extent[2:])
+        head = f' <bounds minlat="{s}" minlon="{w}" maxlat="{n}" maxlon="{e}"/>'
+        top = [
+            "<?xml version='1.0' encoding='UTF-8'?>",
+            '<osm version="0.6" generator="citygen make_town.py">',
+        ]
+        return "\n".join([*top, head, *self.nodes, *self.ways, *self.relations, "</osm>", ""])
+
+
+def _rect(x0, y0, x1, y1):
+    return [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
+
+
+def _streets(m: _Map, nx: int, ny: int, spacing: float, reach: float) -> None:
+    """Streets along x = 0, spacing, ... and y = 0, spacing, ..., running ``reach`` past the grid."""
+    top, right = ny * spacing, nx * spacing
+    for i in range(nx + 1):
+        x = i * spacing
+        tags = {"highway": "residential", "name": f"Street {i}"}
+        if i == 0:
+            tags["sidewalk"] = "right"
+        if i == 2:
+            tags.update({"highway": "tertiary", "oneway": "yes", "lanes": "1", "width": "4.5"})
+        end = top if i == 1 else top + reach  # street 1 ends at the top street: a T
+        ys = [-reach, *(j * spacing for j in range(ny + 1) if j * spacing < end), end]
+        m.way([(x, y) for y in ys], tags)
+    for j in range(ny + 1):
+        y = j * spacing
+        tags = {"highway": "residential", "name": f"Avenue {j}"}
+        if j == 1:
+            tags.update({"highway": "primary", "lanes": "4", "width": "14", "sidewalk": "both"})
+        xs = [-reach, *(i * spacing for i in range(nx + 1)), right + reach]
+        m.way([(x, y) for x in xs], tags)
+
+
+def _block(m: _Map, i: int, j: int, spacing: float) -> None:
+    """What stands in city block (i, j), whose south-west street corner is at (x, y)."""
+    x, y = i * spacing, j * spacing
+    s = spacing / 100.0
+    kind = (i + 2 * j) % 4
+    if (i, j) == (0, 0) or (kind == 3 and (i + j) % 3 == 0):  # a park with a pond, paths, trees
+        m.way(_rect(x + 10 * s, y + 10 * s, x + 90 * s, y + 90 * s), {"leisure": "park"}, closed=True)
+        m.way(_rect(x + 60 * s, y + 60 * s, x + 80 * s, y + 75 * s), {"natural": "water"}, closed=True)
+        m.way(
+            [(x + 10 * s, y + 50 * s), (x + 50 * s, y + 50 * s), (x + 50 * s, y + 10 * s)],
+            {"highway": "footway"},
+        )
+        for k in range(4):
+            m.node(x + (20 + 20 * k) * s, y + 30 * s, {"natural": "tree"})
+        m.node(x + 30 * s, y + 55 * s, {"amenity": "bench"})
+        m.node(x + 45 * s, y + 56 * s, {"amenity": "waste_basket"})
+        return
+    if kind == 1:  # a square with bollards, bicycle parking and a bench
+        m.way(
+            _rect(x + 12 * s, y + 12 * s, x + 88 * s, y + 88 * s),
+            {"highway": "pedestrian", "area": "yes", "place": "square"},
+            closed=True,
+        )
+        for k in range(3):
+            m.node(x + (40 + 5 * k) * s, y + 20 * s, {"barrier": "bollard"})
+        m.node(x + 50 * s, y + 60 * s, {"amenity": "bicycle_parking"})
+        m.node(x + 30 * s, y + 70 * s, {"amenity": "bench"})
+        return
+    # Buildings: three along the south side, an L and a courtyard block or parking behind.
+    for k in range(3):
+        tags = (
+            {"building": "yes", "height": f"{8 + 3 * k}"}
+            if k != 1
+            else {"building": "house", "building:levels": "3"}
+        )
+        m.way(_rect(x + (14 + 25 * k) * s, y + 14 * s, x + (34 + 25 * k) * s, y + 38 * s), tags, closed=True)
+    ell = [
+        (x + 14 * s, y + 50 * s),
+        (x + 44 * s, y + 50 * s),
+        (x + 44 * s, y + 62 * s),
+        (x + 26 * s, y + 62 * s),
+        (x + 26 * s, y + 86 * s),
+        (x + 14 * s, y + 86 * s),
+    ]
+    m.way(ell, {"building": "apartments", "building:levels": "5"}, closed=True)
+    if kind == 2:
+        m.way(_rect(x + 52 * s, y + 50 * s, x + 86 * s, y + 86 * s), {"amenity": "parking"}, closed=True)
+    else:
+        m.multipolygon(
+            _rect(x + 52 * s, y + 50 * s, x + 86 * s, y + 86 * s),
+            _rect(x + 62 * s, y + 60 * s, x + 76 * s, y + 76 * s),
+            {"building": "commercial", "height": "16.5"},
+        )
+
+
+def _furniture(m: _Map, nx: int, ny: int, spacing: float) -> None:
+    """Street furniture on the sidewalks of the residential avenues, signals, crossings."""
+    for j in range(ny + 1):
+        if j == 1:
+            continue  # the primary road: its signals and crossing below
+        for i in range(nx):
+            x, y = i * spacing + 30, j * spacing
+            m.node(x, y + 4.8, {"amenity": "bench"})
+            m.node(x + 20, y - 5.2, {"highway": "street_lamp"})
+            m.node(x + 35, y + 5.0, {"natural": "tree"})
+    m.node(spacing + 30, 4.5, {"emergency": "fire_hydrant"})
+    m.node(spacing + 8, -4.6, {"barrier": "bollard"})
+
+
+def write_town(
+    path: str | Path, nx: int = 3, ny: int = 2, spacing: float = 100.0, reach: float = 40.0
+) -> Path:
+    """Write a town of ``nx`` x ``ny`` city blocks of ``spacing`` metres as OSM XML to ``path``."""
+    m = _Map()
+    _streets(m, nx, ny, spacing, reach)
+    # Signals on two junctions of the primary road, a crossing node half way between.
+    _tag_node(m, (spacing, spacing), {"highway": "traffic_signals"})
+    if nx >= 2:
+        _tag_node(m, (2 * spacing, spacing), {"highway": "traffic_signals"})
+    # A crossing node on the primary road, and a footway crossing the first avenue.
+    m.way(
+        [(spacing / 2, spacing - 12), (spacing / 2, spacing + 12)],
+        {"highway": "footway", "footway": "crossing"},
+    )
+    for i in range(nx):
+        for j in range(ny):
+            _block(m, i, j, spacing)
+    _furniture(m, nx, ny, spacing)
+    path = Path(path)
+    path.write_text(m.xml((-reach - 10, -reach - 10, nx * spacing + reach + 10, ny * spacing + reach + 10)))
+    return path
+
+
+def _tag_node(m: _Map, at: tuple[float, float], tags: dict) -> None:
+    """Tag the untagged node at ``at`` (a junction) in place."""
+    nid = m.at[(round(at[0], 3), round(at[1], 3))]
+    for k, line in enumerate(m.nodes):
+        if line.startswith(f' <node id="{nid}" '):
+            body = "".join(f'<tag k="{a}" v="{b}"/>' for a, b in tags.items())
+            m.nodes[k] = line.replace("></node>", f">{body}</node>")
+
+
+def to_pbf(xml: str | Path, pbf: str | Path) -> Path:
+    """The same data as ``xml`` written as ``.osm.pbf`` by pyosmium's writer."""
+    import osmium
+
+    pbf = Path(pbf)
+    pbf.unlink(missing_ok=True)
+    with osmium.SimpleWriter(str(pbf)) as writer:
+        for obj in osmium.FileProcessor(str(xml)):
+            writer.add(obj)
+    return pbf
+
+
+if __name__ == "__main__":
+    here = Path(__file__).parent
+    to_pbf(write_town(here / "town.osm"), here / "town.osm.pbf")
