@@ -200,6 +200,26 @@ def test_generate_command_writes_the_place(tmp_path, cli):
     assert scene == generate_place(TOWN, SMALL, seed=1)
 
 
+def test_a_split_manifest_names_the_extract_in_an_osm_table(tmp_path, cli):
+    manifest = tmp_path / "places.toml"
+    manifest.write_text(
+        'format = "citygen.splits/1"\n[[splits]]\nname = "town-corner"\nscenes = 1\n'
+        f'config.layout = "osm"\nconfig.osm = {{ file = "{TOWN}", bbox = {list(SMALL)} }}\n'
+        'config.task.kind = "traverse"\nconfig.task.min_distance = 30.0\n'
+    )
+    result = cli("generate", "--split", manifest, "--out", tmp_path / "out")
+    assert result.code == 0, result.err
+    scene = citygen.load_scene(tmp_path / "out" / "town-corner" / "0000.json")
+    assert scene.meta.source.bbox == SMALL and citygen.validate(scene) == []
+    assert scene.bounds.max == small_size()
+
+
+def small_size():
+    from citygen.generate.layouts.osm.project import Projection
+
+    return Projection.for_box(SMALL).size
+
+
 @pytest.mark.parametrize(
     ("args", "needle"),
     [

@@ -11,7 +11,8 @@ box (:class:`~citygen.spec.osm.OsmArea`); nothing is fetched from the network.
   signals;
 - stage 3: the terrain flat (the config's terrain mix; no height source is read), with the
   city's curbs, curb ramps and front steps (:func:`~citygen.generate.layouts.city.terrain.city_features`);
-- stage 4: building massing in the mapped footprints, the mapped furniture and trees where the
+- stage 4: building massing in the mapped footprints as tall as mapped (:mod:`.buildings`),
+  the mapped furniture and trees where the
   map puts them (:mod:`.objects`), then the city's rows of street furniture around them and
   traffic lights at the signals;
 - stage 5 and the task as in the city: people, vehicles on the road blocks, a traverse along
@@ -29,15 +30,17 @@ import shapely
 from shapely.geometry import LineString, Point
 from shapely.geometry.base import BaseGeometry
 
+from citygen.assets.catalog import CATEGORIES
 from citygen.generate.layouts.base import BaseLayout, Plan
 from citygen.generate.layouts.city import City, _corridor
 from citygen.generate.layouts.city.furniture import street_furniture
+from citygen.generate.layouts.osm.buildings import massing
 from citygen.generate.layouts.osm.ground import plan_ground, street_ground
 from citygen.generate.layouts.osm.objects import place_mapped
 from citygen.generate.layouts.osm.place import Place, check_area, load_place
 from citygen.generate.layouts.osm.project import Projection
 from citygen.generate.layouts.osm.streets import blocks as street_blocks
-from citygen.generate.placement import base_of
+from citygen.generate.placement import base_of, place_objects
 from citygen.generate.signals import signalise
 from citygen.generate.task import Endpoints, street_route
 from citygen.seeding import child, stage_rng
@@ -131,10 +134,18 @@ class Osm(City):
     def scatter(
         self, terrain: Terrain | None, ends: Endpoints | None, passable: BaseGeometry, level: float
     ) -> tuple[Placement, ...]:
-        """Building massing and any scattered objects, the mapped objects (which move the
-        scattered ones they would touch), then the city's street furniture around them."""
+        """Building massing as tall as mapped (:mod:`.buildings`) and any scattered objects, the
+        mapped objects (which move the scattered ones they would touch), then the city's street
+        furniture around them."""
         place = place_of(self.config)
-        sampled = BaseLayout.scatter(self, terrain, ends, passable, level)
+        others = tuple(c for c in (self.config.placement.categories or CATEGORIES) if c != "building")
+        placement = self.config.placement.model_copy(update={"categories": others})
+        stage = stage_rng(self.seed, "placement")
+        sampled = place_objects(
+            self.scene.bounds, self.scene.zones, terrain, placement, stage,
+            level=level, ends=ends, seed=self.seed, walkable=passable,
+        )  # fmt: skip
+        sampled = (*massing(self.scene.zones, place.heights, terrain, child(stage, 500)), *sampled)
         rng = child(stage_rng(self.seed, "placement"), 400)
         lines = shapely.MultiLineString([LineString(s.points) for s in place.streets])
         mapped, _ = place_mapped(list(place.mapped), list(self.scene.zones), terrain, lines, rng)
