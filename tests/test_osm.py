@@ -152,9 +152,11 @@ def test_zones_tile_the_box_and_the_map_is_followed(town):
         "water",
         "vegetation",
     } <= set(kinds)
-    assert any(
-        z.id == "crosswalk-n5" or z.id.startswith("crosswalk-w") for z in town.zones
-    )  # mapped crossings
+    nodes, *_ = _mapped(town)
+    crossings = [n for n, (_, tags) in nodes.items() if tags.get("highway") == "crossing"]
+    ids = {z.id for z in town.zones if z.kind == "crosswalk"}
+    assert crossings and {f"crosswalk-n{n}" for n in crossings} <= ids  # a mapped crossing node
+    assert any(i.startswith("crosswalk-w") for i in ids)  # a mapped footway=crossing way
     assert town.task.kind == "traverse" and town.agents
 
 

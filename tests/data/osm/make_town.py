@@ -110,10 +110,12 @@ def _streets(m: _Map, nx: int, ny: int, spacing: float, reach: float) -> None:
         if j == 1:
             tags.update({"highway": "primary", "lanes": "4", "width": "14", "sidewalk": "both"})
         xs = [-reach, *(i * spacing for i in range(nx + 1)), right + reach]
+        if j == 0 and nx >= 2:  # a mid-block crossing node on the first avenue
+            xs.insert(3, 1.5 * spacing)
         m.way([(x, y) for x in xs], tags)
 
 
-def _block(m: _Map, i: int, j: int, spacing: float) -> None:
+def _block(m: _Map, i: int, j: int, spacing: float, dense: bool = False) -> None:
     """What stands in city block (i, j), whose south-west street corner is at (x, y)."""
     x, y = i * spacing, j * spacing
     s = spacing / 100.0
@@ -140,6 +142,9 @@ def _block(m: _Map, i: int, j: int, spacing: float) -> None:
             m.node(x + (40 + 5 * k) * s, y + 20 * s, {"barrier": "bollard"})
         m.node(x + 50 * s, y + 60 * s, {"amenity": "bicycle_parking"})
         m.node(x + 30 * s, y + 70 * s, {"amenity": "bench"})
+        return
+    if dense:  # terraced houses all round the block, 10 m wide, 12 m deep, a yard inside
+        _terrace(m, x, y, s)
         return
     # Buildings: three along the south side, an L and a courtyard block or parking behind.
     for k in range(3):
@@ -168,6 +173,24 @@ def _block(m: _Map, i: int, j: int, spacing: float) -> None:
         )
 
 
+def _terrace(m: _Map, x: float, y: float, s: float) -> None:
+    """Terraced houses sharing their side walls along the four sides of a city block."""
+    a, b, depth, wide = x + 12 * s, x + 88 * s, 12 * s, 10 * s
+    count = int((b - a) // wide)
+    for k in range(count):
+        u0, u1 = a + k * wide, a + (k + 1) * wide
+        levels = {"building": "house", "building:levels": str(2 + k % 3)}
+        m.way(_rect(u0, y + 12 * s, u1, y + 12 * s + depth), levels, closed=True)  # south side
+        m.way(_rect(u0, y + 88 * s - depth, u1, y + 88 * s), levels, closed=True)  # north side
+    for k in range(count - 2):
+        v0, v1 = y + 12 * s + depth + k * wide, y + 12 * s + depth + (k + 1) * wide
+        if v1 > y + 88 * s - depth + 1e-6:
+            break
+        tags = {"building": "house", "height": f"{7 + k % 4}"}
+        m.way(_rect(x + 12 * s, v0, x + 12 * s + depth, v1), tags, closed=True)  # west side
+        m.way(_rect(x + 88 * s - depth, v0, x + 88 * s, v1), tags, closed=True)  # east side
+
+
 def _furniture(m: _Map, nx: int, ny: int, spacing: float) -> None:
     """Street furniture on the sidewalks of the residential avenues, signals, crossings."""
     for j in range(ny + 1):
@@ -183,23 +206,30 @@ def _furniture(m: _Map, nx: int, ny: int, spacing: float) -> None:
 
 
 def write_town(
-    path: str | Path, nx: int = 3, ny: int = 2, spacing: float = 100.0, reach: float = 40.0
+    path: str | Path,
+    nx: int = 3,
+    ny: int = 2,
+    spacing: float = 100.0,
+    reach: float = 40.0,
+    dense: bool = False,
 ) -> Path:
-    """Write a town of ``nx`` x ``ny`` city blocks of ``spacing`` metres as OSM XML to ``path``."""
+    """Write a town of ``nx`` x ``ny`` city blocks of ``spacing`` metres as OSM XML to ``path``;
+    ``dense``: the built blocks are rows of terraced houses all round (a city centre's density)."""
     m = _Map()
     _streets(m, nx, ny, spacing, reach)
-    # Signals on two junctions of the primary road, a crossing node half way between.
+    # Signals on two junctions of the primary road.
     _tag_node(m, (spacing, spacing), {"highway": "traffic_signals"})
     if nx >= 2:
         _tag_node(m, (2 * spacing, spacing), {"highway": "traffic_signals"})
-    # A crossing node on the primary road, and a footway crossing the first avenue.
+    _tag_node(m, (1.5 * spacing, 0.0), {"highway": "crossing", "crossing": "zebra"})
+    # A footway crossing the primary road half way between its first two junctions.
     m.way(
         [(spacing / 2, spacing - 12), (spacing / 2, spacing + 12)],
         {"highway": "footway", "footway": "crossing"},
     )
     for i in range(nx):
         for j in range(ny):
-            _block(m, i, j, spacing)
+            _block(m, i, j, spacing, dense)
     _furniture(m, nx, ny, spacing)
     path = Path(path)
     path.write_text(m.xml((-reach - 10, -reach - 10, nx * spacing + reach + 10, ny * spacing + reach + 10)))
