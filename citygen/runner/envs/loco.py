@@ -83,6 +83,8 @@ class LocoEnv(_CitygenEnv):
         }
         obs.update(self._image_spaces())
         self._set_observation_space(obs)
+        self._keys = tuple(self.observation_space.spaces)
+        self._force = np.zeros(6)  # mj_contactForce's output
         self.horizon = self.max_steps or LOCO_HORIZON
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -183,7 +185,8 @@ class LocoEnv(_CitygenEnv):
         A leg is every link from a foot (or wheel) up to the base, so a knee brushing a
         knee-high bump is not a fall, the trunk, head, torso or an arm touching down is (the
         base-contact termination of Isaac Lab's locomotion tasks, on which URBAN-SIM's are
-        built). Computed once per compiled model."""
+        built). Computed once per compiled model, with the ids of those geoms and of the
+        ground's as sets (a step looks its few contacts up one by one)."""
         if self._fall_model is self.model:
             return
         m, h = self.model, self.handle
@@ -193,45 +196,52 @@ class LocoEnv(_CitygenEnv):
                 legs.add(body)
                 body = int(m.body_parentid[body])
         self._fall_geoms = self._robot_geoms & ~np.isin(m.geom_bodyid, sorted(legs))
+        self._fall_ids = frozenset(np.flatnonzero(self._fall_geoms).tolist())
+        self._ground_ids = frozenset(np.flatnonzero(self.prepared.ground_geoms).tolist())
+        self._joint_vel_dofs = np.concatenate([h.leg_dadr, h.loco_wheel_dadr]).astype(np.intp)
         self._fall_model = self.model
 
     def _ground_force(self) -> float:
         """Largest normal force (N) of a contact between the ground and a robot part that
-        must not touch it (:meth:`_fall_geoms_for_model`)."""
+        must not touch it (:meth:`_fall_geoms_for_model`), by MuJoCo's ``mj_contactForce``
+        on those contacts only."""
         import mujoco
 
-        g1, g2 = self._contacts()
-        if g1.size == 0:
+        d = self.data
+        if d.ncon == 0:
             return 0.0
-        body = self._fall_geoms
-        ground = self.prepared.ground_geoms
-        hits = np.flatnonzero((body[g1] & ground[g2]) | (body[g2] & ground[g1]))
-        force = np.zeros(6)
+        fall, ground = self._fall_ids, self._ground_ids
+        force = self._force
         worst = 0.0
-        for i in hits:
-            mujoco.mj_contactForce(self.model, self.data, int(i), force)
-            worst = max(worst, abs(force[0]))
+        for i, (g1, g2) in enumerate(d.contact.geom.tolist()):
+            if (g1 in fall and g2 in ground) or (g2 in fall and g1 in ground):
+                mujoco.mj_contactForce(self.model, d, i, force)
+                worst = max(worst, abs(float(force[0])))
         return worst
 
     def step(self, action):
-        a = np.clip(np.asarray(action, dtype=np.float64).reshape(self.n_actions), -1.0, 1.0)
-        self.handle.joint_action(self.data, a)
+        a = np.asarray(action, dtype=np.float64).reshape(self.n_actions)
+        a = np.minimum(np.maximum(a, -1.0), 1.0)  # np.clip's values, without its wrapper
+        d, h = self.data, self.handle
+        h.joint_action(d, a)
         self._physics(None)
         self.steps += 1
-        x, y, _, _ = self.handle.pose(self.data)
-        vel = self.handle.velocity(self.data)
+        pose = h.pose(d)
+        x, y = pose[0], pose[1]
+        vel = h._velocity(d)  # plain floats: the same arithmetic as numpy's float64 scalars
         fallen = self._ground_force() > FALL_FORCE or self._out_of_bounds(x, y)
-        dv = (vel[0] - self.command[0]) ** 2 + (vel[1] - self.command[1]) ** 2
-        dz = (vel[3] - self.command[2]) ** 2
+        c0, c1, c2 = self.command.tolist()
+        dv = (vel[0] - c0) ** 2 + (vel[1] - c1) ** 2
+        dz = (vel[3] - c2) ** 2
         reward = math.exp(-dv / 0.25**2) + 0.5 * math.exp(-dz / 0.25**2)
         reward += 2.0 * -(vel[2] ** 2)
         reward += 0.01 * -float(np.sum((a - self.last_action) ** 2))
         if fallen:
             reward -= 100.0
         self.last_action = a
-        self.recorder.record_step((x, y), np.array(self.data.actuator_force), fallen=fallen)
+        self.recorder.record_step((x, y), np.array(d.actuator_force), fallen=fallen)
         truncated = not fallen and self.steps >= self.horizon
-        obs = self._observation()
+        obs = self._observation(pose, vel)
         info = {"scene": self.source.name, "index": self._index, "fallen": fallen}
         if fallen or truncated:
             self.recorder.finish()
@@ -239,26 +249,30 @@ class LocoEnv(_CitygenEnv):
             info["is_success"] = not fallen  # the episode kept its balance (the paper's Balance)
         return obs, float(reward), bool(fallen), bool(truncated), info
 
-    def _observation(self) -> dict[str, np.ndarray]:
-        x, y, z, yaw = self.handle.pose(self.data)
-        vel = self.handle.velocity(self.data)
-        obs = {
-            "base_lin_vel": np.asarray(vel[:3], dtype=np.float32),
-            "base_ang_vel": np.asarray(
-                self.data.qvel[self.handle.dadr + 3 : self.handle.dadr + 6], dtype=np.float32
-            ),
+    def _observation(self, pose: tuple | None = None, vel: tuple | None = None) -> dict[str, np.ndarray]:
+        """The observation's keys (only those of the observation space are computed), from
+        the base's ``pose`` and ``vel`` (``RobotHandle.pose``, ``._velocity``) when the step
+        has them already."""
+        d, h = self.data, self.handle
+        x, y, z, yaw = h.pose(d) if pose is None else pose
+        keys = self._keys
+        obs: dict[str, np.ndarray] = {}
+        if "base_lin_vel" in keys:
+            obs["base_lin_vel"] = np.array((h._velocity(d) if vel is None else vel)[:3], dtype=np.float32)
+        if "base_ang_vel" in keys:
+            obs["base_ang_vel"] = d.qvel[h.dadr + 3 : h.dadr + 6].astype(np.float32)
+        if "projected_gravity" in keys:
             # gravity (0, 0, -1) in the base's frame: minus the third row of its rotation
-            "projected_gravity": -np.asarray(self.data.xmat[self.handle.base_id][6:9], dtype=np.float32),
-            "command": self.command.astype(np.float32),
-            "joint_pos": np.asarray(
-                self.handle.joint_positions(self.data) - self.handle.default, dtype=np.float32
-            ),
-            "joint_vel": np.concatenate(
-                [self.handle.joint_velocities(self.data), self.handle.wheel_velocities(self.data)]
-            ).astype(np.float32),
-            "last_action": self.last_action.astype(np.float32),
-        }
-        if "height_map" in self.observation_space.spaces:
+            obs["projected_gravity"] = np.negative(d.xmat[h.base_id][6:9].astype(np.float32))
+        if "command" in keys:
+            obs["command"] = self.command.astype(np.float32)
+        if "joint_pos" in keys:
+            obs["joint_pos"] = (d.qpos[h.leg_qadr] - h.default).astype(np.float32)
+        if "joint_vel" in keys:
+            obs["joint_vel"] = d.qvel[self._joint_vel_dofs].astype(np.float32)
+        if "last_action" in keys:
+            obs["last_action"] = self.last_action.astype(np.float32)
+        if "height_map" in keys:
             obs["height_map"] = self._height_map(x, y, self._terrain_around(x, y, yaw)[0], yaw)
         obs.update(self._images((x, y, z, yaw)))
-        return {k: obs[k] for k in self.observation_space.spaces}
+        return {k: obs[k] for k in keys}

@@ -17,6 +17,9 @@ import numpy as np
 from gymnasium import spaces
 
 from citygen.geometry.terrain import height_at
+from citygen.geometry.tiles import KIND_CODES, build_table
+from citygen.runner.envs.height_kernel import flat_tiles_around, ground_around
+from citygen.spec.terrain import FlatTile
 
 #: Height map: forward and lateral extent (m) and spacing (m), centred on the robot.
 HEIGHT_MAP = (1.6, 1.0, 0.1)
@@ -79,6 +82,7 @@ class Sensors:
         remembered and no renderer yet."""
         self._renderer = None
         self._around: _Around | None = None  # the last _terrain_around
+        self._kernel: tuple = (None, None)  # the compiled heights' arguments (_kernel_for)
         hx, hy, step = HEIGHT_MAP
         nx, ny = round(hx / step) + 1, round(hy / step) + 1
         u, v = np.meshgrid(np.linspace(-hx / 2, hx / 2, nx), np.linspace(-hy / 2, hy / 2, ny), indexing="ij")
@@ -134,12 +138,40 @@ class Sensors:
             return ground, None
         u, v, _ = self._hm_local
         cs, sn = math.cos(yaw), math.sin(yaw)
-        xs, ys = np.empty(u.size + 1), np.empty(u.size + 1)
-        xs[:-1], ys[:-1] = x + cs * u - sn * v, y + sn * u + cs * v
-        xs[-1], ys[-1] = x, y
-        z = prepared.ground(xs, ys) if prepared.fine_ground else height_at(self.scene, xs, ys)
+        kernel = self._kernel if self._kernel[0] is prepared else self._kernel_for(prepared)
+        z, done = None, False
+        if kernel[1] is ground_around:  # prepared.ground at these points, compiled (to the bit)
+            z, done = ground_around(*kernel[2:], u, v, x, y, cs, sn), True
+        elif kernel[1] is not None:  # the terrain's heights where all points lie on flat tiles
+            z, done = flat_tiles_around(*kernel[2:], u, v, x, y, cs, sn)
+        if not done:
+            xs, ys = np.empty(u.size + 1), np.empty(u.size + 1)
+            xs[:-1], ys[:-1] = x + cs * u - sn * v, y + sn * u + cs * v
+            xs[-1], ys[-1] = x, y
+            z = prepared.ground(xs, ys) if prepared.fine_ground else height_at(self.scene, xs, ys)
         self._around = _Around(self.scene, x, y, yaw, float(z[-1]), z[:-1])
         return self._around.ground, self._around.grid
+
+    def _kernel_for(self, prepared: Any) -> tuple:
+        """Which compiled form of the height map's heights ``prepared`` takes, and its
+        arguments before the points': ``(prepared, ground_around, raster ...)`` on a fine
+        ground raster, ``(prepared, flat_tiles_around, tiles ...)`` on a terrain without
+        features (a coarse map), ``(prepared, None)`` for numpy alone."""
+        terrain = self.scene.terrain
+        if prepared.fine_ground:
+            g = prepared.occupancy.grid
+            flat = np.ascontiguousarray(prepared.occupancy.heights, dtype=np.float64).reshape(-1)
+            self._kernel = (prepared, ground_around, flat, g.rows, g.cols, g.x0, g.y0, 1.0 / g.resolution)
+        elif terrain is not None and not terrain.features:
+            tab = build_table(terrain.tiles, terrain.tile_size)
+            ox, oy = (float(c) for c in terrain.origin)
+            self._kernel = (
+                prepared, flat_tiles_around, tab.kind, tab.h, KIND_CODES[FlatTile], float(terrain.tile_size),
+                ox, oy, terrain.rows, terrain.cols,
+            )  # fmt: skip
+        else:
+            self._kernel = (prepared, None)
+        return self._kernel
 
     def _ground_under(self, x: float, y: float, yaw: float) -> float:
         """The ground (m) under the base at the pose, by :meth:`_terrain_around`, with the
