@@ -108,6 +108,26 @@ def test_junctions_and_buildings_match_the_map(town):
     assert any(z.holes for z in town.zones if z.id == "building-r1")  # the courtyard
 
 
+def test_building_massing_stands_in_its_footprint_near_the_mapped_height(town):
+    from citygen.assets.catalog import resolve
+
+    tall = {}
+    for obj in osmium.FileProcessor(str(TOWN)).with_areas():
+        if isinstance(obj, osmium.osm.Area) and "building" in obj.tags:
+            fid = ("w" if obj.from_way() else "r") + str(obj.orig_id())
+            height, levels = obj.tags.get("height"), obj.tags.get("building:levels")
+            tall[fid] = float(height) if height else 3.0 * float(levels) + 1.0
+    footprints = {z.id: Polygon(z.polygon, z.holes) for z in town.zones if z.kind == "building"}
+    misses = []
+    for p in town.placements:
+        if p.asset.startswith("building/"):
+            (zid,) = [k for k, f in footprints.items() if f.contains(shapely.Point(p.position[:2]))]
+            want = tall[zid.removeprefix("building-")]
+            misses.append(abs(resolve(p.asset).height * p.scale - want) / want)
+    assert len(misses) == len(footprints) == 18
+    assert max(misses) < 0.3 and float(np.median(misses)) < 0.15
+
+
 def test_every_bench_tree_and_signal_is_where_the_map_puts_it(town):
     nodes, _, _, frame = _mapped(town)
     placed = {p.id.rsplit("-", 1)[1]: p for p in town.placements if p.id.rsplit("-", 1)[1].startswith("n")}
@@ -131,7 +151,7 @@ def test_every_bench_tree_and_signal_is_where_the_map_puts_it(town):
             assert math.dist(centre, xy) <= 0.5
             checked += 1
     assert checked == 24  # 17 benches and trees, 5 bollards, 2 signals
-    assert [p.asset.split("/")[0] for p in town.placements if p.id == "bench-n150"] == ["bench"]
+    assert [p.asset.split("/")[0] for p in town.placements if p.id == "bench-n151"] == ["bench"]
 
 
 def test_zones_tile_the_box_and_the_map_is_followed(town):

@@ -27,10 +27,11 @@ from __future__ import annotations
 from typing import ClassVar
 
 import shapely
-from shapely.geometry import LineString, Point
+from shapely.geometry import LineString, Point, Polygon
 from shapely.geometry.base import BaseGeometry
 
 from citygen.assets.catalog import CATEGORIES
+from citygen.errors import SpecError
 from citygen.generate.layouts.base import BaseLayout, Plan
 from citygen.generate.layouts.city import City, _corridor
 from citygen.generate.layouts.city.furniture import street_furniture
@@ -43,6 +44,7 @@ from citygen.generate.layouts.osm.streets import blocks as street_blocks
 from citygen.generate.placement import base_of, place_objects
 from citygen.generate.signals import signalise
 from citygen.generate.task import Endpoints, street_route
+from citygen.generate.zoning import polygons
 from citygen.seeding import child, stage_rng
 from citygen.spec.config import (
     AgentsConfig,
@@ -64,8 +66,6 @@ AROUND = 1.0
 
 def place_of(config: GeneratorConfig) -> Place:
     """The place a config's ``osm`` table names (read once per process)."""
-    from citygen.errors import SpecError
-
     if config.osm is None:
         raise SpecError("$.osm: expected an osm table (file, bbox) for layout 'osm', got none")
     return load_place(config.osm)
@@ -108,9 +108,7 @@ class Osm(City):
         place = place_of(config)
         size = place.projection.size
         blocks = street_blocks(list(place.edges), list(place.junctions), size)
-        layers, sidewalks = street_ground(
-            list(place.streets), list(place.junctions), list(place.crossings), None
-        )
+        layers, sidewalks = street_ground(list(place.streets), list(place.junctions), list(place.crossings))
         zones = plan_ground(size, layers, sidewalks, list(place.walkways), list(place.areas))
         lit = {f"j-n{n}" for n in place.signalised}
         signals = signalise([b for b in blocks if b.id in lit], zones) or None
@@ -164,10 +162,6 @@ class Osm(City):
 def _without(zones: tuple[Zone, ...], holes: BaseGeometry) -> list[Zone]:
     """The sidewalk and crosswalk zones with ``holes`` cut out (the rest left out): the ground
     a traverse route may take."""
-    from shapely.geometry import Polygon
-
-    from citygen.generate.zoning import polygons
-
     out = []
     for z in zones:
         if z.kind not in ("sidewalk", "crosswalk"):

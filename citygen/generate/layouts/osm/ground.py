@@ -28,9 +28,10 @@ from collections import defaultdict
 
 import numpy as np
 import shapely
-from shapely.geometry import LineString, Point, Polygon, box
+from shapely.geometry import LineString, Polygon, box
+from shapely.geometry.base import BaseGeometry
 
-from citygen.generate.layouts.osm.streets import CURB, Junction, Street
+from citygen.generate.layouts.osm.streets import CORNER, CURB, Junction, Street
 from citygen.generate.zoning import GRID, QUAD_SEGS, arrange, clip_to_lots, polygons, to_zones
 from citygen.spec.zones import Zone
 
@@ -85,7 +86,7 @@ def area_kind(tags: dict) -> str | None:
     return None
 
 
-def street_ground(streets: list[Street], joints: list[Junction], crossings: list[tuple[str, Polygon]], rng):
+def street_ground(streets: list[Street], joints: list[Junction], crossings: list[tuple[str, Polygon]]):
     """The streets' layers: crosswalks (mapped ones named), roadway, curbs, sidewalk strips."""
     roads = shapely.union_all(
         [LineString(s.points).buffer(s.half, quad_segs=QUAD_SEGS) for s in streets], grid_size=GRID
@@ -102,7 +103,7 @@ def street_ground(streets: list[Street], joints: list[Junction], crossings: list
                 continue
             pts = arm.edge.points if arm.outward else arm.edge.points[::-1]
             line = LineString(pts)
-            offset = j.half + 3.0 + 0.5  # the block's crosswalk site: its half width, corner and a step
+            offset = j.half + CORNER + 0.5  # the block's crosswalk site: its half width, corner and a step
             if line.length < offset + CROSSWALK + 1.0:
                 continue
             band = _across(line, offset, offset + CROSSWALK, s.half + CURB + 0.01)
@@ -159,7 +160,7 @@ def plan_ground(
     size: tuple[float, float],
     street_layers: list,
     sidewalks: dict,
-    walkways: list[tuple[str, BaseGeometryLike]],
+    walkways: list[tuple[str, BaseGeometry]],
     areas: list[tuple[str, str, Polygon]],
 ) -> tuple[Zone, ...]:
     """Zones tiling the box of ``size`` from the layers (see the module docstring).
@@ -198,9 +199,6 @@ def plan_ground(
     return _named(pieces)
 
 
-BaseGeometryLike = object
-
-
 def _cuts(side: float) -> list[float]:
     n = max(1, math.ceil(side / LOT))
     return [round(side * k / n, 3) for k in range(n)] + [side]
@@ -225,7 +223,3 @@ def _named(pieces: list) -> tuple[Zone, ...]:
     return zones[:head] + tuple(
         z.model_copy(update={"id": n}) for z, n in zip(zones[head:], names, strict=True)
     )
-
-
-def point_of(p) -> Point:
-    return Point(float(p[0]), float(p[1]))

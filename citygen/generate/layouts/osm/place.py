@@ -139,7 +139,7 @@ def _sort(data: Extract, projection: Projection, source: OsmSource, name: str) -
     for way, line, width in crossing_ways:
         if not crossing_nodes.intersection(way.nodes):
             crossings.append((way.id, line.buffer(width / 2, cap_style="flat")))
-    signalised = _signals(data, streets, joints, nodes, degree)
+    signalised = _signals(streets, joints, nodes)
     mapped = []
     for f in data.nodes:
         category = category_of(f.tags)
@@ -178,7 +178,7 @@ def _sort(data: Extract, projection: Projection, source: OsmSource, name: str) -
     )
 
 
-def _signals(data: Extract, streets, joints, nodes, degree) -> set[int]:
+def _signals(streets, joints, nodes) -> set[int]:
     """Junctions with traffic signals: mapped on the junction's node, or on a street within
     :data:`SIGNAL_REACH` of it."""
     out = set()

@@ -113,7 +113,7 @@ def read_extract(path: str | Path, bbox: tuple[float, float, float, float], opti
                     ring = tuple((n.lon, n.lat) for n in outer)
                     holes = tuple(tuple((n.lon, n.lat) for n in inner) for inner in obj.inner_rings(outer))
                     polys.append((ring, holes))
-                if polys and any(_inside(x, y, near) or _spans(r, near) for r, _ in polys for x, y in r[:1]):
+                if any(_spans(ring, near) for ring, _ in polys):
                     kind = "w" if obj.from_way() else "r"
                     out.areas.append(Feature(f"{kind}{obj.orig_id()}", dict(obj.tags), tuple(polys)))
     except RuntimeError as exc:
