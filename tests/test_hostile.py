@@ -230,7 +230,7 @@ CASES: dict[str, tuple[list[str], list[str]]] = {
         ["generate", "-s", "nope.toml"],
         ["nope.toml: $: expected an existing file"],
     ),
-    "generate: no --split": (["generate"], ["Missing option '--split'"]),
+    "generate: no --split": (["generate"], ["--split: expected a split", "--osm FILE --bbox"]),
     # dataset
     "dataset verify: no such folder": (
         ["dataset", "verify", "nope"],
