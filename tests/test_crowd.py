@@ -19,6 +19,8 @@ import citygen
 from citygen.exporters.occupancy import occupancy
 from citygen.runner.agents import orca
 from citygen.runner.agents.crowd import Crowd
+from citygen.runner.agents.footprints import Footprints
+from citygen.runner.agents.footprints import depth as footprint_depth
 from citygen.runner.agents.orca import orca_velocities
 from citygen.runner.agents.traffic import Traffic
 from citygen.spec.agents import Person, Vehicle
@@ -416,3 +418,38 @@ def test_vehicle_stops_for_the_robot_in_its_lane():
     for _ in range(400):
         traffic.step(np.array([[80.0, 14.0]]), [ROBOT_R])  # on the other side of the road: no reason to stop
     assert traffic.pos[0, 0] > 150.0
+
+
+def test_people_walk_round_vehicles_never_into_them():
+    """A car stands across a plaza and a bus drives through it (stopping, as traffic does, for
+    whoever stands in front of it) while 30 people cross: no one's disc ever reaches into a
+    vehicle's footprint, and most get across."""
+    rng = np.random.default_rng(2)
+    people = []
+    while len(people) < 30:
+        y0, y1 = rng.uniform(2, 18, 2)
+        p, q = (rng.uniform(0.5, 3.0), y0), (rng.uniform(17.0, 19.5), y1)
+        if len(people) % 2:
+            p, q = q, p
+        if all(math.dist(p, o.start) > 0.8 for o in people):
+            people.append(
+                Person(id=f"p{len(people)}", kind="pedestrian", start=p, goal=q, radius=0.3, speed=1.3)
+            )
+    scene = _plaza(people, size=(20.0, 20.0), cross=None)
+    occ = occupancy(scene)
+    crowd = Crowd(scene, occ, rng=np.random.default_rng(3), dt=DT)
+    check = Checker(crowd, occ)
+    far = np.array([-100.0, -100.0])
+    cars = Footprints(np.array([[10.0, 10.0], [10.0, -4.0]]), np.array([0.4, math.pi / 2]),
+                      np.array([4.5, 10.0]), np.array([1.8, 2.5]), np.zeros(2))  # fmt: skip
+    stops = 0
+    for _ in range(250):
+        bus = Footprints(*(np.asarray(f)[1:] for f in cars[:4]), np.ones(1))
+        go = footprint_depth(crowd.pos, crowd.radius + 0.3, bus, ahead=1.0).max() < 0  # its brake
+        stops += not go
+        cars = cars._replace(speed=np.array([0.0, float(go)]))
+        crowd.step(far, np.zeros(2), ROBOT_R, cars)
+        check(far, ROBOT_R)
+        cars = cars._replace(pos=cars.pos + np.array([[0.0, 0.0], [0.0, DT * cars.speed[1]]]))
+        assert footprint_depth(crowd.pos, crowd.radius, cars).max() <= 1e-3
+    assert np.count_nonzero(crowd.arrivals >= 1) >= 15 and cars.pos[1, 1] > 0.0 and stops  # all moved

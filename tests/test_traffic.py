@@ -14,10 +14,13 @@ import pytest
 
 import citygen
 from citygen.geometry.roads import block_sockets
+from citygen.runner.agents.footprints import Footprints
+from citygen.runner.agents.footprints import depth as footprint_depth
 from citygen.runner.agents.lanes import drive_path, speed_limit
 from citygen.runner.agents.signals import SignalPlan
 from citygen.runner.agents.traffic import CityTraffic, _overlapping
 from citygen.spec import Scene
+from citygen.spec.agents import Vehicle
 from citygen.spec.blocks import Connection, Intersection, Pose2, Straight
 from citygen.spec.signals import Signal
 
@@ -153,3 +156,46 @@ def test_a_phase_naming_a_missing_lane_or_crosswalk_is_one_problem_at_its_path()
         "$.signals[0].cycle: expected the sum of the phases' green, amber and red times (50 s), got 45"
     ]
     assert citygen.validate(junction([], signal=SIGNAL)) == []
+
+
+def test_vehicles_starting_inside_a_junction_start_and_restart_past_its_exit():
+    cars = [_car(k, x, route=("b1", "b2"), goal=(75.0, -LANE / 2)) for k, x in enumerate((5.0, 8.0))]
+    scene = junction(cars)
+    exit_x = [
+        c["start"][0] + drive_path(Vehicle.model_validate(c), scene.blocks).passages[0].s_exit for c in cars
+    ]
+    traffic = CityTraffic(scene, dt=0.1)
+    rear = lambda: traffic.pos[:, 0] - traffic.length / 2  # noqa: E731
+    assert (
+        np.all(rear() > exit_x)
+        and not _overlapping(traffic.pos, traffic.yaw, traffic.length, traffic.width).any()
+    )
+    restarts = 0
+    for _ in range(300):  # red for them at first (they are past the junction: no matter)
+        s = traffic.s.copy()
+        traffic.step()
+        restarts += int((traffic.s < s).sum())
+        assert np.all(rear() > exit_x) and np.all(traffic.pos[:, 0] + traffic.length / 2 <= 75.0 + 1e-9)
+    assert restarts >= 2
+
+
+def test_a_trip_ends_with_the_front_at_the_goal_or_before_a_junction_and_sees_past_its_end():
+    person, radius = np.array([[61.0, -LANE / 2]]), 0.3  # just past the first goal
+    ends, restarts = [], []
+    for goal in (60.0, 12.0):  # on the straight past the junction; inside the junction
+        traffic = CityTraffic(junction([_car(0, -60.0, goal=(goal, -LANE / 2))], signal=None), dt=0.1)
+        end = traffic.total[0] + traffic.length[0] / 2 - 60.0  # where the front stops
+        ends.append(end)
+        restarts.append(0)
+        for _ in range(300):
+            s = traffic.s[0]
+            traffic.step(person, [radius])
+            restarts[-1] += int(traffic.s[0] < s)
+            box = Footprints(traffic.pos, traffic.yaw, traffic.length, traffic.width, traffic.v)
+            assert footprint_depth(person, [radius], box)[0] < 0.0
+            assert traffic.pos[0, 0] + traffic.length[0] / 2 <= end + 1e-9
+    car = Vehicle.model_validate(_car(0, -60.0, goal=(12.0, -LANE / 2)))
+    assert ends == pytest.approx([60.0, drive_path(car, _blocks()).passages[0].s_stop - 60.0])
+    # Before its goal the first car sees the person past it, stops and waits (no restart);
+    # the second ends its trip at the stop line and starts again.
+    assert restarts[0] == 0 and restarts[1] >= 1

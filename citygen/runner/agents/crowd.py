@@ -48,6 +48,8 @@ import scipy.sparse.csgraph
 from scipy.spatial import cKDTree
 
 from citygen.exporters.occupancy import OccupancyMap
+from citygen.runner.agents.footprints import Footprints, covering_discs
+from citygen.runner.agents.footprints import depth as footprint_depth
 from citygen.runner.agents.orca import orca_velocities
 from citygen.runner.agents.vec2 import dot
 from citygen.spec.agents import Person
@@ -268,9 +270,11 @@ class Crowd:
         radii = np.where(far, -1.0, self._static_radius[:, None])
         return near, radii
 
-    def step(self, robot_xy, robot_vel, robot_radius: float) -> None:
-        """Move everyone by one step of ``dt``, avoiding each other and the robot at ``robot_xy``
-        (m) moving at ``robot_vel`` (m/s) with radius ``robot_radius`` (m)."""
+    def step(self, robot_xy, robot_vel, robot_radius: float, vehicles: Footprints | None = None) -> None:
+        """Move everyone by one step of ``dt``, avoiding each other, the robot at ``robot_xy``
+        (m) moving at ``robot_vel`` (m/s) with radius ``robot_radius`` (m), and the vehicles'
+        ``vehicles`` footprints (never stepping into one, nor into the ground its next step
+        covers)."""
         n = len(self.ids)
         if n == 0:
             return
@@ -282,19 +286,24 @@ class Crowd:
         self.arrivals += arrived
         pref = self.preferred_velocities() + self._rng.normal(0.0, JITTER, (n, 2))
         pts, radii = self._static()
-        pos = np.concatenate([self.pos, rxy[None]])
-        vel = np.concatenate([self.vel, rvel[None]])
-        coop = np.arange(n + 1) < n
+        # Non-cooperative agents: the robot, then the discs covering the vehicles near anyone.
+        vxy, vvel, vrad = self._vehicle_discs(vehicles)
+        m = 1 + len(vxy)
+        pos = np.concatenate([self.pos, rxy[None], vxy])
+        vel = np.concatenate([self.vel, rvel[None], vvel])
+        coop = np.arange(n + m) < n
         static = (
-            np.concatenate([pts, np.full((1, pts.shape[1], 2), np.nan)]),
-            np.concatenate([radii, np.full((1, radii.shape[1]), -1.0)]),
+            np.concatenate([pts, np.full((m, pts.shape[1], 2), np.nan)]),
+            np.concatenate([radii, np.full((m, radii.shape[1]), -1.0)]),
         )
         v = orca_velocities(
             pos,
             vel,
-            np.concatenate([pref, rvel[None]]),
-            np.concatenate([self.radius, [rrad + ROBOT_MARGIN]]),
-            np.concatenate([self.max_speed, [max(1.0, float(np.hypot(*rvel)))]]),
+            np.concatenate([pref, rvel[None], vvel]),
+            np.concatenate([self.radius, [rrad + ROBOT_MARGIN], vrad + ROBOT_MARGIN]),
+            np.concatenate(
+                [self.max_speed, [max(1.0, float(np.hypot(*rvel)))], np.maximum(1.0, np.hypot(*vvel.T))]
+            ),
             dt=self.dt,
             tau=self.tau,
             neighbor_dist=self.neighbor_dist,
@@ -302,17 +311,38 @@ class Crowd:
             cooperative=coop,
             static=static,
         )[:n]
-        new = self._safe(self.pos + v * self.dt, rxy, rvel, rrad)
+        new = self._safe(self.pos + v * self.dt, rxy, rvel, rrad, vehicles)
         self.vel = (new - self.pos) / self.dt
         self.pos = new
         moving = np.hypot(self.vel[:, 0], self.vel[:, 1]) > 0.05
         self._heading = np.where(moving, np.arctan2(self.vel[:, 1], self.vel[:, 0]), self._heading)
 
-    def _safe(self, cand: np.ndarray, rxy: np.ndarray, rvel: np.ndarray, rrad: float) -> np.ndarray:
+    def _vehicle_discs(self, vehicles: Footprints | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Centres, velocities and radii of the discs covering the vehicles
+        (:func:`~citygen.runner.agents.footprints.covering_discs`) within a neighbour's reach
+        of someone."""
+        if vehicles is None or not len(vehicles.pos):
+            return np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0)
+        xy, rad, vel = covering_discs(vehicles)
+        gap = np.min(np.linalg.norm(xy[:, None] - self.pos[None], axis=-1), axis=1) - rad
+        near = gap < self.neighbor_dist + float(self.radius.max())
+        return xy[near], vel[near], rad[near]
+
+    def _safe(
+        self, cand: np.ndarray, rxy: np.ndarray, rvel: np.ndarray, rrad: float, vehicles=None
+    ) -> np.ndarray:
         """``cand`` made safe: on allowed ground (slide along the boundary, else stay), out of the
-        robot's disc now and after its next step where the ground allows, and no overlap between
-        two people larger than before (take steps back)."""
+        robot's disc now and after its next step where the ground allows, no deeper into a
+        vehicle's footprint (grown by its next step) than before, and no overlap between two
+        people larger than before (take steps back)."""
         old = self.pos
+
+        def in_vehicle(xy: np.ndarray, radius: np.ndarray) -> np.ndarray:
+            if vehicles is None:
+                return np.full(len(xy), -np.inf)
+            return footprint_depth(xy, radius, vehicles, ahead=self.dt)
+
+        vfloor = np.maximum(in_vehicle(old, self.radius), 0.0)  # already there (a vehicle's doing)
         step = cand - old
         for trial in (old + step * [1.0, 0.0], old + step * [0.0, 1.0], old):
             bad = ~self.allowed(cand)
@@ -344,7 +374,9 @@ class Crowd:
         floor = self._worst_overlap(old)  # overlaps already there may stay
         for _ in range(2):
             conflict = np.flatnonzero(
-                (self._worst_overlap(cand) < floor - OVERLAP_SLACK) | (depth(cand) > OVERLAP_SLACK)
+                (self._worst_overlap(cand) < floor - OVERLAP_SLACK)
+                | (depth(cand) > OVERLAP_SLACK)
+                | (in_vehicle(cand, self.radius) > vfloor + OVERLAP_SLACK)
             )
             if not len(conflict):
                 break
@@ -357,12 +389,16 @@ class Crowd:
                     opts - (a + np.clip(dot(opts - a, ab) / max(dot(ab, ab), 1e-12), 0.0, 1.0)[:, None] * ab),
                     axis=1,
                 )
-                score = np.maximum(np.maximum(over, dep), 0.0)
+                veh = in_vehicle(opts, np.full(len(opts), self.radius[i])) - vfloor[i]
+                score = np.maximum(np.maximum(np.maximum(over, dep), veh), 0.0)
                 score[self._clear_at(opts) < self.need[i]] = np.inf
                 best = int(np.argmin(score + 1e-6 * np.linalg.norm(opts - cand[i], axis=1)))
                 if np.isfinite(score[best]):
                     cand[i] = opts[best]
-        # Steps that still make two people overlap more than now are taken back (not into the robot).
+        # Steps still into a vehicle are not taken; steps that still make two people overlap
+        # more than now are taken back (not into the robot).
+        into = in_vehicle(cand, self.radius) > vfloor + OVERLAP_SLACK
+        cand[into] = old[into]
         pinned = depth(old) > OVERLAP_SLACK  # a step back would leave them inside the robot
         back = np.zeros(len(cand), dtype=bool)
         for _ in range(len(cand)):

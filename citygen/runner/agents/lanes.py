@@ -301,10 +301,13 @@ def drive_path(vehicle: Vehicle, blocks, walks=None) -> DrivePath:
     s0, s1 = _project(pts, arc, start), _project(pts, arc, goal)
     if s1 <= s0 + 1.0:
         return _resample(np.stack([start, goal]), [(0.0, LOCAL)], [], [])
-    begin = [float(arc[owner == i][0]) - s0 for i in range(len(pieces))]
-    limits = [(begin[i], lim) for i, lim in marks]
     keep = (arc > s0) & (arc < s1)
     path = np.concatenate([start[None], pts[keep], goal[None]])
+    # Arcs of the route to arcs of the path: the start joins the first kept point in a line.
+    first = int(np.argmax(keep)) if keep.any() else None
+    shift = -s0 if first is None else float(np.linalg.norm(pts[first] - start)) - float(arc[first])
+    begin = [float(arc[owner == i][0]) + shift for i in range(len(pieces))]
+    limits = [(begin[i], lim) for i, lim in marks]
     passages = []
     for k, block, entry, exit_, lane in junctions:
         sub, a = pts[owner == k], arc[owner == k]
@@ -314,7 +317,7 @@ def drive_path(vehicle: Vehicle, blocks, walks=None) -> DrivePath:
         s_out = _crossing(sub, a, c, arms[exit_].yaw, _stop_radius(block, exit_, walks), first=False)
         if s_in is None or s_out is None:
             continue
-        passages.append((block.id, f"{entry}:{lane}", s_in - s0, s_out - s0, sub))
+        passages.append((block.id, f"{entry}:{lane}", s_in + shift, s_out + shift, sub))
     return _resample(path, limits, passages, [vehicle.width])
 
 

@@ -151,7 +151,7 @@ class SignalCrowd:
     def __getattr__(self, name: str):
         return getattr(self._crowd, name)
 
-    def step(self, robot_xy, robot_vel, robot_radius: float) -> None:
+    def step(self, robot_xy, robot_vel, robot_radius: float, vehicles=None) -> None:
         c = self._crowd
         old = c.pos.copy()
         was = self.crossings.crosswalk_at(old)
@@ -160,7 +160,7 @@ class SignalCrowd:
         speed = c.speed.copy()
         c.speed[red] = 0.0  # stand at the edge
         try:
-            c.step(robot_xy, robot_vel, robot_radius)
+            c.step(robot_xy, robot_vel, robot_radius, vehicles)
         finally:
             c.speed[:] = speed
         now = self.crossings.crosswalk_at(c.pos)

@@ -32,6 +32,7 @@ import numpy as np
 import shapely
 from shapely.geometry import Polygon
 
+from citygen.runner.agents.footprints import Footprints, depth, rectangles
 from citygen.runner.agents.lanes import CLEARANCE, STEP, DrivePath, Passage, drive_path, lane_path
 from citygen.runner.agents.signals import Crossings, SignalCrowd, SignalPlan, crossings_of
 from citygen.runner.agents.vec2 import det, dot
@@ -81,13 +82,18 @@ class Traffic:
             np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))]) for p in self.paths
         ]
         self.total = np.array([a[-1] for a in self._arc], dtype=np.float64)
+        self.s_start = np.zeros(len(self.ids))
         self.reset()
 
     def reset(self) -> None:
-        """Every vehicle at the start of its path, standing."""
-        self.s = np.zeros(len(self.ids))
+        """Every vehicle at the start of its trip (``s_start`` m along its path), standing."""
+        self.s = self.s_start.copy()
         self.v = np.zeros(len(self.ids))
         self._place()
+
+    def footprints(self) -> Footprints:
+        """The vehicles' footprints now, for people to keep clear of."""
+        return Footprints(self.pos.copy(), self.yaw.copy(), self.length, self.width, self.v.copy())
 
     def _place(self) -> None:
         m = len(self.ids)
@@ -164,11 +170,40 @@ class Traffic:
 # --- city traffic ---------------------------------------------------------------------------
 
 
-def _from(p: Passage, front: float) -> Passage:
-    """``p`` with its stop line no nearer the path's start than ``front`` (m)."""
-    if p.s_stop >= front:
-        return p
-    return Passage(p.junction, p.lane, front, max(p.s_exit, front), p.swept)
+def _start(d: DrivePath, length: float) -> float:
+    """Where (m along its path) a vehicle of ``length`` starts: at its path's start, or where
+    its rear bumper has left every junction its body would be in there (past the exit's
+    crosswalks), so that it never waits on a crosswalk for a signal it began beyond."""
+    s = 0.0
+    for p in d.passages:
+        if p.s_stop < s + length / 2 and p.s_exit > s - length / 2:
+            s = p.s_exit + length / 2 + CLEARANCE
+    return s
+
+
+def _end(d: DrivePath, length: float, goal: float, start: float) -> float:
+    """Where (m along its path) a vehicle's trip ends: its front bumper at its goal (``goal``
+    m along the path), or at the stop line of a junction its body would be in there (it does
+    not enter a junction it would stand in); never before ``start``."""
+    s = goal - length / 2
+    for p in reversed(d.passages):
+        if p.s_stop < s + length / 2 and p.s_exit > s - length / 2:
+            s = p.s_stop - length / 2
+    return max(s, start)
+
+
+def _extended(d: DrivePath) -> DrivePath:
+    """``d`` with :data:`LOOK` metres more along its last segment: a vehicle near its goal
+    still sees what stands ahead of it."""
+    seg = d.points[-1] - d.points[-2] if len(d.points) > 1 else np.array([1.0, 0.0])
+    seg = seg / max(float(np.linalg.norm(seg)), 1e-9)
+    more = np.arange(1, int(LOOK / STEP) + 2) * STEP
+    return DrivePath(
+        np.concatenate([d.points, d.points[-1] + more[:, None] * seg]),
+        np.concatenate([d.arc, d.arc[-1] + more]),
+        np.concatenate([d.limit, np.full(len(more), d.limit[-1])]),
+        d.passages,
+    )
 
 
 class CityTraffic(Traffic):
@@ -193,21 +228,40 @@ class CityTraffic(Traffic):
             drives = [drive_path(c, scene.blocks, tree) for c in cars]
             if crossings is not None:
                 crossings.drives = drives  # kept with the scene's cached data
-        # A vehicle starting past a stop line (its start on the crosswalk) waits there.
-        self.drives = [
-            DrivePath(d.points, d.arc, d.limit, [_from(p, c.length / 2) for p in d.passages])
-            for d, c in zip(drives, cars, strict=True)
-        ]
+        # Trips start clear of junctions and end before one they would stand in; the paths
+        # go on past their goals, for looking ahead.
+        self.s_start = np.array([_start(d, c.length) for d, c in zip(drives, cars, strict=True)])
+        self.total = np.array(
+            [_end(d, c.length, d.arc[-1], s0) for d, c, s0 in zip(drives, cars, self.s_start, strict=True)]
+        )
+        self.drives = [_extended(d) for d in drives]
         self.paths = [d.points for d in self.drives]
         self._arc = [d.arc for d in self.drives]
-        self.total = np.array([a[-1] for a in self._arc], dtype=np.float64)
         # All paths in one array, each vehicle's arcs shifted by its own offset, so that one
         # search places every vehicle.
-        self._shift = np.concatenate([[0.0], np.cumsum(self.total + 1.0)])[:-1]
+        self._shift = np.concatenate([[0.0], np.cumsum([a[-1] + 1.0 for a in self._arc])])[:-1]
         self._all_arc = np.concatenate([a + o for a, o in zip(self._arc, self._shift, strict=True)])
         self._all_pts = np.concatenate(self.paths) if self.paths else np.zeros((0, 2))
         self._last = np.cumsum([len(a) for a in self._arc]) - 1
+        self._spread()
         self.reset()
+
+    def _spread(self) -> None:
+        """Vehicles moved out of a junction onto another vehicle start further along their path,
+        where they are clear of every vehicle by the jam distance (before the next stop line)."""
+        self.s = self.s_start.copy()
+        self._place()
+        for k in np.flatnonzero(self.s_start > 0).tolist():
+            half = self.length[k] / 2
+            stops = [p.s_stop - half for p in self.drives[k].passages if p.s_stop >= self.s[k] + half]
+            last = min([self.total[k], *stops])
+            while (
+                self.s[k] + STEP <= last
+                and _overlapping(self.pos, self.yaw, self.length + IDM_GAP, self.width)[k].any()
+            ):
+                self.s[k] += STEP
+                self._place()
+            self.s_start[k] = self.s[k]
 
     def reset(self) -> None:
         self.t = 0.0
@@ -374,7 +428,7 @@ class CityTraffic(Traffic):
         self.waiting = np.where(self.v < 0.1, self.waiting + self.dt, 0.0)
         self._place()
         self._untangle(old_s)
-        self._restart()
+        self._restart(obstacles_xy, obstacles_radius)
         self.t += self.dt
 
     def _exit_clear(self, i: int, p: Passage, gap: float, lead_v: float) -> bool:
@@ -403,13 +457,20 @@ class CityTraffic(Traffic):
             moved[rows] = False
             self._place()
 
-    def _restart(self) -> None:
-        done = np.flatnonzero(self.s >= self.total)
-        for k in done.tolist():
+    def _restart(self, obstacles_xy, obstacles_radius) -> None:
+        """Vehicles at the end of their trip start it again when their start is clear of the
+        other vehicles (by the jam distance) and of the discs ``obstacles_xy`` of
+        ``obstacles_radius`` (m: people, the robot); the others wait at their end."""
+        oxy = np.asarray(obstacles_xy, dtype=np.float64).reshape(-1, 2)
+        orad = np.broadcast_to(np.asarray(obstacles_radius, dtype=np.float64), (len(oxy),))
+        for k in np.flatnonzero(self.s >= self.total).tolist():
             s = self.s[k]
-            self.s[k], self.v[k] = 0.0, 0.0
+            self.s[k], self.v[k] = self.s_start[k], 0.0
             self._place()
-            if _overlapping(self.pos, self.yaw, self.length + 2 * IDM_GAP, self.width + 0.5)[k].any():
+            box = Footprints(self.pos[k : k + 1], self.yaw[k : k + 1], self.length[k : k + 1] + 2 * IDM_GAP,
+                             self.width[k : k + 1] + 0.5, np.zeros(1))  # fmt: skip
+            blocked = _overlapping(self.pos, self.yaw, self.length + 2 * IDM_GAP, self.width + 0.5)[k].any()
+            if blocked or (depth(oxy, orad, box) > 0).any():
                 self.s[k], self.v[k] = s, 0.0
                 self._place()
 
@@ -422,14 +483,6 @@ def _overlapping_at(traffic: CityTraffic, s: np.ndarray) -> np.ndarray:
     traffic.s = now
     traffic._place()
     return out
-
-
-def rectangles(pos: np.ndarray, yaw: np.ndarray, length: np.ndarray, width: np.ndarray) -> np.ndarray:
-    """Corners ``(M, 4, 2)`` of vehicles' footprints."""
-    c, s = np.cos(yaw), np.sin(yaw)
-    fwd = np.stack([c, s], axis=-1) * (length / 2)[:, None]
-    side = np.stack([-s, c], axis=-1) * (width / 2)[:, None]
-    return np.stack([pos + fwd + side, pos - fwd + side, pos - fwd - side, pos + fwd - side], axis=1)
 
 
 def _overlapping(pos, yaw, length, width) -> np.ndarray:

@@ -179,7 +179,8 @@ class NavEnv(_CitygenEnv):
             c, s = math.cos(yaw), math.sin(yaw)
             robot_vel = np.array([c * vel[0] - s * vel[1], s * vel[0] + c * vel[1]])
             if self.crowd is not None:
-                self.crowd.step(np.array([x, y]), robot_vel, self.robot.radius)
+                cars = self.traffic.footprints() if self.traffic is not None else None
+                self.crowd.step(np.array([x, y]), robot_vel, self.robot.radius, cars)
             if self.traffic is not None:
                 obstacles = [np.array([[x, y]])]
                 radii = [np.array([self.robot.radius])]
