@@ -191,7 +191,9 @@ def test_small_scene_exports_to_every_format_and_runs_a_traverse(small, tmp_path
 
     assert citygen.validate(small) == [] and small.signals
     path = citygen.save_scene(small, tmp_path / "small.json")
-    result = cli("export", path, "--format", "all", "--out", tmp_path / "out")
+    result = cli(
+        "export", path, "--format", "all", "--occupancy-resolution", "0.2", "--out", tmp_path / "out"
+    )
     assert result.code == 0, result.err
     assert {p.suffix for p in (tmp_path / "out").iterdir()} >= {
         ".xml",
