@@ -68,7 +68,7 @@ def main() -> None:
     from make_town import lonlat, to_pbf, write_town
 
     with tempfile.TemporaryDirectory(prefix="citygen-osm-") as tmp:
-        xml = write_town(Path(tmp) / "town-1km.osm", nx=10, ny=10, spacing=100.0)
+        xml = write_town(Path(tmp) / "town-1km.osm", nx=10, ny=10, spacing=100.0, dense=True)
         pbf = to_pbf(xml, Path(tmp) / "town-1km.osm.pbf")
         (w, s), (e, n) = lonlat(-2.0, -2.0), lonlat(SIDE - 2.0, SIDE - 2.0)
         osm = run("osm", str(pbf), f"{w},{s},{e},{n}")
