@@ -177,6 +177,7 @@ def test_a_general_model_serves_every_loco_task_without_a_terrain_model(tmp_path
     ppo` resolves to it on each loco task that has no terrain model, and
     ``general_locomotion`` finds it; a robot without one is a one-line error."""
     from citygen.runner.learn import policy as P
+    from citygen.runner.learn import shipped_models
     from citygen.runner.learn.export import write_policy
 
     with np.load(P.baseline("loco-flat", "quadruped")) as data:
@@ -185,7 +186,7 @@ def test_a_general_model_serves_every_loco_task_without_a_terrain_model(tmp_path
     general = {**meta, "train": {**meta["train"], "split": P.GENERAL_LOCO_SPLIT}}
     write_policy(tmp_path / "loco-general-quadruped.npz", general, arrays)
     write_policy(tmp_path / "loco-stair-quadruped.npz", {**meta, "task": "loco-stair"}, arrays)
-    monkeypatch.setattr(P, "BASELINES", tmp_path)
+    monkeypatch.setattr(shipped_models, "BASELINES", tmp_path)
     found = P.shipped()
     general = tmp_path / "loco-general-quadruped.npz"
     assert {t: found[(t, "quadruped")].name for t in P.LOCO_TASKS} == {

@@ -6,7 +6,8 @@ baselines that ship with citygen, and the check that a model fits the environmen
 - an SB3 ``.zip`` (``model.zip`` or a checkpoint of a run) needs the ``train`` extra; its
   observation statistics come from ``vecnormalize.pkl`` beside it (or the checkpoint's own);
 - ``ppo`` is the shipped baseline of the task and robot: ``baselines/<task>-<robot>.npz``
-  in this package, each made by the ``citygen train`` command its JSON names.
+  in this package, each made by the ``citygen train`` command its JSON names (found by
+  :mod:`~citygen.runner.learn.shipped_models`).
 """
 
 from __future__ import annotations
@@ -19,69 +20,21 @@ from typing import Any
 from citygen.errors import CitygenError
 from citygen.runner.learn.export import NumpyPolicy, policy_arrays, read_policy
 
-#: Folder of the shipped baselines.
-BASELINES = Path(__file__).with_name("baselines")
-#: The Urban-Loc split the general locomotion models train on (every terrain kind).
-GENERAL_LOCO_SPLIT = "urban-loc-mixed-train"
-#: The locomotion tasks a general model serves.
-LOCO_TASKS = ("loco-flat", "loco-slope", "loco-stair", "loco-rough")
+# The shipped files, for the importers of this module (found without it: learn.shipped_models).
+from citygen.runner.learn.shipped_models import GENERAL_LOCO_SPLIT as GENERAL_LOCO_SPLIT
+from citygen.runner.learn.shipped_models import LOCO_TASKS as LOCO_TASKS
+from citygen.runner.learn.shipped_models import PolicyError as PolicyError
+from citygen.runner.learn.shipped_models import baseline as baseline
+from citygen.runner.learn.shipped_models import general_locomotion as general_locomotion
+from citygen.runner.learn.shipped_models import shipped as shipped
+
 #: Suffixes of model files ``--policy`` accepts.
 MODEL_SUFFIXES = (".npz", ".zip")
-
-
-class PolicyError(CitygenError):
-    """A model file that cannot be used (unreadable, or made for other spaces)."""
 
 
 def is_model(name: str) -> bool:
     """Whether a ``--policy`` value names a learned policy (``ppo`` or a model file)."""
     return name == "ppo" or name.lower().endswith(MODEL_SUFFIXES)
-
-
-def _shipped_files() -> tuple[dict[tuple[str, str], Path], dict[str, Path]]:
-    """The shipped files: ``(task, robot) -> file`` of the task models and ``robot -> file``
-    of the general locomotion models (trained on :data:`GENERAL_LOCO_SPLIT`)."""
-    tasks: dict[tuple[str, str], Path] = {}
-    general: dict[str, Path] = {}
-    for path in sorted(BASELINES.glob("*.npz")):
-        meta = read_policy(path).meta
-        if meta.get("train", {}).get("split") == GENERAL_LOCO_SPLIT:
-            general[meta["robot"]] = path
-        else:
-            tasks[(meta["task"], meta["robot"])] = path
-    return tasks, general
-
-
-def shipped() -> dict[tuple[str, str], Path]:
-    """The shipped baselines: ``(task, robot) -> file``. A robot's general locomotion model
-    serves each locomotion task that has no terrain model of its own."""
-    out, general = _shipped_files()
-    for robot, path in general.items():
-        for task in LOCO_TASKS:
-            out.setdefault((task, robot), path)
-    return out
-
-
-def general_locomotion(robot: str) -> Path:
-    """The shipped general locomotion model of ``robot`` (the paper's "general locomotion
-    model", which follows velocity commands on every terrain), or a one-line error naming
-    the robots that have one."""
-    general = _shipped_files()[1]
-    if robot not in general:
-        raise PolicyError(
-            f"no general locomotion model shipped for robot {robot}; "
-            f"shipped for: {', '.join(sorted(general)) or 'none'}"
-        )
-    return general[robot]
-
-
-def baseline(task: str, robot: str) -> Path:
-    """The shipped baseline of ``task`` and ``robot``, or a one-line error listing those that exist."""
-    found = shipped()
-    if (task, robot) not in found:
-        have = ", ".join(f"{t} {r}" for t, r in found) or "none"
-        raise PolicyError(f"--policy ppo: no shipped baseline for {task} with robot {robot}; shipped: {have}")
-    return found[(task, robot)]
 
 
 def _sb3_policy(path: Path) -> NumpyPolicy:

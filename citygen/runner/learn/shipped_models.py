@@ -1,0 +1,69 @@
+"""The learned models that ship with citygen (``baselines/`` in this package): the task
+models ``<task>-<robot>.npz`` behind ``--policy ppo`` and each robot's general locomotion
+model (trained on :data:`GENERAL_LOCO_SPLIT`). Found by reading each file's metadata with
+numpy alone, so that an environment can find its locomotion model without the rest of
+:mod:`citygen.runner.learn` (which makes environments: an import circle)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from citygen.errors import CitygenError
+from citygen.runner.learn.export import read_policy
+
+#: Folder of the shipped baselines.
+BASELINES = Path(__file__).with_name("baselines")
+#: The Urban-Loc split the general locomotion models train on (every terrain kind).
+GENERAL_LOCO_SPLIT = "urban-loc-mixed-train"
+#: The locomotion tasks a general model serves.
+LOCO_TASKS = ("loco-flat", "loco-slope", "loco-stair", "loco-rough")
+
+
+class PolicyError(CitygenError):
+    """A model file that cannot be used (unreadable, or made for other spaces)."""
+
+
+def _shipped_files() -> tuple[dict[tuple[str, str], Path], dict[str, Path]]:
+    """The shipped files: ``(task, robot) -> file`` of the task models and ``robot -> file``
+    of the general locomotion models (trained on :data:`GENERAL_LOCO_SPLIT`)."""
+    tasks: dict[tuple[str, str], Path] = {}
+    general: dict[str, Path] = {}
+    for path in sorted(BASELINES.glob("*.npz")):
+        meta = read_policy(path).meta
+        if meta.get("train", {}).get("split") == GENERAL_LOCO_SPLIT:
+            general[meta["robot"]] = path
+        else:
+            tasks[(meta["task"], meta["robot"])] = path
+    return tasks, general
+
+
+def shipped() -> dict[tuple[str, str], Path]:
+    """The shipped baselines: ``(task, robot) -> file``. A robot's general locomotion model
+    serves each locomotion task that has no terrain model of its own."""
+    out, general = _shipped_files()
+    for robot, path in general.items():
+        for task in LOCO_TASKS:
+            out.setdefault((task, robot), path)
+    return out
+
+
+def general_locomotion(robot: str) -> Path:
+    """The shipped general locomotion model of ``robot`` (the paper's "general locomotion
+    model", which follows velocity commands on every terrain), or a one-line error naming
+    the robots that have one."""
+    general = _shipped_files()[1]
+    if robot not in general:
+        raise PolicyError(
+            f"no general locomotion model shipped for robot {robot}; "
+            f"shipped for: {', '.join(sorted(general)) or 'none'}"
+        )
+    return general[robot]
+
+
+def baseline(task: str, robot: str) -> Path:
+    """The shipped baseline of ``task`` and ``robot``, or a one-line error listing those that exist."""
+    found = shipped()
+    if (task, robot) not in found:
+        have = ", ".join(f"{t} {r}" for t, r in found) or "none"
+        raise PolicyError(f"--policy ppo: no shipped baseline for {task} with robot {robot}; shipped: {have}")
+    return found[(task, robot)]
