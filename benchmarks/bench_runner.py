@@ -34,9 +34,13 @@
 5. MetaDrive's headless steps per second where it is installed (``benchmarks/
    metadrive_baseline.py``; set ``CITYGEN_METADRIVE_PYTHON`` to an interpreter that has it).
 6. ORCA against RVO2 (``pyrvo``) at 100 agents, cost per agent-step (``bench_orca.py``).
+7. Locomotion (LocoFlat, quadruped, random actions: it falls and resets often), steps per wall
+   second: one environment, ``make_vector_env(num_envs=8)`` and the layout ``citygen train
+   --config examples/train/loco.toml`` steps (32 sub-environments), beside raw ``mj_step`` of
+   the same model on one core and, ideal, on every core (:func:`loco_figures`).
 
-``python benchmarks/bench_runner.py [--steps 1200]`` (a few minutes on 2 cores); the last line
-is one JSON object of figures.
+``python benchmarks/bench_runner.py [--steps 1200] [--loco-only]`` (a few minutes on 2 cores;
+``--loco-only``: section 7 alone, about a minute); the last line is one JSON object of figures.
 """
 
 from __future__ import annotations
@@ -358,6 +362,112 @@ def orca_figures() -> dict:
     return bench_orca.measure(100, 200)
 
 
+# --- locomotion ------------------------------------------------------------------------------
+
+#: The locomotion training config whose layout the ``loco_train_*`` figures measure.
+LOCO_CONFIG = Path(__file__).resolve().parent.parent / "examples" / "train" / "loco.toml"
+
+
+def _random_actions(space, n: int, rng) -> np.ndarray:
+    return rng.uniform(-1, 1, (n, *space.shape)).astype(np.float32)
+
+
+def loco_figures(steps: int = 3000) -> dict:
+    """LocoFlat quadruped with random actions (it falls and resets often), environment steps
+    per wall second, resets included: one environment; ``make_vector_env(num_envs=8)``; the
+    layout ``citygen train --config examples/train/loco.toml`` steps (its 32 sub-environments,
+    half in this process and half in a worker, LocoTraining and the scene schedule around
+    each, behind SB3's ``VecEnv``); beside raw ``mj_step`` of the same model (``nstep`` the
+    environment's substeps: one environment step of physics and nothing else, the robot
+    unactuated from an episode's start; the median of a run after each configuration), on
+    one core and, ideal, on every core this process may use. ``steps`` per configuration."""
+    import mujoco
+
+    from citygen.generate.dataset import default_jobs
+    from citygen.runner.learn.config import load_config
+    from citygen.runner.learn.vecenv import make_training_env
+    from citygen.runner.make import make_env, make_vector_env
+
+    rng = np.random.default_rng(0)
+    out: dict[str, float] = {}
+    env = make_env("loco-flat", robot="quadruped")
+    env.reset(seed=0)
+    resets = 0
+    t0 = time.perf_counter()
+    for a in _random_actions(env.action_space, steps, rng):
+        _, _, term, trunc, _ = env.step(a)
+        if term or trunc:
+            env.reset()
+            resets += 1
+    out["loco_1env_steps_per_s"] = steps / (time.perf_counter() - t0)
+    out["loco_1env_resets"] = resets
+    u = env.unwrapped
+    model, substeps = u.model, u._substeps
+    env.reset(seed=0)
+    data = mujoco.MjData(model)  # the robot standing at an episode's start, stepped unactuated
+    data.qpos[:], data.qvel[:] = u.data.qpos, u.data.qvel
+    env.close()
+    raws: list[float] = []
+
+    def raw_rate(n: int = 1000) -> None:  # after each configuration: the load drifts
+        mujoco.mj_forward(model, data)
+        t0 = time.perf_counter()
+        for _ in range(n):
+            mujoco.mj_step(model, data, nstep=substeps)
+        raws.append(n / (time.perf_counter() - t0))
+
+    raw_rate()
+    venv = make_vector_env("loco-flat", robot="quadruped", num_envs=8)
+    venv.reset(seed=0)
+    k = max(10, steps // 8)
+    acts = _random_actions(venv.action_space, k, rng)
+    for a in acts[:5]:  # the workers' first steps
+        venv.step(a)
+    t0 = time.perf_counter()
+    for a in acts:
+        venv.step(a)
+    out["loco_8env_steps_per_s"] = 8 * k / (time.perf_counter() - t0)
+    venv.close()
+    raw_rate()
+    cfg = load_config(LOCO_CONFIG, task="loco-flat", robot="quadruped", seed=0)
+    train = make_training_env(cfg)
+    train.reset()
+    k = max(10, steps // cfg.envs)
+    acts = _random_actions(train.action_space, k * cfg.envs, rng).reshape(k, cfg.envs, -1)
+    for a in acts[:5]:  # the workers' first steps
+        train.step(a)
+    t0 = time.perf_counter()
+    for a in acts:
+        train.step(a)
+    out["loco_train_envs"] = cfg.envs
+    out["loco_train_steps_per_s"] = cfg.envs * k / (time.perf_counter() - t0)
+    train.close()
+    raw_rate()
+    cores = default_jobs()
+    out["loco_mj_step_steps_per_s"] = float(np.median(raws))
+    out["loco_mj_step_all_cores_steps_per_s"] = out["loco_mj_step_steps_per_s"] * cores
+    for key in ("loco_1env", "loco_8env", "loco_train"):
+        out[f"{key}_over_mj_step_all_cores"] = (
+            out[f"{key}_steps_per_s"] / out["loco_mj_step_all_cores_steps_per_s"]
+        )
+    return {k: round(v, 3) if isinstance(v, float) else v for k, v in out.items()}
+
+
+def _print_loco(loco: dict) -> None:
+    raw, ideal = loco["loco_mj_step_steps_per_s"], loco["loco_mj_step_all_cores_steps_per_s"]
+    print(
+        "LocoFlat quadruped, random actions (resets included); "
+        f"raw mj_step: {raw:.0f}/s a core, {ideal:.0f}/s ideal"
+    )
+    for label, key in (
+        ("1 env", "loco_1env"),
+        ("make_vector_env(num_envs=8)", "loco_8env"),
+        (f"citygen train layout, {loco['loco_train_envs']} envs", "loco_train"),
+    ):
+        rate, share = loco[f"{key}_steps_per_s"], loco[f"{key}_over_mj_step_all_cores"]
+        print(f"  {label:<34} {rate:9.1f} steps/s   {share:.3f} of raw mj_step on every core")
+
+
 def _r(x: float | None, digits: int) -> float | None:
     return None if x is None else round(x, digits)
 
@@ -366,12 +476,18 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--steps", type=int, default=1200, help="steps per environment (images: a third)")
     p.add_argument("--rounds", type=int, default=4, help="chunks each configuration's steps are run in")
+    p.add_argument("--loco-only", action="store_true", help="measure locomotion (section 7) alone")
     args = p.parse_args(argv)
     if args.rounds < 1 or args.steps < 10 * args.rounds:
         p.error(
             f"--steps/--rounds: expected >= 10 steps in each of >= 1 rounds, got {args.steps}/{args.rounds}"
         )
     warnings.simplefilter("ignore")
+    if args.loco_only:
+        loco = loco_figures(max(args.steps, 1000))
+        _print_loco(loco)
+        print(json.dumps({"bench": "runner", **loco}))
+        return 0
 
     # Every configuration runs a chunk per round, so drift in the shared machine's load hits
     # them alike; figures are medians over the rounds. The vector environments fork their
@@ -424,6 +540,7 @@ def main(argv: list[str] | None = None) -> int:
     physics_cpu = substeps / raw_cpu  # CPU seconds of one step's mj_step calls, at rest
     md, md_note = metadrive_rate()
     orca = orca_figures()
+    loco = loco_figures(max(args.steps, 1000))
 
     labels = [k for k in obs if k in OBS]
     obs_rates = [None if obs[k] is None else obs[k]["steps_per_s"] for k in labels]
@@ -508,6 +625,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"  MetaDrive headless:            {md if md is None else f'{md:8.1f} steps/CPU s'} ({md_note})")
     for key, value in orca.items():
         print(f"  {key}: {value}")
+    _print_loco(loco)
     figures = {
         "bench": "runner",
         "navstatic_steps_per_s": round(one, 1),
@@ -562,6 +680,7 @@ def main(argv: list[str] | None = None) -> int:
         "metadrive_steps_per_s": None if md is None else round(md, 1),
         "navstatic_vs_metadrive_cpu": None if md is None else round(state["cpu_with_resets_per_s"] / md, 3),
         **{k: v for k, v in orca.items() if not isinstance(v, dict | list)},
+        **loco,
     }
     print(json.dumps(figures))
     return 0

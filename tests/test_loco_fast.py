@@ -1,7 +1,8 @@
-"""The locomotion environment's fast step against the per-step computation it replaced: the same
-observations, rewards, ends and metrics to the bit over a few hundred steps of random actions
-(falls and resets included); and the compiled height map against its plain-numpy reference
-(the 5 cm ground raster interpolated by ``Prepared.ground``)."""
+"""The locomotion environment's fast step (and the training wrapper's gait shaping) against the
+per-step computation they replaced: the same observations, rewards, ends and metrics to the bit
+over a few hundred steps of random actions (falls and resets included); and the compiled height
+maps against their plain-numpy references (the 5 cm ground raster interpolated by
+``Grid.bilinear``; a coarse map's flat tiles by ``height_at``)."""
 
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ from citygen.runner import metrics as M
 from citygen.runner.envs.height_kernel import flat_tiles_around, ground_around
 from citygen.runner.envs.loco import FALL_FORCE
 from citygen.runner.envs.sensors import HEIGHT_MAP
+from citygen.runner.learn.loco import AIR_TIME, WEIGHTS, LocoTraining
 from citygen.runner.make import make_env
 from citygen.spec.terrain import FlatTile, StairTile, Terrain
 
@@ -91,6 +93,46 @@ def _reference_step(env, action):
     return _reference_observation(env), float(reward), bool(fallen), bool(truncated), info
 
 
+class _ReferenceTraining(LocoTraining):
+    """LocoTraining over the reference step, with the gait shaping as it was computed."""
+
+    def step(self, action):
+        obs, reward, terminated, truncated, info = _reference_step(self.env.unwrapped, action)
+        if self.shaping:
+            reward += self.shaping * self._shaping()
+        if (terminated or truncated) and self.curriculum and self.level is not None:
+            self._move_level(bool(terminated))
+        return obs, reward, terminated, truncated, info
+
+    def _shaping(self) -> float:
+        u = self.env.unwrapped
+        d, h, c = u.data, u.handle, u.command
+        vx, vy, _, wz = h.velocity(d)
+        w = d.qvel[h.dadr + 3 : h.dadr + 5]
+        g = d.xmat[h.base_id][6:8]
+        tau = d.actuator_force[h.leg_act]
+        qvel = d.qvel[h.leg_dadr]
+        r = WEIGHTS["track_lin"] * math.exp(-((vx - c[0]) ** 2 + (vy - c[1]) ** 2) / 0.25)
+        r += WEIGHTS["track_ang"] * math.exp(-((wz - c[2]) ** 2) / 0.25)
+        asked = c[0] * c[0] + c[1] * c[1]
+        if asked > 0.01:
+            r += WEIGHTS["progress"] * min(max((vx * c[0] + vy * c[1]) / asked, -1.0), 1.0)
+        r += WEIGHTS["ang_vel_xy"] * float(w @ w)
+        r += WEIGHTS["tilt"] * float(g @ g)
+        r += WEIGHTS["torque"] * float(tau @ tau)
+        if self._last_qvel is not None:
+            acc = (qvel - self._last_qvel) / u.dt
+            r += WEIGHTS["joint_acc"] * float(acc @ acc)
+        self._last_qvel = qvel
+        touching = self._feet_touching()
+        landed = touching & (self._air > 0)
+        self._air += u.dt
+        if self._stepping and (math.hypot(c[0], c[1]) > 0.1 or abs(c[2]) > 0.1):
+            r += WEIGHTS["air_time"] * float(np.sum((self._air - AIR_TIME) * landed))
+        self._air[touching] = 0.0
+        return r
+
+
 def _same(a: dict, b: dict) -> None:
     assert a.keys() == b.keys()
     for k in a:
@@ -104,23 +146,27 @@ def _same(a: dict, b: dict) -> None:
     [("quadruped", "urban-loc-1-train"), ("wheeled_legged", "urban-loc-1-test")],
 )
 def test_fast_step_is_the_reference_step_to_the_bit(robot, split):
-    # Random actions topple the robot every hundred steps or so: falls, ends and resets.
-    fast = make_env("loco-flat", split=split, robot=robot, max_steps=150).unwrapped
-    ref = make_env("loco-flat", split=split, robot=robot, max_steps=150).unwrapped
+    # Through the training wrapper (gait shaping, commands, curriculum) as `citygen train` runs
+    # it; random actions topple the robot every hundred steps or so: falls, ends and resets.
+    def wrapped(cls):
+        env = make_env("loco-flat", split=split, robot=robot, max_steps=150)
+        return cls(env, seed=0, rank=1, shaping=1.0, command_mix=0.5)
+
+    fast, ref = wrapped(LocoTraining), wrapped(_ReferenceTraining)
     obs, _ = fast.reset(seed=3)
     ref.reset(seed=3)
-    _same(obs, _reference_observation(ref))
+    _same(obs, _reference_observation(ref.unwrapped))
     rng = np.random.default_rng(0)
     ends = 0
-    for action in rng.uniform(-1.3, 1.3, (300, fast.n_actions)).astype(np.float32):
-        got, want = fast.step(action), _reference_step(ref, action)
+    for action in rng.uniform(-1.3, 1.3, (300, fast.unwrapped.n_actions)).astype(np.float32):
+        got, want = fast.step(action), ref.step(action)
         _same(got[0], want[0])
         assert got[1:] == want[1:]  # reward, terminated, truncated, info (metrics included)
         if got[2] or got[3]:
             ends += 1
             obs, _ = fast.reset()
             ref.reset()
-            _same(obs, _reference_observation(ref))
+            _same(obs, _reference_observation(ref.unwrapped))
     assert ends >= 3
 
 

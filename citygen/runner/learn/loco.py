@@ -111,17 +111,21 @@ class LocoTraining(gymnasium.Wrapper):
 
     def _shaping(self) -> float:
         u = self.env.unwrapped
-        d, h, c = u.data, u.handle, u.command
-        vx, vy, _, wz = h.velocity(d)
-        w = d.qvel[h.dadr + 3 : h.dadr + 5]
+        d, h = u.data, u.handle
+        # Plain floats where numpy scalars were: the same IEEE operations without numpy's cost
+        # per scalar (tests/test_loco_fast.py holds the reward to the bit).
+        c0, c1, c2 = u.command.tolist()
+        vx, vy, _, wz = h._velocity(d)
+        qv = d.qvel
+        w = qv[h.dadr + 3 : h.dadr + 5]
         g = d.xmat[h.base_id][6:8]  # the tilt: gravity's x and y in the base's frame (up to sign)
         tau = d.actuator_force[h.leg_act]
-        qvel = d.qvel[h.leg_dadr]
-        r = WEIGHTS["track_lin"] * math.exp(-((vx - c[0]) ** 2 + (vy - c[1]) ** 2) / 0.25)
-        r += WEIGHTS["track_ang"] * math.exp(-((wz - c[2]) ** 2) / 0.25)
-        asked = c[0] * c[0] + c[1] * c[1]
+        qvel = qv[h.leg_dadr]
+        r = WEIGHTS["track_lin"] * math.exp(-((vx - c0) ** 2 + (vy - c1) ** 2) / 0.25)
+        r += WEIGHTS["track_ang"] * math.exp(-((wz - c2) ** 2) / 0.25)
+        asked = c0 * c0 + c1 * c1
         if asked > 0.01:
-            r += WEIGHTS["progress"] * min(max((vx * c[0] + vy * c[1]) / asked, -1.0), 1.0)
+            r += WEIGHTS["progress"] * min(max((vx * c0 + vy * c1) / asked, -1.0), 1.0)
         r += WEIGHTS["ang_vel_xy"] * float(w @ w)
         r += WEIGHTS["tilt"] * float(g @ g)
         r += WEIGHTS["torque"] * float(tau @ tau)
@@ -132,7 +136,7 @@ class LocoTraining(gymnasium.Wrapper):
         touching = self._feet_touching()
         landed = touching & (self._air > 0)
         self._air += u.dt
-        if self._stepping and (math.hypot(c[0], c[1]) > 0.1 or abs(c[2]) > 0.1):
+        if self._stepping and (math.hypot(c0, c1) > 0.1 or abs(c2) > 0.1):
             r += WEIGHTS["air_time"] * float(np.sum((self._air - AIR_TIME) * landed))
         self._air[touching] = 0.0
         return r
