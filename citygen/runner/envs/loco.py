@@ -24,6 +24,7 @@ from gymnasium import spaces
 
 from citygen.errors import SpecError
 from citygen.runner import metrics as M
+from citygen.runner.envs import legged
 from citygen.runner.envs.base import _CitygenEnv
 from citygen.runner.tasks import DEFAULT_ROBOT, check_robot
 from citygen.spec import Scene
@@ -71,16 +72,7 @@ class LocoEnv(_CitygenEnv):
         self.n_actions = n + len(self.robot.loco_wheels)
         self._fall_model = None
         self.action_space = spaces.Box(-1.0, 1.0, (self.n_actions,), np.float32)
-        obs = {
-            "base_lin_vel": spaces.Box(-np.inf, np.inf, (3,), np.float32),
-            "base_ang_vel": spaces.Box(-np.inf, np.inf, (3,), np.float32),
-            "projected_gravity": spaces.Box(-1.0, 1.0, (3,), np.float32),
-            "command": spaces.Box(-np.inf, np.inf, (3,), np.float32),
-            "joint_pos": spaces.Box(-np.inf, np.inf, (n,), np.float32),
-            "joint_vel": spaces.Box(-np.inf, np.inf, (self.n_actions,), np.float32),
-            "last_action": spaces.Box(-1.0, 1.0, (self.n_actions,), np.float32),
-            "height_map": self._height_space(),
-        }
+        obs = legged.leg_spaces(n, self.n_actions, self._height_space())
         obs.update(self._image_spaces())
         self._set_observation_space(obs)
         self._keys = tuple(self.observation_space.spaces)
@@ -181,43 +173,22 @@ class LocoEnv(_CitygenEnv):
         return lo_x <= min(x, ex) and max(x, ex) <= hi_x and lo_y <= min(y, ey) and max(y, ey) <= hi_y
 
     def _fall_geoms_for_model(self) -> None:
-        """The robot geoms whose pressing on the ground is a fall: the body, not the legs.
-        A leg is every link from a foot (or wheel) up to the base, so a knee brushing a
-        knee-high bump is not a fall, the trunk, head, torso or an arm touching down is (the
-        base-contact termination of Isaac Lab's locomotion tasks, on which URBAN-SIM's are
-        built). Computed once per compiled model, with the ids of those geoms and of the
-        ground's as sets (a step looks its few contacts up one by one)."""
+        """The robot geoms whose pressing on the ground is a fall (the body, not the legs:
+        :func:`~citygen.runner.envs.legged.fall_geoms`), computed once per compiled model,
+        with the ids of those geoms and of the ground's as sets (a step looks its few
+        contacts up one by one)."""
         if self._fall_model is self.model:
             return
-        m, h = self.model, self.handle
-        legs: set[int] = set()
-        for body in m.geom_bodyid[h.foot_geom_ids].tolist():
-            while body != h.base_id and body > 0 and body not in legs:
-                legs.add(body)
-                body = int(m.body_parentid[body])
-        self._fall_geoms = self._robot_geoms & ~np.isin(m.geom_bodyid, sorted(legs))
+        self._fall_geoms = legged.fall_geoms(self.model, self.handle, self._robot_geoms)
         self._fall_ids = frozenset(np.flatnonzero(self._fall_geoms).tolist())
         self._ground_ids = frozenset(np.flatnonzero(self.prepared.ground_geoms).tolist())
-        self._joint_vel_dofs = np.concatenate([h.leg_dadr, h.loco_wheel_dadr]).astype(np.intp)
+        self._joint_vel_dofs = legged.joint_vel_dofs(self.handle)
         self._fall_model = self.model
 
     def _ground_force(self) -> float:
         """Largest normal force (N) of a contact between the ground and a robot part that
-        must not touch it (:meth:`_fall_geoms_for_model`), by MuJoCo's ``mj_contactForce``
-        on those contacts only."""
-        import mujoco
-
-        d = self.data
-        if d.ncon == 0:
-            return 0.0
-        fall, ground = self._fall_ids, self._ground_ids
-        force = self._force
-        worst = 0.0
-        for i, (g1, g2) in enumerate(d.contact.geom.tolist()):
-            if (g1 in fall and g2 in ground) or (g2 in fall and g1 in ground):
-                mujoco.mj_contactForce(self.model, d, i, force)
-                worst = max(worst, abs(float(force[0])))
-        return worst
+        must not touch it (:func:`~citygen.runner.envs.legged.body_ground_force`)."""
+        return legged.body_ground_force(self.model, self.data, self._fall_ids, self._ground_ids, self._force)
 
     def step(self, action):
         a = np.asarray(action, dtype=np.float64).reshape(self.n_actions)
@@ -253,26 +224,10 @@ class LocoEnv(_CitygenEnv):
         """The observation's keys (only those of the observation space are computed), from
         the base's ``pose`` and ``vel`` (``RobotHandle.pose``, ``._velocity``) when the step
         has them already."""
-        d, h = self.data, self.handle
-        x, y, z, yaw = h.pose(d) if pose is None else pose
+        pose = self.handle.pose(self.data) if pose is None else pose
         keys = self._keys
-        obs: dict[str, np.ndarray] = {}
-        if "base_lin_vel" in keys:
-            obs["base_lin_vel"] = np.array((h._velocity(d) if vel is None else vel)[:3], dtype=np.float32)
-        if "base_ang_vel" in keys:
-            obs["base_ang_vel"] = d.qvel[h.dadr + 3 : h.dadr + 6].astype(np.float32)
-        if "projected_gravity" in keys:
-            # gravity (0, 0, -1) in the base's frame: minus the third row of its rotation
-            obs["projected_gravity"] = np.negative(d.xmat[h.base_id][6:9].astype(np.float32))
-        if "command" in keys:
-            obs["command"] = self.command.astype(np.float32)
-        if "joint_pos" in keys:
-            obs["joint_pos"] = (d.qpos[h.leg_qadr] - h.default).astype(np.float32)
-        if "joint_vel" in keys:
-            obs["joint_vel"] = d.qvel[self._joint_vel_dofs].astype(np.float32)
-        if "last_action" in keys:
-            obs["last_action"] = self.last_action.astype(np.float32)
-        if "height_map" in keys:
-            obs["height_map"] = self._height_map(x, y, self._terrain_around(x, y, yaw)[0], yaw)
-        obs.update(self._images((x, y, z, yaw)))
+        obs = legged.leg_observation(
+            self, keys, self.command, self.last_action, self._joint_vel_dofs, pose, vel
+        )
+        obs.update(self._images(pose))
         return {k: obs[k] for k in keys}
