@@ -236,6 +236,12 @@ def test_generate_command_writes_the_place(tmp_path, cli):
     assert result.code == 0, result.err
     scene = citygen.load_scene(tmp_path / "town.json")
     assert scene == generate_place(TOWN, SMALL, seed=1)
+    # The config written beside it rebuilds the later stages byte for byte.
+    edited = tmp_path / "edited.json"
+    edited.write_bytes((tmp_path / "town.json").read_bytes())
+    result = cli("rebuild", edited, "--from", "placement", "--config", tmp_path / "town.config.json")
+    assert result.code == 0, result.err
+    assert edited.read_bytes() == (tmp_path / "town.json").read_bytes()
 
 
 def test_a_split_manifest_names_the_extract_in_an_osm_table(tmp_path, cli):

@@ -31,9 +31,12 @@ def parse_bbox(text: str | None) -> tuple[float, float, float, float]:
 def generate_place(
     osm: Path | None, bbox: str | None, *, split: str | None, seed: int | None, out: Path
 ) -> None:
-    """Generate, validate and write the scene of ``osm`` in ``bbox`` to ``out/<name>.json``."""
-    from citygen.generate.places import generate_place as make
+    """Generate, validate and write the scene of ``osm`` in ``bbox`` to ``out/<name>.json``, and
+    its generator config to ``out/<name>.config.json`` (for ``citygen rebuild --config``)."""
+    from citygen.generate import generate
+    from citygen.generate.layouts.osm import osm_config
     from citygen.generate.places import place_name
+    from citygen.io import dumps, write_atomic
 
     if split is not None:
         raise SpecError("--split: expected either --split or --osm, got both")
@@ -42,9 +45,15 @@ def generate_place(
     box = parse_bbox(bbox)
     target = out / place_name(osm)
     check_output(out, folder=True, option="--out")
-    scene = make(osm, box, seed=0 if seed is None else seed)
+    config = osm_config(str(osm), box)
+    scene = generate(config, 0 if seed is None else seed)
     problems = citygen.validate(scene)
     if problems:
         raise SpecError(problems, file=f"{osm} in {bbox}")
     citygen.save_scene(scene, target)
-    typer.echo(f"wrote {target} ({len(scene.zones):,} zones, {len(scene.placements):,} objects)")
+    # The config beside the scene: `citygen rebuild SCENE --from STAGE --config` takes it.
+    settings = target.with_suffix(".config.json")
+    write_atomic(settings, dumps(config).encode("utf-8"))
+    typer.echo(
+        f"wrote {target} ({len(scene.zones):,} zones, {len(scene.placements):,} objects) and {settings.name}"
+    )
