@@ -364,7 +364,8 @@ class GeneratorConfig(SpecModel):
     track: TrackConfig = TrackConfig()
     """The units of a ``track`` layout (ignored by the other layouts)."""
     osm: OsmArea | None = None
-    """The extract and box of an ``osm`` layout (ignored by the other layouts)."""
+    """The extract and box of an ``osm`` layout, whose scene takes the box's size (``size`` is
+    then ignored); ignored by the other layouts."""
 
 
 class SplitConfig(SpecModel):
