@@ -393,13 +393,17 @@ def loco_figures(steps: int = 3000) -> dict:
     env = make_env("loco-flat", robot="quadruped")
     env.reset(seed=0)
     resets = 0
-    t0 = time.perf_counter()
-    for a in _random_actions(env.action_space, steps, rng):
-        _, _, term, trunc, _ = env.step(a)
-        if term or trunc:
-            env.reset()
-            resets += 1
+    t0, c0 = time.perf_counter(), time.process_time()
+    with _MjTimer() as mj:
+        for a in _random_actions(env.action_space, steps, rng):
+            _, _, term, trunc, _ = env.step(a)
+            if term or trunc:
+                env.reset()
+                resets += 1
     out["loco_1env_steps_per_s"] = steps / (time.perf_counter() - t0)
+    # CPU of the steps and resets over the CPU of their mj_step calls: what the runner adds
+    # to its physics, a figure the machine's load barely moves (1.0: physics alone)
+    out["loco_1env_cpu_over_mj_step"] = (time.process_time() - c0) / mj.cpu
     out["loco_1env_resets"] = resets
     u = env.unwrapped
     model, substeps = u.model, u._substeps
@@ -466,6 +470,10 @@ def _print_loco(loco: dict) -> None:
     ):
         rate, share = loco[f"{key}_steps_per_s"], loco[f"{key}_over_mj_step_all_cores"]
         print(f"  {label:<34} {rate:9.1f} steps/s   {share:.3f} of raw mj_step on every core")
+    print(
+        f"  1 env: CPU over its mj_step calls' CPU {loco['loco_1env_cpu_over_mj_step']:.2f}x "
+        "(1.0: physics alone)"
+    )
 
 
 def _r(x: float | None, digits: int) -> float | None:

@@ -105,6 +105,7 @@ class LocoEnv(_CitygenEnv):
         mujoco.mj_forward(self.model, self.data)
         self._fall_geoms_for_model()
         self.steps = 0
+        self.base_velocity = self.handle._velocity(self.data)
         self.last_action = np.zeros(self.n_actions)
         heading = yaw + math.atan2(self.command[1], self.command[0])
         self.recorder = M.LocoEpisode(start_xy=(float(x), float(y)), target_heading=heading, dt=self.dt)
@@ -199,7 +200,9 @@ class LocoEnv(_CitygenEnv):
         self.steps += 1
         pose = h.pose(d)
         x, y = pose[0], pose[1]
-        vel = h._velocity(d)  # plain floats: the same arithmetic as numpy's float64 scalars
+        # plain floats: the same arithmetic as numpy's float64 scalars; kept for the training
+        # wrapper's shaping (learn.loco), which reads the same state after the step
+        vel = self.base_velocity = h._velocity(d)
         fallen = self._ground_force() > FALL_FORCE or self._out_of_bounds(x, y)
         c0, c1, c2 = self.command.tolist()
         dv = (vel[0] - c0) ** 2 + (vel[1] - c1) ** 2

@@ -115,7 +115,7 @@ class LocoTraining(gymnasium.Wrapper):
         # Plain floats where numpy scalars were: the same IEEE operations without numpy's cost
         # per scalar (tests/test_loco_fast.py holds the reward to the bit).
         c0, c1, c2 = u.command.tolist()
-        vx, vy, _, wz = h._velocity(d)
+        vx, vy, _, wz = u.base_velocity  # RobotHandle._velocity after the step
         qv = d.qvel
         w = qv[h.dadr + 3 : h.dadr + 5]
         g = d.xmat[h.base_id][6:8]  # the tilt: gravity's x and y in the base's frame (up to sign)

@@ -521,7 +521,7 @@ class RobotHandle:
             sizes = f"{n} or {n + w}" if w else f"{n}"
             raise ValueError(f"joint_action: expected {sizes} numbers, got shape {a.shape}")
         self._undamp()
-        a = np.clip(a, -1.0, 1.0)
+        a = np.minimum(np.maximum(a, -1.0), 1.0)  # np.clip's values without its wrapper's cost
         data.ctrl[self.leg_act] = self.default + self.scale * a[:n]
         data.ctrl[self.wheel_act] = 0.0
         if a.size > n:
