@@ -8,7 +8,7 @@ import contextlib
 import json
 import sys
 from pathlib import Path
-from typing import Annotated, get_args
+from typing import Annotated, Any, get_args
 
 import typer
 
@@ -25,6 +25,31 @@ MAX_STEPS = 1_000_000
 MAX_JOBS = 256
 #: Pictures ``run`` keeps in memory for --frames and --animation (640 x 480 RGB: 0.9 MB each).
 MAX_FRAMES = 2_000
+
+
+#: ``--locomotion``: how a legged robot moves in navigation (citygen.runner.envs.legs.LOCOMOTION).
+Locomotion = Annotated[
+    str,
+    typer.Option(
+        "--locomotion",
+        help="Navigation with a legged robot: servo (the ideal locomotion servo on its base) or learned "
+        "(its legs walked by its general locomotion model at 50 Hz).",
+    ),
+]
+
+
+def _locomotion(value: str, task: str, robot: Any) -> dict[str, str]:
+    """The environment option of ``--locomotion`` (none for the default servo, so that the
+    runs and their JSON stay as they were); a one-line error for another value, or for
+    learned legs that ``task`` and ``robot`` (the Robot) cannot have, before any episode."""
+    from citygen.runner.envs.legs import LOCOMOTION, general_model
+
+    if value not in LOCOMOTION:
+        raise SpecError([Problem("--locomotion", " or ".join(LOCOMOTION), repr(value))])
+    if value == "servo":
+        return {}
+    general_model(task, robot)
+    return {"locomotion": value}
 
 
 def _robot_help() -> str:
@@ -100,6 +125,7 @@ def bench(
             "0.02 s in locomotion).  [default: the task's time limit]",
         ),
     ] = None,
+    locomotion: Locomotion = "servo",
 ) -> None:
     """Run a baseline on a split and print the URBAN-BENCH table (mean and standard error per metric)."""
     from citygen.runner.bench import run_bench
@@ -110,13 +136,16 @@ def bench(
     split = check_split(task, split or DEFAULT_SPLIT[task])
     options = {} if adapter is None else {"adapter": str(adapter)}
     loaded, policy = _robot_and_policy(task, robot, policy, options)
+    walk = _locomotion(locomotion, task, loaded)
+    options.update(walk)
     if output is not None:  # before the episodes run, not after
         check_output(output, option="--output")
     with progress_bar(episodes, _bar_enabled()) as advance:
         limit = {} if max_steps is None else {"max_steps": max_steps}
         rows = run_bench(task, split, robot=robot, policy=policy, episodes=episodes, jobs=jobs, seed=seed,
                          progress=advance, **options, **limit)  # fmt: skip
-    _print_table(rows, task=task, split=split, robot=loaded.name, policy=policy, seed=seed, output=output)
+    header = {"task": task, "split": split, "robot": loaded.name, "policy": policy, "seed": seed}
+    _print_table(rows, output=output, **header, **walk)
 
 
 def _print_table(rows: list, *, output: Path | None = None, **header) -> None:
@@ -126,8 +155,9 @@ def _print_table(rows: list, *, output: Path | None = None, **header) -> None:
 
     doc = summary_json(rows, **header)
     n = len(rows)
+    legs = " on learned legs" if header.get("locomotion") == "learned" else ""
     title = (
-        f"{header['task']} on {header['split']}: {header['robot']} robot, {header['policy']} policy, "
+        f"{header['task']} on {header['split']}: {header['robot']} robot{legs}, {header['policy']} policy, "
         f"{n} episode{'s' if n != 1 else ''}"
     )
     typer.echo(format_table(doc["summary"], title))
@@ -241,6 +271,7 @@ def run(
     output: Annotated[
         Path | None, typer.Option("--output", "-o", help="Write the table and the episode as JSON.")
     ] = None,
+    locomotion: Locomotion = "servo",
 ) -> None:
     """Run one episode on a scene and print its URBAN-BENCH table (as `citygen bench` does); optionally
     save frames or an animation."""
@@ -260,10 +291,11 @@ def run(
     check_scene_task(kind, spec.task, str(scene))
     options = {} if adapter is None else {"adapter": str(adapter)}
     loaded, policy = _robot_and_policy(kind, robot, policy, options)
+    walk = _locomotion(locomotion, kind, loaded)
+    options.update(walk)
     _check_run_outputs(output, frames, animation)
     want_pictures = frames is not None or animation is not None
-    env = make_env(kind, spec, robot=robot, adapter=None if adapter is None else str(adapter),
-                   render_mode="rgb_array" if want_pictures else None)  # fmt: skip
+    env = make_env(kind, spec, robot=robot, render_mode="rgb_array" if want_pictures else None, **options)
     pictures: list = []
     horizon = int(getattr(env, "horizon", 0)) or None
     if want_pictures and horizon is not None and horizon // every + 1 > MAX_FRAMES:
@@ -286,7 +318,7 @@ def run(
             env.close()
         advance(result["steps"], result["steps"], result)
     header = {"task": kind, "split": str(scene), "robot": loaded.name, "policy": policy, "seed": seed}
-    _print_table([result], output=output, **header)
+    _print_table([result], output=output, **header, **walk)
     if frames is not None:
         _write_frames(frames, pictures)
         typer.echo(f"wrote {plural(len(pictures), 'frame')} to {frames}/")

@@ -70,6 +70,14 @@ def train(
         str | None,
         typer.Option("--sampling", help="async (a scene per sub-environment) or sync.  [default: async]"),
     ] = None,
+    locomotion: Annotated[
+        str | None,
+        typer.Option(
+            "--locomotion",
+            help="Navigation with a legged robot: servo (the ideal servo on its base) or learned (its "
+            "general locomotion model walks it).  [default: servo]",
+        ),
+    ] = None,
     init: Annotated[
         Path | None,
         typer.Option(
@@ -96,6 +104,7 @@ def train(
         scenes=scenes,
         sampling=sampling,
         processes=processes,
+        locomotion=locomotion,
         init=None if init is None else str(init),
     )
     _check_run(cfg, out, resume)
@@ -124,8 +133,12 @@ def _check_run(cfg, out: Path, resume: bool) -> None:
     from citygen.outputs import check_output
     from citygen.runner.tasks import check_robot, check_split
 
-    check_robot(cfg.task, cfg.robot_name)
+    loaded = check_robot(cfg.task, cfg.robot_name)
     check_split(cfg.task, cfg.train_split)
+    if cfg.locomotion == "learned":
+        from citygen.runner.envs.legs import general_model
+
+        general_model(cfg.task, loaded)
     if cfg.init is not None:
         init = Path(cfg.init)
         if not (init.is_file() or (init / "model.zip").is_file()):

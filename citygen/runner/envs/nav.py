@@ -36,6 +36,7 @@ from citygen.geometry.terrain import height_at
 from citygen.runner import localmap
 from citygen.runner import metrics as M
 from citygen.runner.envs.base import _CitygenEnv
+from citygen.runner.envs.legs import learned_legs
 from citygen.runner.tasks import DEFAULT_ROBOT
 from citygen.spec import Scene
 
@@ -54,10 +55,20 @@ class NavEnv(_CitygenEnv):
 
     default_robot = DEFAULT_ROBOT["nav"]
 
-    def __init__(self, task: str = "nav-static", scene: Scene | str | Path | None = None, **kwargs: Any):
+    def __init__(
+        self,
+        task: str = "nav-static",
+        scene: Scene | str | Path | None = None,
+        *,
+        locomotion: str = "servo",
+        **kwargs: Any,
+    ):
         if not task.startswith(("nav", "traverse")):
             raise SpecError(f"task: expected a navigation task kind, got {task!r}")
         super().__init__(task, scene, **kwargs)
+        #: A legged robot's learned legs (``locomotion="learned"``, :mod:`~citygen.runner.envs.legs`)
+        #: or None (the robot's own drive: wheels, or the ideal servo on a legged robot's base).
+        self.legs = learned_legs(self, locomotion)
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         obs = {
             "goal": spaces.Box(-np.inf, np.inf, (2,), np.float32),
@@ -103,6 +114,8 @@ class NavEnv(_CitygenEnv):
         import mujoco
 
         mujoco.mj_forward(self.model, self.data)
+        if self.legs is not None:
+            self.legs.reset()
         self.steps = 0
         self.collisions = 0
         self._last_collision = False
@@ -189,7 +202,10 @@ class NavEnv(_CitygenEnv):
                     radii.append(self.crowd.radius)
                 self.traffic.step(np.concatenate(obstacles), np.concatenate(radii))
             self._write_agents()
-        self.handle.control(self.data, v, w, self._substeps)
+        if self.legs is not None:
+            self.legs.walk(v, w)
+        else:
+            self.handle.control(self.data, v, w, self._substeps)
         self.steps += 1
         return self._after_step()
 
@@ -220,7 +236,10 @@ class NavEnv(_CitygenEnv):
         return False
 
     def _fallen(self, z: float, x: float, y: float, yaw: float) -> bool:
-        """Tipped over (base tilted more than 60 degrees) or fallen through the ground."""
+        """Tipped over (base tilted more than 60 degrees) or fallen through the ground; on
+        learned legs, LocoEnv's fall (:class:`~citygen.runner.envs.legs.LearnedLegs`)."""
+        if self.legs is not None:
+            return self.legs.fell
         up = self.data.xmat[self.handle.base_id][8]
         return bool(up < 0.5 or z < self._ground_under(x, y, yaw) - 0.5)
 
@@ -250,6 +269,8 @@ class NavEnv(_CitygenEnv):
             left = 0.0 if success else self.prepared.geodesic((x, y), self.goal, self.tolerance)
             self.recorder.finish(success=success, distance_left=left if math.isfinite(left) else d)
             info["metrics"] = M.nav_metrics(self.recorder)
+            if self.legs is not None:  # on learned legs: whether the episode ended in a fall
+                info["metrics"]["fall_rate"] = 100.0 * self.legs.fell
             if self.traffic_record is not None:
                 info["metrics"].update(self.traffic_record.metrics())
             info["is_success"] = success

@@ -81,6 +81,11 @@ class TrainConfig(BaseModel):
         description="async: every sub-environment draws its own scene at each reset; sync: "
         "all sub-environments run the same scene, a new one every rollout.",
     )
+    locomotion: Literal["servo", "learned"] = Field(
+        "servo",
+        description="Navigation with a legged robot: on the ideal servo on its base, or on learned "
+        "legs (its general locomotion model; citygen.runner.envs.legs).",
+    )
     # PPO (paper defaults)
     n_steps: Annotated[int, Field(ge=1, le=100_000)] = Field(
         200, description="Rollout steps per sub-environment (the horizon)."

@@ -66,7 +66,7 @@ class SceneSchedule(gymnasium.Wrapper):
 def _sub_env(
     task: str, split: str, robot: str, scenes: int | None, sampling: str, seed: int, rank: int, period: int,
     progress: float = 0.0, gamma: float = 0.99, reverse: float = 0.0, keys: tuple[str, ...] | None = None,
-    loco: dict[str, Any] | None = None,
+    loco: dict[str, Any] | None = None, locomotion: str = "servo",
 ) -> gymnasium.Env:  # fmt: skip
     import multiprocessing
     import signal
@@ -77,7 +77,8 @@ def _sub_env(
         # A worker of the vector env: Ctrl-C is the trainer's to handle (it saves a checkpoint
         # and closes the workers), not a traceback in every worker.
         signal.signal(signal.SIGINT, signal.SIG_IGN)
-    env = make_env(task, split=split, robot=robot, observations=keys)  # only what the policy reads
+    walk = {} if locomotion == "servo" else {"locomotion": locomotion}  # learned legs (envs.legs)
+    env = make_env(task, split=split, robot=robot, observations=keys, **walk)  # only what the policy reads
     if (progress or reverse) and task.startswith("nav"):
         from citygen.runner.learn.shaping import ProgressReward
 
@@ -207,6 +208,7 @@ def make_training_env(cfg: TrainConfig) -> Sb3VecEnv:
             cfg.reverse,
             tuple(cfg.obs_keys),
             {"shaping": cfg.gait_shaping, "command_mix": cfg.command_mix, "curriculum": cfg.curriculum},
+            cfg.locomotion,
         )
         for rank in range(cfg.envs)
     ]

@@ -1,0 +1,156 @@
+"""Navigation on learned legs: a legged robot that walks where navigation sends it on its
+general locomotion model instead of the ideal servo on its base.
+
+``make_env("nav-static", robot="quadruped", locomotion="learned")`` (``--locomotion
+learned`` on ``citygen bench``, ``run`` and ``train``; :data:`LOCOMOTION`) gives the
+:class:`~citygen.runner.envs.nav.NavEnv` a :class:`LearnedLegs`: each navigation step's
+action, the velocity ``(v, w)`` the servo would track, becomes the velocity command
+``(vx, vy, wz) = (v, 0, w)`` of the robot's general locomotion model
+(:func:`citygen.runner.learn.shipped_models.general_locomotion`), which sets the joints'
+targets every :data:`~citygen.runner.envs.loco.LOCO_DT` s (50 Hz; several times per
+navigation step) from what :class:`~citygen.runner.envs.loco.LocoEnv` would observe in the
+same state (:func:`citygen.runner.envs.legged.leg_observation`), on the same MJCF robot, PD
+servos and contacts. The robot starts standing with its feet on the ground, as in
+locomotion. A fall (LocoEnv's rule: the body, not the legs, pressing on the ground with
+more than :data:`~citygen.runner.envs.loco.FALL_FORCE` N, checked after every 50 Hz step)
+ends the navigation episode as leaving the scene does: a failure (success 0, SPL 0, the
+route completed up to the fall, reward -100), counted by the episode's ``fall_rate``
+metric (100 when it ended in a fall, else 0).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from citygen.errors import Problem, SpecError
+from citygen.runner.envs import legged
+from citygen.runner.envs.loco import FALL_FORCE, LOCO_DT
+
+#: Values of the ``locomotion`` option: the ideal servo on the base (the default, with which
+#: the shipped navigation results were measured) or the robot's learned general model.
+LOCOMOTION = ("servo", "learned")
+
+
+def learned_legs(env: Any, locomotion: str) -> LearnedLegs | None:
+    """The learned legs of navigation environment ``env`` for ``locomotion`` (None for the
+    servo), or a one-line error: an unknown value, a task other than navigation, a robot
+    without legs or without a shipped general locomotion model."""
+    if locomotion not in LOCOMOTION:
+        raise SpecError([Problem("locomotion", " or ".join(LOCOMOTION), repr(locomotion))])
+    if locomotion == "servo":
+        return None
+    return LearnedLegs(env)
+
+
+def general_model(task: str, robot: Any) -> Path:
+    """The general locomotion model that walks ``robot`` (a :class:`~citygen.runner.robots.Robot`)
+    through navigation ``task`` on learned legs, or a one-line error: a task other than
+    navigation, a robot without legs or without a shipped general locomotion model."""
+    from citygen.runner.learn.shipped_models import PolicyError, general_locomotion
+
+    if not task.startswith("nav"):
+        tasks = "nav-clear, nav-static, nav-dynamic"
+        raise SpecError(f"--locomotion learned: expected a navigation task ({tasks}), got {task}")
+    if not robot.leg_joints:
+        raise SpecError(
+            f"--locomotion learned: the {robot.name} robot has no legs to walk on; "
+            "expected a legged robot, or --locomotion servo"
+        )
+    try:
+        return general_locomotion(robot.name)
+    except PolicyError as exc:
+        raise PolicyError(f"--locomotion learned: {exc}") from None
+
+
+class LearnedLegs:
+    """The general locomotion model walking ``env``'s legged robot (see the module
+    docstring): :meth:`reset` after the environment's, :meth:`walk` instead of the servo's
+    control step, :attr:`fell` for the environment's end of episode."""
+
+    def __init__(self, env: Any):
+        from citygen.runner.learn.export import read_policy
+        from citygen.runner.learn.shipped_models import PolicyError
+
+        robot = env.robot
+        path = general_model(env.task_kind, robot)
+        try:
+            self.policy = read_policy(path)
+        except ValueError as exc:
+            raise PolicyError(f"{path}: expected a policy exported by `citygen train`, got {exc}") from None
+        n, n_actions = len(robot.leg_joints), len(robot.leg_joints) + len(robot.loco_wheels)
+        want = legged.leg_spaces(n, n_actions, env._height_space())
+        for key, shape in self.policy.shapes.items():
+            if key not in want or tuple(want[key].shape) != shape:
+                found = "no such key" if key not in want else f"shape {tuple(want[key].shape)}"
+                raise PolicyError(
+                    f"{path}: observation {key!r} of shape {shape}: the {robot.name} robot's "
+                    f"locomotion observation has {found}"
+                )
+        if tuple(self.policy.meta["action_shape"]) != (n_actions,):
+            raise PolicyError(
+                f"{path}: action: expected shape ({n_actions},) for the {robot.name} robot, "
+                f"the policy gives {tuple(self.policy.meta['action_shape'])}"
+            )
+        self.env = env
+        self.path = path
+        self.keys = self.policy.keys
+        #: 50 Hz steps per navigation step.
+        self.repeats = max(1, round(env.dt / LOCO_DT))
+        self.command = np.zeros(3)
+        self.last_action = np.zeros(n_actions)
+        self.fell = False
+        self._force = np.zeros(6)  # mj_contactForce's output
+        self._handle = None  # the robot handle the ids below are of
+
+    def _bind(self) -> None:
+        """The ids of the current scene's robot: the geoms whose pressing on the ground is a
+        fall, the ground's, the ``joint_vel`` dofs, and the physics steps of one 50 Hz step."""
+        env = self.env
+        if self._handle is env.handle:
+            return
+        fall = legged.fall_geoms(env.model, env.handle, env._robot_geoms)
+        self._fall_ids = frozenset(np.flatnonzero(fall).tolist())
+        self._ground_ids = frozenset(np.flatnonzero(env.prepared.ground_geoms).tolist())
+        self._vel_dofs = legged.joint_vel_dofs(env.handle)
+        self._substeps = max(1, round(LOCO_DT / env.model.opt.timestep))
+        self._handle = env.handle
+
+    def reset(self) -> None:
+        """A new episode: the robot standing with its feet on the ground under each where the
+        environment put it (as LocoEnv starts), no command, no last action, not fallen."""
+        env = self.env
+        x, y, _, yaw = env.handle.pose(env.data)
+        env._spawn(x, y, yaw)
+        self._bind()
+        self.command[:] = 0.0
+        self.last_action[:] = 0.0
+        self.fell = False
+
+    def observation(self) -> dict[str, np.ndarray]:
+        """What the locomotion model reads now (LocoEnv's observation in this state)."""
+        env = self.env
+        pose = env.handle.pose(env.data)
+        return legged.leg_observation(env, self.keys, self.command, self.last_action, self._vel_dofs, pose)
+
+    def walk(self, v: float, w: float) -> None:
+        """One navigation step: the command ``(v, 0, w)`` (m/s, rad/s) to the locomotion
+        model, which sets the joints' targets every :data:`LOCO_DT` s (:attr:`repeats`
+        times) as in LocoEnv's step; stops at a fall (:attr:`fell`)."""
+        import mujoco
+
+        env = self.env
+        self._bind()
+        m, d, h = env.model, env.data, env.handle
+        self.command[:] = (v, 0.0, w)
+        for _ in range(self.repeats):
+            a = np.asarray(self.policy.act(self.observation()), dtype=np.float64)
+            a = np.minimum(np.maximum(a, -1.0), 1.0)
+            h.joint_action(d, a)
+            mujoco.mj_step(m, d, nstep=self._substeps)
+            self.last_action = a
+            if legged.body_ground_force(m, d, self._fall_ids, self._ground_ids, self._force) > FALL_FORCE:
+                self.fell = True
+                return

@@ -1,0 +1,155 @@
+"""Navigation on learned legs (``locomotion="learned"``, :mod:`citygen.runner.envs.legs`):
+every legged robot with a general locomotion model walks a navigation task on it, seeing
+what LocoEnv would show it; a fall ends the episode as a failure; everything else is one
+line and exit 2.
+
+No general model ships yet: the shipped LocoFlat model stands in for the quadruped's (a copy
+whose metadata says it was trained on the general split), beside copies of the shipped files.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+
+import mujoco
+import numpy as np
+import pytest
+
+from citygen.io import load_scene
+from citygen.runner.learn import shipped_models
+from citygen.runner.learn.export import write_policy
+from citygen.runner.make import make_env
+from citygen.runner.robots import BUILTIN, load_robot
+from citygen.spec.task import LocoTask
+from tests.conftest import EXAMPLES
+
+NAV = next(p for p in EXAMPLES if p.name == "nav_static_10m.json")
+LEGGED = [name for name in BUILTIN if load_robot(name).leg_joints]
+
+
+@pytest.fixture
+def general(tmp_path, monkeypatch) -> dict[str, object]:
+    """The shipped files, and the LocoFlat model as the quadruped's general model if it has
+    none; ``robot -> file`` of the general models."""
+    for path in shipped_models.BASELINES.glob("*.npz"):
+        shutil.copy(path, tmp_path / path.name)
+    if "quadruped" not in shipped_models._shipped_files()[1]:
+        with np.load(shipped_models.BASELINES / "loco-flat-quadruped.npz") as data:
+            arrays = {k: data[k] for k in data.files}
+        meta = json.loads(str(arrays.pop("meta")))
+        meta["train"] = {**meta["train"], "split": shipped_models.GENERAL_LOCO_SPLIT}
+        write_policy(tmp_path / "loco-general-quadruped.npz", meta, arrays)
+    monkeypatch.setattr(shipped_models, "BASELINES", tmp_path)
+    return shipped_models._shipped_files()[1]
+
+
+@pytest.mark.parametrize("robot", LEGGED)
+def test_every_legged_robot_with_a_general_model_walks_a_nav_task_on_it(general, robot):
+    if robot not in general:
+        with pytest.raises(
+            shipped_models.PolicyError, match=f"no general locomotion model shipped for robot {robot}"
+        ):
+            make_env("nav-static", NAV, robot=robot, locomotion="learned")
+        return
+    env = make_env("nav-static", NAV, robot=robot, locomotion="learned")
+    servo = make_env("nav-static", NAV, robot=robot)
+    assert env.observation_space == servo.observation_space  # navigation sees the same keys
+    assert env.legs.path == general[robot] and env.legs.repeats == 5  # 0.1 s nav step, 50 Hz legs
+    for episode in range(2):
+        obs, _ = env.reset(seed=episode)
+        assert env.legs.command.tolist() == [0.0, 0.0, 0.0] and not env.legs.last_action.any()
+        x0, y0, _, yaw = env.handle.pose(env.data)
+        for _ in range(10):
+            obs, _, terminated, truncated, _ = env.step(np.array([1.0, 0.0]))
+            assert not (terminated or truncated)
+        x, y, _, _ = env.handle.pose(env.data)
+        ahead = (x - x0) * math.cos(yaw) + (y - y0) * math.sin(yaw)
+        assert ahead > 0.3, ahead  # 1 s of a 1 m/s command: it walked forward
+        assert not env.handle._damped  # the servo never ran: the legs carried it
+        assert env.legs.command.tolist() == [env.robot.max_speed, 0.0, 0.0]
+        targets = env.data.ctrl[env.handle.leg_act]
+        assert not np.allclose(targets, env.handle.default)  # the model sets the joints' targets
+        assert set(obs) == set(servo.observation_space.spaces)
+
+
+def test_the_locomotion_model_sees_what_locoenv_would_in_the_same_state(general):
+    """The observation the model reads inside the nav env is LocoEnv's, key for key and bit
+    for bit, with LocoEnv put in the same MuJoCo state, command and last action."""
+    env = make_env("nav-static", NAV, robot="quadruped", locomotion="learned")
+    env.reset(seed=0)
+    for _ in range(3):
+        env.step(np.array([0.8, 0.3]))
+    scene = load_scene(NAV)
+    start = scene.task.start
+    loco = make_env(
+        "loco-flat",
+        scene.model_copy(update={"task": LocoTask(kind="loco-flat", start=start, time_limit=20.0)}),
+        robot="quadruped",
+        randomize=False,
+    )
+    loco.reset(seed=0)
+    assert (loco.model.nq, loco.model.ngeom) == (env.model.nq, env.model.ngeom)
+    for name in ("qpos", "qvel", "act", "ctrl"):
+        getattr(loco.data, name)[:] = getattr(env.data, name)
+    for m, d in ((env.model, env.data), (loco.model, loco.data)):
+        mujoco.mj_forward(m, d)  # both states' derived quantities (the base's rotation) from qpos
+    loco.command, loco.last_action = env.legs.command.copy(), env.legs.last_action.copy()
+    seen, expected = env.legs.observation(), loco._observation()
+    assert set(seen) == set(env.legs.policy.keys) <= set(expected)
+    for key in seen:
+        assert seen[key].dtype == expected[key].dtype and np.array_equal(seen[key], expected[key]), key
+    assert seen["command"].tolist() == pytest.approx(
+        [0.8 * env.robot.max_speed, 0.0, 0.3 * env.robot.max_yaw_rate]
+    )
+
+
+def test_a_fall_ends_the_navigation_episode_as_a_failure(general):
+    """Put upside down, the body lands on the ground: LocoEnv's fall, the end of the episode
+    (reward -100, no success) with ``fall_rate`` 100."""
+    env = make_env("nav-static", NAV, robot="quadruped", locomotion="learned")
+    env.reset(seed=0)
+    q = env.handle.qadr
+    env.data.qpos[q + 2] += 0.3
+    env.data.qpos[q + 3 : q + 7] = (0.0, 1.0, 0.0, 0.0)  # half a turn about x
+    mujoco.mj_forward(env.model, env.data)
+    for _ in range(20):
+        _, reward, terminated, truncated, info = env.step(np.zeros(2))
+        if terminated or truncated:
+            break
+    assert terminated and env.legs.fell and reward < -90
+    assert info["is_success"] is False
+    assert info["metrics"]["fall_rate"] == 100.0 and info["metrics"]["success_rate"] == 0.0
+
+
+def test_learned_legs_need_a_legged_robot_and_a_navigation_task(general):
+    with pytest.raises(shipped_models.PolicyError, match="humanoid"):
+        make_env("nav-static", NAV, robot="humanoid", locomotion="learned")
+    with pytest.raises(Exception, match="the wheeled robot has no legs"):
+        make_env("nav-static", NAV, robot="wheeled", locomotion="learned")
+    with pytest.raises(Exception, match="a navigation option; loco-flat"):
+        make_env("loco-flat", robot="quadruped", locomotion="learned")
+    with pytest.raises(Exception, match="locomotion"):
+        make_env("nav-static", NAV, robot="quadruped", locomotion="walk")
+    assert make_env("nav-static", NAV, robot="wheeled", locomotion="servo").legs is None
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["--robot", "humanoid"], ["--locomotion learned", "humanoid", "shipped for: quadruped"]),
+        (["--robot", "wheeled"], ["--locomotion learned", "wheeled", "no legs"]),
+        (["--robot", "quadruped", "--task", "loco-flat", "--policy", "stand"], ["--locomotion learned"]),
+    ],
+)
+def test_the_cli_refuses_learned_legs_it_cannot_have_in_one_line(general, cli, args, words):
+    for command in (["bench", "--task", "nav-static", "-n", "1"], ["run", str(NAV)]):
+        if command[0] == "run" and "loco-flat" in args:
+            continue  # the example scene holds a navigation task
+        result = cli(*command, *args, "--locomotion", "learned")
+        lines = result.err.strip().splitlines()
+        assert result.code == 2 and len(lines) == 1 and "Traceback" not in result.err, result
+        assert all(word in lines[0] for word in words), lines[0]
+    result = cli("bench", "--task", "nav-static", "-n", "1", "--locomotion", "walk")
+    assert result.code == 2 and "--locomotion" in result.err and "servo or learned" in result.err
