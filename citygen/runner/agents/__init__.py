@@ -10,6 +10,8 @@
 - :mod:`~citygen.runner.agents.lanes`: the paths vehicles drive through their route of blocks;
 - :mod:`~citygen.runner.agents.signals`: signal states in time, crosswalks and the roadway,
   and people who wait for *walk*;
+- :mod:`~citygen.runner.agents.footprints`: vehicles' footprints as people see them (the
+  discs covering them, how deep a disc reaches into one);
 - :mod:`~citygen.runner.agents.vec2`: 2-D vector helpers.
 
 The submodules are imported where they are used (a scene without agents needs none of them).

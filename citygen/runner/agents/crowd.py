@@ -28,7 +28,11 @@ robot, which is pushed out of first. So people never overlap each other (beyond
 :data:`OVERLAP_SLACK`) and keep out of the robot's disc unless it pins them against a
 wall.
 
-Vehicles are :mod:`citygen.runner.agents.traffic`'s.
+Vehicles (:mod:`citygen.runner.agents.traffic`'s) are non-cooperative too: each is the discs
+covering its footprint (:func:`~citygen.runner.agents.footprints.covering_discs`) moving at
+its speed, and a step that would take a person deeper into a vehicle's footprint, grown by
+the vehicle's next step, is not taken (an escape step or none instead): people never walk
+into a vehicle; keeping clear of people ahead is the vehicle's part.
 
 >>> import numpy as np
 >>> pos = np.array([[-2.0, 0.05], [2.0, 0.0]])  # walking at each other, 5 cm off the line

@@ -17,8 +17,12 @@ its route. A vehicle's front bumper passes a stop line only
   in a junction or on a roundabout's ring have the right of way: first come, first served);
 - when its exit is not blocked by a standing queue (it does not block the box).
 
-Otherwise the stop line is a standing obstacle for IDM. Vehicles keep their distance to
-whatever stands on the path ahead of them (other vehicles, people, the robot), keep the
+Otherwise the stop line is a standing obstacle for IDM. A trip starts where the vehicle's
+rear has left any junction its body would be in at its start (past the exit's crosswalks,
+further on where another vehicle stands there) and ends with its front at its goal, or at the
+stop line of a junction its body would be in there: no vehicle waits on a crosswalk or in a
+junction box between trips. Vehicles keep their distance to whatever stands on the path ahead
+of them (other vehicles, people, the robot; the path goes on past the goal for looking), keep the
 speed limit of each block (:func:`~citygen.runner.agents.lanes.speed_limit`, anticipated
 over the braking distance), and a final pass takes back any step that would make two
 vehicles overlap. Signal states come from :class:`~citygen.runner.agents.signals.SignalPlan`.
