@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from citygen.io import load_scene
+from citygen.runner.envs.legs import free_damping
 from citygen.runner.learn import shipped_models
 from citygen.runner.learn.export import write_policy
 from citygen.runner.make import make_env
@@ -56,6 +57,10 @@ def test_every_legged_robot_with_a_general_model_walks_a_nav_task_on_it(general,
     env = make_env("nav-static", NAV, robot=robot, locomotion="learned")
     servo = make_env("nav-static", NAV, robot=robot)
     assert env.observation_space == servo.observation_space  # navigation sees the same keys
+    env.reset(seed=0)
+    servo.reset(seed=0)
+    servo.step(np.array([1.0, 0.0]))  # its servo damps the free joint of the scene they share
+    assert servo.model is env.model and servo.handle._damped
     assert env.legs.path == general[robot] and env.legs.repeats == 5  # 0.1 s nav step, 50 Hz legs
     for episode in range(2):
         obs, _ = env.reset(seed=episode)
@@ -68,6 +73,8 @@ def test_every_legged_robot_with_a_general_model_walks_a_nav_task_on_it(general,
         ahead = (x - x0) * math.cos(yaw) + (y - y0) * math.sin(yaw)
         assert ahead > 0.3, ahead  # 1 s of a 1 m/s command: it walked forward
         assert not env.handle._damped  # the servo never ran: the legs carried it
+        free = env.model.dof_damping[env.handle.dadr : env.handle.dadr + 6]
+        assert free.tolist() == free_damping(env.robot).tolist()  # the servo's damping is gone
         assert env.legs.command.tolist() == [env.robot.max_speed, 0.0, 0.0]
         targets = env.data.ctrl[env.handle.leg_act]
         assert not np.allclose(targets, env.handle.default)  # the model sets the joints' targets

@@ -65,6 +65,18 @@ def general_model(task: str, robot: Any) -> Path:
         raise PolicyError(f"--locomotion learned: {exc}") from None
 
 
+def free_damping(robot: Any) -> np.ndarray:
+    """The damping of ``robot``'s free joint as its own MJCF has it. The ideal servo writes
+    its velocity feedback there in the compiled scene's model (``RobotHandle._damp``), which
+    every environment of the process on that scene shares: legs walking after a servo (a
+    bench of both in one process) put it back."""
+    import mujoco
+
+    model = mujoco.MjModel.from_xml_string(robot.xml, dict(robot.assets))
+    a = int(model.jnt_dofadr[model.body_jntadr[model.body(robot.base_body).id]])
+    return model.dof_damping[a : a + 6].copy()
+
+
 class LearnedLegs:
     """The general locomotion model walking ``env``'s legged robot (see the module
     docstring): :meth:`reset` after the environment's, :meth:`walk` instead of the servo's
@@ -102,6 +114,7 @@ class LearnedLegs:
         self.command = np.zeros(3)
         self.last_action = np.zeros(n_actions)
         self.fell = False
+        self._free_damping = free_damping(robot)
         self._force = np.zeros(6)  # mj_contactForce's output
         self._handle = None  # the robot handle the ids below are of
 
@@ -145,6 +158,7 @@ class LearnedLegs:
         self._bind()
         m, d, h = env.model, env.data, env.handle
         self.command[:] = (v, 0.0, w)
+        m.dof_damping[h.dadr : h.dadr + 6] = self._free_damping  # no servo's (free_damping)
         for _ in range(self.repeats):
             a = np.asarray(self.policy.act(self.observation()), dtype=np.float64)
             a = np.minimum(np.maximum(a, -1.0), 1.0)
