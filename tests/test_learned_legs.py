@@ -160,3 +160,12 @@ def test_the_cli_refuses_learned_legs_it_cannot_have_in_one_line(general, cli, a
         assert all(word in lines[0] for word in words), lines[0]
     result = cli("bench", "--task", "nav-static", "-n", "1", "--locomotion", "walk")
     assert result.code == 2 and "--locomotion" in result.err and "servo or learned" in result.err
+
+
+@pytest.mark.parametrize(("robot", "word"), [("humanoid", "shipped for: quadruped"), ("wheeled", "no legs")])
+def test_train_refuses_learned_legs_it_cannot_have_before_it_starts(general, cli, tmp_path, robot, word):
+    args = ["--task", "nav-static", "--robot", robot, "--locomotion", "learned", "--out", tmp_path]
+    result = cli("train", *args)
+    lines = result.err.strip().splitlines()
+    assert result.code == 2 and len(lines) == 1 and word in lines[0], result
+    assert "training PPO" not in result.out
