@@ -80,19 +80,14 @@ def run_subprocess(*args: str, env: dict | None = None, cwd: Path = ROOT) -> Res
     return Result(proc.returncode, proc.stdout, proc.stderr)
 
 
-@pytest.fixture(scope="module")
-def town():
+@pytest.fixture(scope="session")
+def town_config():
     """urban-tra-city's config on 400 m x 400 m (a ninth of its area, with a ninth of its
-    objects, people and vehicles and a 300 m traverse), where a test needs the city's kinds of
-    streets, signals, objects and agents but not its size: MuJoCo's and dm_control's parsers
-    take minutes on the whole city, whose own MJCF test_export_city compiles and steps.
-    Module-scoped; test_traffic_city's environment and test_export_city's dm_control check."""
+    objects, people and vehicles and a 300 m traverse): the ``town`` fixture's config."""
     import citygen
-    from citygen.generate import generate
-    from citygen.seeding import scene_seed
 
     config = citygen.splits()["urban-tra-city"].config
-    config = config.model_copy(
+    return config.model_copy(
         update={
             "size": (400.0, 400.0),
             "placement": config.placement.model_copy(update={"count": config.placement.count // 9}),
@@ -102,6 +97,18 @@ def town():
             "task": config.task.model_copy(update={"min_distance": 300.0}),
         }
     )
-    scene = generate(config, scene_seed(2025, "urban-tra-city", 0))
+
+
+@pytest.fixture(scope="module")
+def town(town_config):
+    """A town of ``town_config``, where a test needs the city's kinds of streets, signals,
+    objects and agents but not its size: MuJoCo's and dm_control's parsers take minutes on
+    the whole city, whose own MJCF test_export_city compiles and steps. Module-scoped;
+    test_traffic_city's environment and test_export_city's dm_control check."""
+    import citygen
+    from citygen.generate import generate
+    from citygen.seeding import scene_seed
+
+    scene = generate(town_config, scene_seed(2025, "urban-tra-city", 0))
     assert scene.signals and citygen.validate(scene) == []
     return scene

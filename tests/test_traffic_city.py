@@ -25,9 +25,10 @@ from shapely.geometry import Polygon
 
 import citygen
 from citygen.geometry.roads import block_geometry
+from citygen.runner.agents.footprints import rectangles
 from citygen.runner.agents.lanes import STOP_MARGIN
 from citygen.runner.agents.signals import Crossings, SignalCrowd
-from citygen.runner.agents.traffic import CityTraffic, rectangles
+from citygen.runner.agents.traffic import CityTraffic
 
 pytestmark = pytest.mark.slow
 
@@ -82,16 +83,26 @@ class Invariants:
             self.lines.append(lines)
             self.signal_of.append(s.junction)
         self.tree = shapely.STRtree(self.boxes)
-        self.overlaps = self.red_entries = self.off_crosswalk = self.no_walk_entries = 0
+        self.overlaps = self.red_entries = self.off_crosswalk = self.no_walk_entries = self.hits = 0
+        self.worst_hit = 0.0
         self.entries = 0
         self._inside: np.ndarray | None = None
         self._walk_before: np.ndarray | None = None
 
-    def vehicles(self, traffic: CityTraffic, t_before: float, s_before: np.ndarray) -> None:
+    def vehicles(self, traffic: CityTraffic, t_before: float, s_before: np.ndarray, people=None) -> None:
+        """Vehicles' footprints against each other and against ``people`` (a crowd: each
+        person's disc), and entries into signalised junctions against red."""
         rects = [Polygon(r) for r in rectangles(traffic.pos, traffic.yaw, traffic.length, traffic.width)]
-        a, b = shapely.STRtree(rects).query(rects, predicate="intersects")
+        tree = shapely.STRtree(rects)
+        a, b = tree.query(rects, predicate="intersects")
         pairs = [(i, j) for i, j in zip(a.tolist(), b.tolist(), strict=True) if i < j]
         self.overlaps += sum(rects[i].intersection(rects[j]).area > 1e-6 for i, j in pairs)
+        if people is not None and len(people.pos):
+            discs = shapely.points(people.pos)
+            p, v = tree.query(discs, predicate="dwithin", distance=float(people.radius.max()))
+            reach = people.radius[p] - shapely.distance(discs[p], np.asarray(rects, dtype=object)[v])
+            self.hits += int(np.count_nonzero(reach > 1e-6))
+            self.worst_hit = max(self.worst_hit, float(reach.max(initial=0.0)))
         fwd = np.stack([np.cos(traffic.yaw), np.sin(traffic.yaw)], axis=1)
         front = traffic.pos + fwd * (traffic.length / 2)[:, None]
         inside = np.full(len(front), -1)
@@ -133,15 +144,18 @@ def test_ten_minutes_of_city_traffic_keep_every_rule_at_every_step(city):
     held = 0
     for _ in range(STEPS):
         t, s = traffic.t, traffic.s.copy()
-        people.step(robot, np.zeros(2), robot_radius)
+        people.step(robot, np.zeros(2), robot_radius, traffic.footprints())
         traffic.step(
             np.concatenate([robot[None], people.pos]), np.concatenate([[robot_radius], people.radius])
         )
-        check.vehicles(traffic, t, s)
+        check.vehicles(traffic, t, s, people)
         check.people(people.pos, t)
         held += people.held
     assert traffic.t == pytest.approx(STEPS * DT)
     assert (check.overlaps, check.red_entries, check.off_crosswalk, check.no_walk_entries) == (0, 0, 0, 0)
+    assert check.hits == 0, (
+        f"people inside vehicles' footprints {check.hits} times, by up to {check.worst_hit:.2f} m"
+    )
     # The rules are exercised, not vacuous: vehicles drove through signalised junctions,
     # people waited for walk, and the traffic moved on.
     assert check.entries > 50 and held > 0
@@ -162,9 +176,43 @@ def test_the_traverse_env_on_a_town_keeps_the_same_rules(town, tmp_path):
     for _ in range(40):
         t, s = env.traffic.t, env.traffic.s.copy()
         *_, terminated, truncated, info = env.step(np.zeros(2))
-        check.vehicles(env.traffic, t, s)
+        check.vehicles(env.traffic, t, s, env.crowd)
         check.people(env.crowd.pos, t)
     assert truncated and not terminated
-    assert (check.overlaps, check.red_entries, check.off_crosswalk, check.no_walk_entries) == (0, 0, 0, 0)
+    assert (check.overlaps, check.red_entries, check.off_crosswalk, check.no_walk_entries, check.hits) == (
+        0,
+    ) * 5
     assert {"red_light_crossings", "roadway_incursions"} <= set(info["metrics"])
     assert info["metrics"]["roadway_incursions"] == 0  # standing on the sidewalk at the start
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_vehicles_and_people_never_touch_in_towns_of_several_seeds(town, town_config, seed):
+    """The town's streets with more people and vehicles, made again from several seeds (the
+    agents' starts and routes): at every step of 20 s no person's disc reaches into a
+    vehicle's footprint (an oriented rectangle) and no two footprints overlap, vehicles
+    starting inside a junction included (they start past its exit)."""
+    from citygen.exporters.occupancy import occupancy
+    from citygen.generate.pipeline import rebuild
+    from citygen.runner.agents.crowd import Crowd
+    from citygen.runner.scenes import map_resolution
+
+    more = town_config.agents.model_copy(update={"people": 40, "vehicles": 8})
+    scene = rebuild(town, "placement", town_config.model_copy(update={"agents": more}), seed=seed)
+    crossings = Crossings(scene)
+    crowd = Crowd(scene, occupancy(scene, map_resolution(scene)), rng=np.random.default_rng(seed), dt=DT)
+    people, traffic = SignalCrowd(crowd, crossings), CityTraffic(scene, dt=DT, crossings=crossings)
+    robot = np.asarray(scene.task.start.position, dtype=float)
+    check = Invariants(scene, crossings)
+    check.vehicles(traffic, 0.0, traffic.s.copy(), people)
+    start = traffic.s.copy()
+    for _ in range(200):
+        t, s = traffic.t, traffic.s.copy()
+        people.step(robot, np.zeros(2), 0.4, traffic.footprints())
+        traffic.step(np.concatenate([robot[None], people.pos]), np.concatenate([[0.4], people.radius]))
+        check.vehicles(traffic, t, s, people)
+    assert (check.overlaps, check.red_entries) == (0, 0)
+    assert check.hits == 0, (
+        f"people inside vehicles' footprints {check.hits} times, by up to {check.worst_hit:.2f} m"
+    )
+    assert len(traffic.ids) == 8 and np.all(traffic.s != start)  # every vehicle drove
