@@ -186,10 +186,10 @@ def test_the_traverse_env_on_a_town_keeps_the_same_rules(town, tmp_path):
     assert info["metrics"]["roadway_incursions"] == 0  # standing on the sidewalk at the start
 
 
-@pytest.mark.parametrize("seed", [1, 2, 3])
-def test_vehicles_and_people_never_touch_in_towns_of_several_seeds(town, town_config, seed):
-    """The town's streets with more people and vehicles, made again from several seeds (the
-    agents' starts and routes): at every step of 20 s no person's disc reaches into a
+def test_vehicles_and_people_never_touch_in_a_crowded_town(town, town_config, seed=1):
+    """The town's streets with more people and vehicles, made again from another seed (the
+    agents' starts and routes; one seed: the targeted tests of test_traffic.py and test_crowd.py
+    hold the two failures the issue found): at every step of 20 s no person's disc reaches into a
     vehicle's footprint (an oriented rectangle) and no two footprints overlap, vehicles
     starting inside a junction included (they start past its exit)."""
     from citygen.exporters.occupancy import occupancy
