@@ -122,6 +122,16 @@ def table(results: dict) -> str:
     return "\n".join(lines)
 
 
+def _save(key: str, entry: dict) -> dict:
+    """Write one cell into the results file as it is now (other runs of this script may have
+    written cells since this one read it); the file's cells, this one's included."""
+    results = json.loads(RESULTS.read_text()) if RESULTS.exists() else {}
+    results[key] = entry
+    RESULTS.parent.mkdir(parents=True, exist_ok=True)
+    write_atomic(RESULTS, (json.dumps(results, indent=1, sort_keys=True) + "\n").encode())
+    return results
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--episodes", type=int, default=256)
@@ -148,8 +158,7 @@ def main() -> None:
                     continue
                 results[key] = measure(robot, task, policy, args.episodes, args.jobs)
                 print(key, _cell(results[key]), f"({results[key]['seconds']} s)", flush=True)
-                RESULTS.parent.mkdir(parents=True, exist_ok=True)
-                write_atomic(RESULTS, (json.dumps(results, indent=1, sort_keys=True) + "\n").encode())
+                results = _save(key, results[key])
     text = table(results)
     print(text)
     if args.readme:
