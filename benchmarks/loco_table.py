@@ -68,10 +68,11 @@ def _digest(robot: str, task: str, policy: str) -> str:
 def measure(robot: str, task: str, policy: str, episodes: int, jobs: int) -> dict:
     """One cell: the summary of ``episodes`` test episodes."""
     start = time.perf_counter()
-    rows = run_bench(task, DEFAULT_SPLIT[task], robot=robot, policy=policy, episodes=episodes, jobs=jobs)
+    file = shipped().get((task, robot)) if policy == "ppo" else None
+    name = str(file) if file else policy
+    rows = run_bench(task, DEFAULT_SPLIT[task], robot=robot, policy=name, episodes=episodes, jobs=jobs)
     doc = summary_json(rows, task=task, robot=robot, policy=policy)
     summary = {k: doc["summary"][k] for k in METRICS}
-    file = shipped().get((task, robot)) if policy == "ppo" else None
     return {
         "summary": summary, "episodes": episodes, "seconds": round(time.perf_counter() - start, 1),
         "digest": _digest(robot, task, policy), "file": file.name if file else None,

@@ -100,6 +100,20 @@ class Interrupted(CitygenError):
     exit_code = 130
 
 
+def is_interrupt(exc: BaseException) -> bool:
+    """Whether ``exc`` is a Ctrl-C (or SIGTERM turned into one): a :class:`KeyboardInterrupt`,
+    or the :class:`SystemError` a numba-compiled function raises when the interrupt arrives
+    while it runs (``returned a result with an exception set``, the interrupt its cause)."""
+    seen = 0
+    while exc is not None and seen < 8:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        if not isinstance(exc, SystemError):
+            return False
+        exc, seen = exc.__cause__ or exc.__context__, seen + 1
+    return False
+
+
 class DependencyMissing(CitygenError):
     """An optional dependency needed for the requested feature is not installed."""
 

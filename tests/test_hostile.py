@@ -571,6 +571,25 @@ def test_ctrl_c_in_export_leaves_no_part_of_the_format(work, cli, monkeypatch):
     assert not [p for p in (work / "x").rglob("*") if p.is_file()]
 
 
+def test_ctrl_c_inside_a_compiled_kernel_is_an_interrupt_too(work, cli, monkeypatch):
+    """A Ctrl-C (or a background run's SIGTERM) that arrives while a numba kernel runs comes out
+    as SystemError("... returned a result with an exception set") caused by the interrupt: the
+    one line and exit 130 all the same, and anything else stays an error."""
+    import citygen.runner.bench
+    from citygen.errors import is_interrupt
+
+    def kernel_interrupted(*args):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as exc:
+            raise SystemError("CPUDispatcher(<function k>) returned a result with an exception set") from exc
+
+    monkeypatch.setattr(citygen.runner.bench, "_episode", kernel_interrupted)
+    result = cli("bench", "--task", "nav-clear", "-n", "3", "-j", "1", "--output", "b.json")
+    assert result.code == 130 and result.err.strip() == "interrupted (Ctrl-C); no half-written file was left"
+    assert not is_interrupt(SystemError("a real one")) and not is_interrupt(ValueError())
+
+
 def test_ctrl_c_in_bench_stops_at_once(work, cli, monkeypatch):
     import citygen.runner.bench
 

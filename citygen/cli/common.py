@@ -27,7 +27,7 @@ import sys
 import typer
 from typer.core import TyperGroup
 
-from citygen.errors import CitygenError
+from citygen.errors import CitygenError, is_interrupt
 
 try:  # typer 0.2x carries its own copy of click
     from typer._click import exceptions as click_exceptions
@@ -133,7 +133,9 @@ class Guarded(TyperGroup):
         except CitygenError as exc:
             print_error(exc)
             raise typer.Exit(exc.exit_code) from None
-        except KeyboardInterrupt:
+        except (KeyboardInterrupt, SystemError) as exc:
+            if not is_interrupt(exc):
+                raise
             with contextlib.suppress(Exception):
                 typer.echo(interrupted_line(), err=True)
             raise typer.Exit(130) from None

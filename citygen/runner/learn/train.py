@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from citygen.errors import CitygenError, Interrupted
+from citygen.errors import CitygenError, Interrupted, is_interrupt
 from citygen.runner.learn.config import TrainConfig
 
 #: The one line printed when the optional dependencies are missing.
@@ -655,7 +655,10 @@ def train(
                 reset_num_timesteps=False,
                 callback=_callbacks(cfg, out, venv, tracker, bar, seconds0),
             )
-    except KeyboardInterrupt:
+    except BaseException as exc:
+        if not is_interrupt(exc):
+            venv.close()  # no worker process outlives a failed run
+            raise
         if bar is not None:
             bar.stop()
             bar = None
@@ -666,9 +669,6 @@ def train(
             f"interrupted at {model.num_timesteps:,} steps; checkpoint saved, "
             f"continue with --resume --out {out}"
         ) from None
-    except BaseException:
-        venv.close()  # no worker process outlives a failed run
-        raise
     finally:
         if bar is not None:
             bar.stop()
