@@ -80,9 +80,9 @@ def measure(robot: str, task: str, policy: str, episodes: int, jobs: int) -> dic
     }  # fmt: skip
 
 
-def _cell(entry: dict | None) -> str:
+def _cell(entry: dict | None, missing: str = "not trained") -> str:
     if entry is None:
-        return "not trained"
+        return missing
     s = entry["summary"]
     return (
         f"{s['balance']['mean']:.2f} ± {s['balance']['sem']:.2f} / {s['x_displacement']['mean']:.2f} ± "
@@ -117,7 +117,7 @@ def table(results: dict) -> str:
             for t, e in zip(TASKS, learned, strict=True)
         ]
         lines.append(f"| {NAMES[robot]} | learned (`--policy ppo`) | " + " | ".join(cells) + " |")
-        scripted = [_cell(results.get(f"{robot}/{t}/trot")) for t in TASKS]
+        scripted = [_cell(results.get(f"{robot}/{t}/trot"), "not measured") for t in TASKS]
         lines.append("| | scripted (`--policy trot`) | " + " | ".join(scripted) + " |")
         lines.append("| | paper | " + " | ".join(_paper(robot, t) for t in TASKS) + " |")
     return "\n".join(lines)
