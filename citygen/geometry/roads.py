@@ -44,6 +44,7 @@ import shapely
 from shapely.geometry import Point, Polygon
 
 from citygen.spec.blocks import (
+    Connection,
     Curve,
     Diverge,
     Intersection,
@@ -307,6 +308,18 @@ def block_sockets(block) -> tuple[Socket, ...]:
     return tuple(
         Socket(id=a.socket, pose=Pose2(position=a.position, yaw=a.yaw)) for a in block_geometry(block).arms
     )
+
+
+def with_connections(block, links: dict[str, tuple[str, str]]):
+    """``block`` with its sockets (:func:`block_sockets`) and a connection for each socket
+    ``links`` joins (``socket id -> (block id, socket id)``), in the sockets' order."""
+    sockets = block_sockets(block)
+    connections = tuple(
+        Connection(socket=s.id, block=links[s.id][0], to_socket=links[s.id][1])
+        for s in sockets
+        if s.id in links
+    )
+    return block.model_copy(update={"sockets": sockets, "connections": connections})
 
 
 def road_graph(blocks) -> nx.Graph:

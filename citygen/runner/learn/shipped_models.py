@@ -6,6 +6,7 @@ numpy alone, so that an environment can find its locomotion model without the re
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 from citygen.errors import CitygenError
@@ -23,13 +24,19 @@ class PolicyError(CitygenError):
     """A model file that cannot be used (unreadable, or made for other spaces)."""
 
 
+@functools.lru_cache(maxsize=64)
+def _meta(path: str, mtime: float) -> dict:
+    """A shipped file's metadata, read (and the file checked) once per version of it."""
+    return read_policy(path).meta
+
+
 def _shipped_files() -> tuple[dict[tuple[str, str], Path], dict[str, Path]]:
     """The shipped files: ``(task, robot) -> file`` of the task models and ``robot -> file``
     of the general locomotion models (trained on :data:`GENERAL_LOCO_SPLIT`)."""
     tasks: dict[tuple[str, str], Path] = {}
     general: dict[str, Path] = {}
     for path in sorted(BASELINES.glob("*.npz")):
-        meta = read_policy(path).meta
+        meta = _meta(str(path), path.stat().st_mtime)
         if meta.get("train", {}).get("split") == GENERAL_LOCO_SPLIT:
             general[meta["robot"]] = path
         else:

@@ -32,9 +32,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from citygen.errors import GenerationError
-from citygen.geometry.roads import block_geometry, block_sockets
+from citygen.geometry.roads import block_geometry, with_connections
 from citygen.seeding import uniform
-from citygen.spec.blocks import Connection, Curve, Intersection, Pose2, Roundabout, Straight, TIntersection
+from citygen.spec.blocks import Curve, Intersection, Pose2, Roundabout, Straight, TIntersection
 from citygen.spec.config import BlocksConfig, CityConfig, GroundConfig
 from citygen.spec.scene import Bounds
 
@@ -285,15 +285,7 @@ def plan_city(
         links[junctions[a].id][_socket(junctions[a], d)] = (block.id, "in")
         links[junctions[b].id][_socket(junctions[b], (-d[0], -d[1]))] = (block.id, "out")
 
-    blocks = []
-    for block in [*junctions.values(), *segments]:
-        sockets = block_sockets(block)
-        connections = tuple(
-            Connection(socket=s.id, block=links[block.id][s.id][0], to_socket=links[block.id][s.id][1])
-            for s in sockets
-            if s.id in links[block.id]
-        )
-        blocks.append(block.model_copy(update={"sockets": sockets, "connections": connections}))
+    blocks = [with_connections(block, links[block.id]) for block in [*junctions.values(), *segments]]
 
     # Lot cuts: each street's reach is its half width, a curb and the widest sidewalk.
     side = ground.curb_width[1] + ground.sidewalk_width[1] + cfg.residential_setback[1]

@@ -35,8 +35,8 @@ import numpy as np
 from shapely.geometry import LineString, box
 from shapely.ops import substring
 
-from citygen.geometry.roads import block_sockets
-from citygen.spec.blocks import Connection, Intersection, Pose2, Straight, TIntersection
+from citygen.geometry.roads import with_connections
+from citygen.spec.blocks import Intersection, Pose2, Straight, TIntersection
 
 #: Street classes: (lanes both ways together, lane width m, sidewalks by default).
 CLASSES = {
@@ -350,16 +350,7 @@ def blocks(edges: list[Edge], joints: list[Junction], size: tuple[float, float])
             arm = next((s for arm, s in zip(joint.arms, joint.sockets, strict=True) if arm.edge is e), None)
             if arm is not None and arm not in links[joint.block.id]:
                 link(joint.block.id, arm, bid, socket)
-    done = []
-    for block in out:
-        sockets = block_sockets(block)
-        connections = tuple(
-            Connection(socket=s.id, block=links[block.id][s.id][0], to_socket=links[block.id][s.id][1])
-            for s in sockets
-            if s.id in links[block.id]
-        )
-        done.append(block.model_copy(update={"sockets": sockets, "connections": connections}))
-    return tuple(done)
+    return tuple(with_connections(block, links[block.id]) for block in out)
 
 
 def _thin(points: np.ndarray, least: float = 0.5) -> np.ndarray:
