@@ -209,16 +209,28 @@ def _worker(conn: Connection, unit: _Unit) -> None:
     conn.close()
 
 
+def _context() -> multiprocessing.context.BaseContext:
+    """Where :func:`_parallel`'s workers come from: a fork server where the platform has one
+    (so a script calling :func:`export_batch` with ``jobs > 1`` needs the usual
+    ``if __name__ == "__main__":`` guard), else the platform's default."""
+    methods = multiprocessing.get_all_start_methods()
+    return multiprocessing.get_context("forkserver" if "forkserver" in methods else None)
+
+
 def _parallel(steps: list[_Unit | list[Event]], jobs: int) -> Iterator[list[Event]]:
     """Each step's events in order, running up to ``jobs`` units at once, each in a process of
-    its own (forked where the platform can: the exporter modules are imported first), scene
-    by scene and each scene's costliest (:data:`COST`) first."""
-    methods = multiprocessing.get_all_start_methods()
-    context = multiprocessing.get_context("fork" if "fork" in methods else None)
+    its own, scene by scene and each scene's costliest (:data:`COST`) first.
+
+    Workers come from a fork server (a fresh interpreter that imports the exporter modules
+    once, then forks a worker per unit), never from this process: a process that has made a
+    GL context (the PNG view, a test or a notebook that rendered before) and is forked
+    leaves the child's EGL initialisation waiting forever on a lock the parent held (seen:
+    ``export --format all`` run in-process after a render hung in ``mujoco.Renderer``)."""
+    context = _context()
     units = [i for i, step in enumerate(steps) if isinstance(step, _Unit)]
-    if context.get_start_method() == "fork":  # import once here, not in every worker
-        for module in dict.fromkeys(steps[i].module for i in units):
-            importlib.import_module(f"citygen.exporters.{module}")
+    if context.get_start_method() == "forkserver":  # imported once in the server, not per worker
+        modules = [f"citygen.exporters.{m}" for m in dict.fromkeys(steps[i].module for i in units)]
+        context.set_forkserver_preload(["citygen.exporters.batch", *modules])
     # Scene by scene (so that the first scenes' lines come first), each one's costliest first.
     first: dict[Path, int] = {}
     for i in units:

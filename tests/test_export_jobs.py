@@ -4,6 +4,7 @@ or dies is one error line, and every other format is still written."""
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import signal
 import subprocess
@@ -61,6 +62,8 @@ def _bug(*args: object, **kwargs: object) -> list[Path]:
 
 @pytest.mark.skipif(sys.platform != "linux", reason="the workers inherit the patched exporter by fork")
 def test_a_worker_that_dies_or_fails_loses_no_other_format(tmp_path: Path, monkeypatch) -> None:
+    # Forked workers (not the fork server's fresh ones) inherit the patched exporters.
+    monkeypatch.setattr(batch, "_context", lambda: multiprocessing.get_context("fork"))
     monkeypatch.setattr(glb, "export", _die)
     monkeypatch.setattr(occupancy, "export", _bug)
     formats = ["mjcf", "occupancy", "glb", "urdf"]
@@ -76,3 +79,19 @@ def test_a_worker_that_dies_or_fails_loses_no_other_format(tmp_path: Path, monke
     # events keep the batch's order: scene by scene, format by format
     order = [(e.scene.name, e.text.split(":")[0]) for e in events if e.kind == "error"]
     assert order == [(s.name, f) for s in SCENES for f in ("occupancy", "glb")]
+
+
+@pytest.mark.timeout(300)
+def test_workers_start_clean_after_this_process_has_rendered(tmp_path: Path) -> None:
+    """A process that has made a GL context (a render in a notebook, a test before this one)
+    and then exports with workers: a forked worker's EGL set-up waited forever on the
+    parent's lock (``export --format all`` hung in ``mujoco.Renderer``); workers from the fork
+    server start clean."""
+    from citygen.exporters import view
+
+    view.render_array(SCENES[0], size=(64, 48))  # this process now holds a GL context
+    events = list(batch.export_batch(SCENES, tmp_path, ["png", "mjcf"], jobs=2))
+    assert [e.text for e in events if e.kind == "error"] == []
+    for stem in ("nav_static_10m", "street_corner"):
+        assert (tmp_path / f"{stem}-perspective.png").stat().st_size > 0
+        assert (tmp_path / f"{stem}.xml").is_file()
