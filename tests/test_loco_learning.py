@@ -81,6 +81,34 @@ def test_gait_shaping_rewards_walking_and_is_training_only(flat):
         train.close()
 
 
+def test_only_positive_rewards_clip_a_step_at_zero_and_keep_the_fall():
+    """The wheeled-legged robot under its starting noise pays more in penalties each step than
+    a fall costs over an episode; ``only_positive`` makes each step worth at least nothing and
+    keeps the fall's -100, so falling is never the better choice."""
+    env = make_env("loco-flat", robot="wheeled_legged")
+    clipped = LocoTraining(env, seed=0, rank=0, curriculum=False, only_positive=True)
+    raw = LocoTraining(make_env("loco-flat", robot="wheeled_legged"), seed=0, rank=0, curriculum=False)
+    try:
+        rng = np.random.default_rng(0)
+        actions = np.clip(0.6 * rng.standard_normal((400, env.action_space.shape[0])), -1, 1)
+        pairs, fell = [], False
+        for e in (clipped, raw):
+            e.reset(seed=3)
+        for a in actions:
+            (_, r1, t1, _, i1), (_, r2, _, _, _) = clipped.step(a), raw.step(a)
+            pairs.append((r1, r2))
+            if t1:
+                fell = i1["fallen"]
+                assert r1 == max(r2 + 100.0, 0.0) - 100.0  # the fall's penalty kept
+                break
+            assert r1 == max(r2, 0.0)
+        assert min(r for _, r in pairs) < 0.0 <= min(r for r, _ in pairs[:-1] or [(0.0, 0)])
+        assert fell  # this much noise topples it
+    finally:
+        clipped.close()
+        raw.close()
+
+
 @pytest.fixture(scope="module")
 def grid(tmp_path_factory):
     path = tmp_path_factory.mktemp("grid") / "grid.toml"

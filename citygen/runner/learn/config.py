@@ -177,6 +177,13 @@ class TrainConfig(BaseModel):
         "from citygen.runner.learn.loco.COMMANDS instead of the task's own (a general model that "
         "follows a navigation policy's commands).",
     )
+    only_positive: bool = Field(
+        False,
+        description="Locomotion, training only: a step's reward before the fall penalty is clipped "
+        "at zero (legged_gym's only_positive_rewards): where the penalties of a noisy policy cost "
+        "more per step than the -100 of a fall (a heavy robot's torques), a policy would otherwise "
+        "learn to fall at once. The fall's -100 stays.",
+    )
     curriculum: bool = Field(
         True,
         description="Locomotion, training only: the terrain curriculum over the training grid's "

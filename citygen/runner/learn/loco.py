@@ -14,6 +14,10 @@ adds what makes the same policy learnable on a laptop in hours:
   starts at the easiest rows and draws a random column; an episode that covers more than
   half a region (4 m) moves it a row up, one that covers less than half of what its command
   asked moves it a row down; a level past the hardest row restarts at a random one.
+- **Only positive rewards** (``only_positive``, legged_gym's ``only_positive_rewards``): a
+  step's reward before the fall's ``-100`` is clipped at zero, so that a noisy first policy
+  whose penalties cost more per step than a fall (the wheeled-legged robot's torques: about
+  -4.6 a step at the starting noise against +0.9 standing still) does not learn to fall at once.
 - **Gait shaping** (``shaping`` times the legged_gym terms, per step): a broad tracking
   kernel ``exp(-|v_xy - c_xy|^2 / 0.25) + 0.5 exp(-(w_z - c_wz)^2 / 0.25)`` (the paper's
   0.25 m/s kernel pays nothing to a robot still 1 m/s short of its command, so nothing leads
@@ -47,6 +51,8 @@ WEIGHTS = {
 }
 #: Air time (s) a foot is rewarded beyond at its touch-down.
 AIR_TIME = 0.25
+#: The paper's reward on a fall (``citygen.runner.envs.loco``), kept by ``only_positive``.
+FALL_PENALTY = -100.0
 #: Rows of the grid a sub-environment may start its curriculum on (the easiest).
 START_ROWS = 3
 
@@ -57,10 +63,11 @@ class LocoTraining(gymnasium.Wrapper):
 
     def __init__(
         self, env: gymnasium.Env, *, seed: int, rank: int, shaping: float = 1.0,
-        command_mix: float = 0.0, curriculum: bool = True,
+        command_mix: float = 0.0, curriculum: bool = True, only_positive: bool = False,
     ):  # fmt: skip
         super().__init__(env)
         self.shaping = float(shaping)
+        self.only_positive = bool(only_positive)
         self.command_mix = float(command_mix)
         self.curriculum = bool(curriculum)
         self._rng = np.random.default_rng([seed, rank, 3571])
@@ -105,6 +112,9 @@ class LocoTraining(gymnasium.Wrapper):
         obs, reward, terminated, truncated, info = self.env.step(action)
         if self.shaping:
             reward += self.shaping * self._shaping()
+        if self.only_positive:  # clipped before the fall's penalty, which stays
+            fall = FALL_PENALTY if info.get("fallen") else 0.0
+            reward = max(reward - fall, 0.0) + fall
         if (terminated or truncated) and self.curriculum and self.level is not None:
             self._move_level(bool(terminated))
         return obs, reward, terminated, truncated, info

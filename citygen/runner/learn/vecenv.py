@@ -207,7 +207,12 @@ def make_training_env(cfg: TrainConfig) -> Sb3VecEnv:
             cfg.gamma,
             cfg.reverse,
             tuple(cfg.obs_keys),
-            {"shaping": cfg.gait_shaping, "command_mix": cfg.command_mix, "curriculum": cfg.curriculum},
+            {
+                "shaping": cfg.gait_shaping,
+                "command_mix": cfg.command_mix,
+                "curriculum": cfg.curriculum,
+                "only_positive": cfg.only_positive,
+            },
             cfg.locomotion,
         )
         for rank in range(cfg.envs)
