@@ -1,10 +1,12 @@
-"""Draws docs/osm.png: the made-up town's OpenStreetMap extract (tests/data/osm/town.osm) as the
-map draws it, beside the scene citygen makes of it (``citygen render``).
+"""Draws docs/osm.png and docs/osm-helsinki.png: an OpenStreetMap extract as the map draws it,
+beside the scene citygen makes of it (``citygen render``): the made-up town
+(tests/data/osm/town.osm) and a real place, 400 m of central Helsinki around the Esplanadi park
+(tests/data/osm/helsinki-esplanadi.osm.pbf; (c) OpenStreetMap contributors, ODbL).
 
 Left: every way and tagged node of the extract, projected with the scene's own recorded
 projection (``meta.source.projection``) and drawn with matplotlib. Right: the PNG ``citygen
-render`` draws of the scene ``citygen generate --osm tests/data/osm/town.osm --bbox
-8.5397,47.3697,8.5443,47.3720`` writes. Run: ``python docs/make_osm.py``.
+render`` draws of the scene ``citygen generate --osm FILE --bbox BOX`` writes (seed 0). Run:
+``python docs/make_osm.py``.
 """
 
 from __future__ import annotations
@@ -24,8 +26,17 @@ from citygen.exporters.picture import render
 from citygen.generate.places import generate_place
 
 ROOT = Path(__file__).resolve().parents[1]
-TOWN = ROOT / "tests" / "data" / "osm" / "town.osm"
-BOX = (8.5397, 47.3697, 8.5443, 47.3720)
+DATA = ROOT / "tests" / "data" / "osm"
+#: (extract, box, picture, title of the left panel)
+PLACES = (
+    (DATA / "town.osm", (8.5397, 47.3697, 8.5443, 47.3720), "osm.png", "town.osm"),
+    (
+        DATA / "helsinki-esplanadi.osm.pbf",
+        (24.9422, 60.1647, 24.9494, 60.1683),
+        "osm-helsinki.png",
+        "Helsinki, Esplanadi (OpenStreetMap, ODbL)",
+    ),
+)
 COLOURS = {
     "building": "#9c8f86",
     "park": "#8cc26a",
@@ -52,18 +63,28 @@ def _kind(tags) -> str | None:
     return None
 
 
-def draw_source(ax, scene) -> None:
+def _width(text: str | None, default: float) -> float:
+    try:
+        return float(str(text).split(";")[0].removesuffix("m").strip())
+    except ValueError:
+        return default
+
+
+def draw_source(ax, scene, file: Path, title: str) -> None:
     t = Transformer.from_crs("EPSG:4326", scene.meta.source.projection, always_xy=True)
-    for obj in osmium.FileProcessor(str(TOWN)).with_locations().with_areas():
+    for obj in osmium.FileProcessor(str(file)).with_locations().with_areas():
         if isinstance(obj, osmium.osm.Area) and (kind := _kind(obj.tags)):
             for outer in obj.outer_rings():
                 ax.add_patch(Patch([t.transform(n.lon, n.lat) for n in outer], color=COLOURS[kind], lw=0))
                 for inner in obj.inner_rings(outer):
                     ax.add_patch(Patch([t.transform(n.lon, n.lat) for n in inner], color="white", lw=0))
         elif isinstance(obj, osmium.osm.Way) and "highway" in obj.tags and obj.tags.get("area") != "yes":
-            xs, ys = zip(*(t.transform(n.lon, n.lat) for n in obj.nodes), strict=True)
-            street = obj.tags["highway"] not in ("footway", "path")
-            width = float(obj.tags.get("width", "6" if street else "2"))
+            points = [t.transform(n.lon, n.lat) for n in obj.nodes if n.location.valid()]
+            if len(points) < 2:
+                continue
+            xs, ys = zip(*points, strict=True)
+            street = obj.tags["highway"] not in ("footway", "path", "cycleway", "steps", "pedestrian")
+            width = _width(obj.tags.get("width"), 6.0 if street else 2.0)
             ax.plot(
                 xs,
                 ys,
@@ -89,24 +110,28 @@ def draw_source(ax, scene) -> None:
     ax.set_xlim(scene.bounds.min[0], scene.bounds.max[0])
     ax.set_ylim(scene.bounds.min[1], scene.bounds.max[1])
     ax.set_aspect("equal")
-    ax.set_title("town.osm as the map draws it (matplotlib)", fontsize=9)
+    ax.set_title(f"{title} as the map draws it (matplotlib)", fontsize=9)
     ax.tick_params(labelsize=7)
 
 
-def main() -> Path:
-    scene = generate_place(TOWN, BOX, seed=0)
-    fig, (left, right) = plt.subplots(1, 2, figsize=(15, 4.8), gridspec_kw={"width_ratios": [1.12, 1.45]})
-    draw_source(left, scene)
+def draw(file: Path, box: tuple[float, float, float, float], name: str, title: str) -> Path:
+    scene = generate_place(file, box, seed=0)
+    square = scene.bounds.max[0] - scene.bounds.min[0] < 1.5 * (scene.bounds.max[1] - scene.bounds.min[1])
+    size = (15, 6.4) if square else (15, 4.8)
+    fig, (left, right) = plt.subplots(1, 2, figsize=size, gridspec_kw={"width_ratios": [1.12, 1.45]})
+    draw_source(left, scene, file, title)
     with tempfile.TemporaryDirectory() as tmp:
         png = render(scene, Path(tmp) / "town.png", size_px=1400)
         right.imshow(plt.imread(png))
     right.set_axis_off()
     right.set_title("citygen's scene of it (citygen render)", fontsize=9)
-    out = ROOT / "docs" / "osm.png"
+    out = ROOT / "docs" / name
     fig.tight_layout()
     fig.savefig(out, dpi=110, metadata={"Software": None})
+    plt.close(fig)
     return out
 
 
 if __name__ == "__main__":
-    print(f"wrote {main()}")
+    for place in PLACES:
+        print(f"wrote {draw(*place)}")

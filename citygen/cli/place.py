@@ -35,7 +35,7 @@ def generate_place(
     its generator config to ``out/<name>.config.json`` (for ``citygen rebuild --config``)."""
     from citygen.generate import generate
     from citygen.generate.layouts.osm import osm_config
-    from citygen.generate.places import place_name
+    from citygen.generate.places import left_out_line, place_name
     from citygen.io import dumps, write_atomic
 
     if split is not None:
@@ -57,3 +57,6 @@ def generate_place(
     typer.echo(
         f"wrote {target} ({len(scene.zones):,} zones, {len(scene.placements):,} objects) and {settings.name}"
     )
+    note = left_out_line(scene, config)
+    if note is not None:
+        typer.echo(f"{osm}: warning: {note}", err=True)

@@ -141,6 +141,11 @@ def city_features(
             f.model_copy(update={"height": quantize(float(z))}) for f, z in zip(features, ground, strict=True)
         ]
     features = [*curbs, *(type(f).model_validate(f.model_dump()) for f in features)]
+    # A feature lies on the tile grid: where streets run past the scene's edge (a real place's
+    # box cuts them), the curb or ramp that would stick out of it is left out.
+    (ox, oy), s = terrain.origin, terrain.tile_size
+    grid = shapely.box(ox, oy, ox + terrain.cols * s, oy + terrain.rows * s).buffer(1e-4)
+    features = [f for f in features if grid.covers(feature_polygon(f))]
     return terrain.model_copy(update={"features": tuple(features)})
 
 

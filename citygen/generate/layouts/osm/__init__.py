@@ -45,6 +45,7 @@ from citygen.generate.placement import base_of, place_objects
 from citygen.generate.signals import signalise
 from citygen.generate.task import Endpoints, street_route
 from citygen.generate.zoning import polygons
+from citygen.geometry.features import feature_polygon
 from citygen.seeding import child, stage_rng
 from citygen.spec.config import (
     AgentsConfig,
@@ -146,7 +147,11 @@ class Osm(City):
         sampled = (*massing(self.scene.zones, place.heights, terrain, child(stage, 500)), *sampled)
         rng = child(stage_rng(self.seed, "placement"), 400)
         lines = shapely.MultiLineString([LineString(s.points) for s in place.streets])
-        mapped, _ = place_mapped(list(place.mapped), list(self.scene.zones), terrain, lines, rng)
+        # Curb ramps stay clear for wheels (street_furniture removes what stands on one): a
+        # mapped object moves off a ramp, or takes a slimmer variant, where it can.
+        features = (terrain.features or ()) if terrain is not None else ()
+        ramps = [feature_polygon(f) for f in features if f.id.startswith("curb-ramp-")]
+        mapped, _ = place_mapped(list(place.mapped), list(self.scene.zones), terrain, lines, rng, ramps)
         if mapped:
             tree = shapely.STRtree([base_of(p) for p in mapped])
             sampled = tuple(

@@ -22,8 +22,8 @@ import numpy as np
 import shapely
 from shapely.geometry import Point, Polygon
 
-from citygen.assets.catalog import CATEGORIES
-from citygen.generate.placement import base_of
+from citygen.assets.catalog import CATEGORIES, resolve
+from citygen.generate.placement import _base_ring, base_of
 from citygen.geometry.terrain import height_at
 from citygen.spec.placements import Placement
 from citygen.spec.terrain import Terrain
@@ -90,9 +90,11 @@ def place_mapped(
     terrain: Terrain | None,
     streets: shapely.Geometry,
     rng: np.random.Generator,
+    taken: list[Polygon] = (),
 ) -> tuple[list[Placement], int]:
     """The placements of ``mapped`` (see the module docstring) and how many were left out.
-    ``streets`` is the street centre lines an object faces when the map gives no direction."""
+    ``streets`` is the street centre lines an object faces when the map gives no direction;
+    ``taken`` is ground no object may reach (the curb ramps, which stay clear for wheels)."""
     polys = [Polygon(z.polygon, z.holes) for z in zones]
     kinds = np.array([z.kind for z in zones])
     tree = shapely.STRtree(polys)
@@ -101,14 +103,18 @@ def place_mapped(
         for name in sorted({m.category for m in mapped})
     }
     placed: list[Placement] = []
-    bases: list[Polygon] = []
+    bases: list[Polygon] = list(taken)
     left_out = 0
     for k, m in enumerate(mapped):
-        asset = palette[m.category][k % PALETTE]
+        choices = palette[m.category]
+        # Its own variant first, then the category's others, slimmest first: a street tree
+        # mapped on a narrow sidewalk is a slimmer tree on its point, not left out.
+        others = sorted((a for a in choices if a != choices[k % PALETTE]), key=_base_area)
+        assets = [choices[k % PALETTE], *others]
         yaw = m.direction if m.direction is not None else _facing(m.position, streets)
         yaw = round(math.remainder(yaw, 2 * math.pi), 6) + 0.0
         suits = CATEGORIES[m.category].zones | OPEN_GROUND
-        for dx, dy in _nudges():
+        for (dx, dy), asset in ((d, a) for d in _nudges() for a in assets):
             x, y = round(m.position[0] + dx, 3) + 0.0, round(m.position[1] + dy, 3) + 0.0
             probe = Placement(id="probe", asset=asset, position=(x, y, 0.0), yaw=yaw)
             base = base_of(probe)
@@ -136,6 +142,10 @@ def place_mapped(
         else:
             left_out += 1
     return placed, left_out
+
+
+def _base_area(asset: str) -> float:
+    return Polygon(_base_ring(resolve(asset))).area
 
 
 def _nudges() -> list[tuple[float, float]]:

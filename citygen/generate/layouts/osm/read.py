@@ -100,10 +100,13 @@ def read_extract(path: str | Path, bbox: tuple[float, float, float, float], opti
             elif isinstance(obj, osmium.osm.Way):
                 if "highway" not in obj.tags or obj.tags.get("area") == "yes":
                     continue
-                pts = [(n.lon, n.lat) for n in obj.nodes if n.location.valid()]
+                # A way cut by the extract's edge references nodes the file does not hold (no
+                # location): it keeps the nodes it has, each beside its own point.
+                kept = [(n.ref, (n.lon, n.lat)) for n in obj.nodes if n.location.valid()]
+                pts = [p for _, p in kept]
                 if len(pts) >= 2 and any(_inside(x, y, near) for x, y in pts):
                     out.ways.append(
-                        Feature(f"w{obj.id}", dict(obj.tags), tuple(pts), tuple(n.ref for n in obj.nodes))
+                        Feature(f"w{obj.id}", dict(obj.tags), tuple(pts), tuple(ref for ref, _ in kept))
                     )
             elif isinstance(obj, osmium.osm.Area):
                 if not any(k in obj.tags for k in AREA_KEYS):
