@@ -13,6 +13,9 @@ import pytest
 # Offscreen rendering through EGL (software Mesa in CI) unless the caller chose a backend;
 # MuJoCo reads this once, at its first import.
 os.environ.setdefault("MUJOCO_GL", "egl")
+# No on-disk store of prepared scenes (citygen.runner.scene_store) unless a test asks for one:
+# tests measure what a process does alone, and leave nothing in the user's cache folder.
+os.environ["CITYGEN_CACHE_DIR"] = "off"
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -26,6 +26,7 @@ import numpy as np
 
 from citygen.errors import Problem, SpecError
 from citygen.io import dumps, load_scene
+from citygen.runner import scene_store
 from citygen.spec import Scene
 from citygen.spec.task import ROBOTS, Mobility
 from citygen.spec.terrain import Terrain
@@ -65,6 +66,7 @@ class SceneSource:
         self.split = split
         self.seed = seed
         self._scene: Scene | None = None
+        self._content: str | None = None
         self._path: str | None = None
         self.size = 1
         if scene is not None:
@@ -91,8 +93,23 @@ class SceneSource:
     def key(self, index: int) -> tuple:
         """A cache key that names the scene without generating it."""
         if self._scene is not None:
-            return ("scene", _digest(self._scene))
+            return ("scene", self.content_key(index))
         return ("split", self.split, self.seed, index % self.size)
+
+    def content_key(self, index: int) -> str:
+        """A key that names the scene by its content without generating it (the on-disk
+        store's, :mod:`citygen.runner.scene_store`): the scene's digest, or the digest of the
+        split part's config, seed and name with the index in it."""
+        if self._scene is not None:
+            if self._content is None:
+                self._content = f"scene {_digest(self._scene)}"
+            return self._content
+        i = index % self.size
+        for part in self._parts:
+            if i < part.scenes:
+                return f"split {hashlib.sha256(part.model_dump_json().encode()).hexdigest()} {i}"
+            i -= part.scenes
+        raise AssertionError("unreachable")  # pragma: no cover
 
     def scene(self, index: int) -> Scene:
         if self._scene is not None:
@@ -399,7 +416,15 @@ class SceneCache:
             self._items.move_to_end(key)
             return hit[0]
         self.misses += 1
-        item = prepare(source.scene(index), robot)
+        item = None
+        disk = scene_store.store()
+        if disk is not None:
+            stored = scene_store.entry_key(source.content_key(index), robot)
+            item = disk.load(stored, robot)
+        if item is None:
+            item = prepare(source.scene(index), robot)
+            if disk is not None:
+                disk.save(stored, item)
         size = item.footprint()
         self._items[key] = (item, size)
         self.bytes += size

@@ -1,0 +1,126 @@
+"""The on-disk store of prepared scenes (citygen.runner.scene_store): a second process's first
+visit reads what the first prepared and runs the same episode; entries are keyed by the
+scene's, the robot's and the code's content; a broken entry or an unwritable folder is never
+an error; the store keeps to its budget."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from citygen.runner import scene_store
+from citygen.runner.make import make_env
+from citygen.runner.scenes import SceneCache, SceneSource
+from tests.conftest import ROOT
+
+SCENE = ROOT / "examples" / "nav_static_10m.json"
+
+EPISODE = """
+import hashlib, json, numpy as np
+from citygen.runner import scene_store
+from citygen.runner.make import make_env
+env = make_env("nav-static", split="urban-nav-2-test")
+obs, _ = env.reset(seed=5, options={"index": 3})
+h = hashlib.sha256()
+for t in range(30):
+    obs, r, term, trunc, _ = env.step(np.array([0.8, 0.3 * np.sin(t / 5)]))
+    h.update(np.concatenate([np.ravel(v) for v in obs.values()]).tobytes() + np.float64(r).tobytes())
+s = scene_store.store()
+print(json.dumps({"hash": h.hexdigest(), "hits": s.hits, "writes": s.writes}))
+"""
+
+
+def _episode(folder) -> dict:
+    env = {**os.environ, "CITYGEN_CACHE_DIR": str(folder)}
+    proc = subprocess.run([sys.executable, "-c", EPISODE], capture_output=True, text=True, env=env, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def test_a_second_process_reads_what_the_first_prepared_and_runs_the_same_episode(tmp_path):
+    first, second = _episode(tmp_path), _episode(tmp_path)
+    assert (first["hits"], first["writes"]) == (0, 1)
+    assert (second["hits"], second["writes"]) == (1, 0)
+    assert second["hash"] == first["hash"]
+    assert len(list((tmp_path / "scenes").glob("*/*.pkl.z"))) == 1
+
+
+@pytest.fixture
+def store(tmp_path, monkeypatch):
+    monkeypatch.setenv("CITYGEN_CACHE_DIR", str(tmp_path))
+    return scene_store.store()
+
+
+def test_entries_are_keyed_by_the_scenes_the_robots_and_the_codes_content(tmp_path):
+    env = make_env("nav-static", scene=SCENE)
+    wheeled, quadruped = (
+        env.unwrapped.robot,
+        make_env("nav-static", scene=SCENE, robot="quadruped").unwrapped.robot,
+    )
+    key = SceneSource(scene=SCENE).content_key(0)
+    assert scene_store.entry_key(key, wheeled) != scene_store.entry_key(key, quadruped)
+    # the same scene in another file is the same entry; an edited one is not
+    text = json.loads(SCENE.read_text())
+    (tmp_path / "a.json").write_text(json.dumps(text))
+    assert SceneSource(scene=tmp_path / "a.json").content_key(0) == key
+    text["placements"][0]["position"][0] += 0.5
+    (tmp_path / "b.json").write_text(json.dumps(text))
+    assert SceneSource(scene=tmp_path / "b.json").content_key(0) != key
+    # a split's scenes by their part's config and index, without generating them
+    split = SceneSource(split="urban-nav-2-test")
+    assert (
+        split.content_key(1) != split.content_key(2) == SceneSource(split="urban-nav-2-test").content_key(2)
+    )
+    assert split.content_key(2) != SceneSource(split="urban-nav-2-test", seed=9).content_key(2)
+
+
+def test_a_stored_scene_is_the_prepared_one(store):
+    source = SceneSource(split="urban-nav-2-test")
+    robot = make_env("nav-static", split="urban-nav-2-test").unwrapped.robot
+    fresh = SceneCache().get(source, 4, robot)
+    again = SceneCache().get(source, 4, robot)
+    assert (store.writes, store.hits) == (1, 1)
+    assert again.scene == fresh.scene and again.robot is robot
+    for name in ("free", "walkable", "crossable", "obstacle_geoms", "ground_geoms"):
+        assert np.array_equal(getattr(again, name), getattr(fresh, name)), name
+    assert np.array_equal(again.occupancy.heights, fresh.occupancy.heights)
+    assert again.model.ngeom == fresh.model.ngeom and again.agent_bodies == fresh.agent_bodies
+
+
+def test_a_broken_entry_is_a_miss_and_is_written_again(store):
+    source = SceneSource(scene=SCENE)
+    robot = make_env("nav-static", scene=SCENE).unwrapped.robot
+    SceneCache().get(source, 0, robot)
+    (entry,) = (store.root).glob("*/*.pkl.z")
+    entry.write_bytes(entry.read_bytes()[:100])  # truncated, as by a full disk or a kill
+    prepared = SceneCache().get(source, 0, robot)
+    assert prepared.model.ngeom > 0 and store.writes == 2 and entry.stat().st_size > 1000
+
+
+def test_an_unwritable_folder_or_off_keeps_nothing_and_fails_nothing(tmp_path, monkeypatch):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a folder")
+    monkeypatch.setenv("CITYGEN_CACHE_DIR", str(blocker))
+    env = make_env("nav-static", scene=SCENE)
+    env.reset(seed=0)
+    env.step(env.action_space.sample())
+    assert scene_store.store()._unwritable and scene_store.store().writes == 0
+    monkeypatch.setenv("CITYGEN_CACHE_DIR", "off")
+    assert scene_store.store() is None
+
+
+def test_the_store_keeps_to_its_budget_dropping_the_oldest_first(tmp_path):
+    s = scene_store.SceneStore(tmp_path, budget_mb=0.5)
+    for k in range(6):
+        path = s.path(f"{k:02d}" * 32)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(b"x" * 200_000)
+        os.utime(path, (1000 + k, 1000 + k))
+    s.prune()
+    left = sorted(p.name[:2] for p in tmp_path.glob("*/*.pkl.z"))
+    assert left == ["04", "05"]  # 400 KB within 0.5 MiB, the two most recently used
