@@ -56,6 +56,8 @@ PALETTE = 6
 """Variants of each category one scene draws from."""
 TRIES = 60
 """Candidates drawn per object before the stage gives up on it."""
+ATTEMPTS = 8
+"""Draws of a scene's furniture that ran out of room near their end before placement fails."""
 MAX_TILT = 0.12
 """Most rise (m) of the ground under an object's base."""
 CROSSING_REACH = 6.0
@@ -368,14 +370,41 @@ def place_objects(
     if not slots or wanted == 0:
         return tuple(placed)
     keep_out = _keep_out(ends)
-    path = None
-    if ends is not None and ends.needs_path:
-        if walkable is None:
-            walkable = walkable_ground(zones, (*bounds.min, *bounds.max))
-        path = _Path(walkable, ends)
-    taken = _Hash()
+    if ends is not None and ends.needs_path and walkable is None:
+        walkable = walkable_ground(zones, (*bounds.min, *bounds.max))
     reach = max(cfg.clearance, *(CATEGORIES[n].clearance for n in slots))
-    rng = child(rng, 200)
+    # A draw that runs out of room near its end (a quarter or less short) is drawn again from
+    # the next child generator (the first draw's stream is the one every scene always had: a
+    # scene that fits at once keeps its bytes); a request far beyond the room, or that fails
+    # every draw, is an error.
+    for attempt in range(ATTEMPTS):
+        stream = child(rng, 200 if attempt == 0 else 200 + attempt)
+        path = _Path(walkable, ends) if ends is not None and ends.needs_path else None
+        scattered, done = _scatter(
+            slots, palettes, ground, terrain, cfg, wanted, reach, keep_out, path, stream
+        )
+        if scattered is not None:
+            return (*placed, *scattered)
+        if done < wanted - max(1, wanted // 4):
+            break
+    asked = (
+        f"placement.count = {cfg.count}"
+        if cfg.count is not None
+        else f"placement.density_per_100m2 = {cfg.density_per_100m2:g}"
+    )
+    raise GenerationError("placement", seed, (
+        f"placed {done} of the {wanted} objects asked for ({asked}, density level {level:g}): "
+        f"{TRIES} candidates for the next found no room in the {area:,.0f} m2 of zones they suit, "
+        f"{cfg.clearance:g} m apart; "
+        "ask for fewer objects, a smaller clearance or a larger scene"
+    ))  # fmt: skip
+
+
+def _scatter(slots, palettes, ground, terrain, cfg, wanted, reach, keep_out, path, rng):
+    """``wanted`` furniture objects drawn from ``rng`` (see :func:`place_objects`), or
+    ``(None, n)`` when the ``n + 1``-th finds no room in :data:`TRIES` candidates."""
+    placed: list[Placement] = []
+    taken = _Hash()
     order = list(slots)
     counts: dict[str, int] = defaultdict(int)
     for done in range(wanted):
@@ -411,19 +440,9 @@ def place_objects(
                 )
             )
             break
-        else:  # no room for one more: say so rather than hand back fewer than asked for
-            asked = (
-                f"placement.count = {cfg.count}"
-                if cfg.count is not None
-                else f"placement.density_per_100m2 = {cfg.density_per_100m2:g}"
-            )
-            raise GenerationError("placement", seed, (
-                f"placed {done} of the {wanted} objects asked for ({asked}, density level {level:g}): "
-                f"{TRIES} candidates for the next found no room in the {area:,.0f} m2 of zones they suit, "
-                f"{cfg.clearance:g} m apart; "
-                "ask for fewer objects, a smaller clearance or a larger scene"
-            ))  # fmt: skip
-    return tuple(placed)
+        else:  # no room for one more
+            return None, done
+    return placed, wanted
 
 
 def _keep_out(ends: Endpoints | None) -> BaseGeometry | None:
