@@ -109,6 +109,26 @@ def test_only_positive_rewards_clip_a_step_at_zero_and_keep_the_fall():
         raw.close()
 
 
+def test_the_survival_bonus_and_the_effort_scale_shift_only_their_terms():
+    """``alive`` adds its value to every step; ``effort_scale`` scales the torque and joint
+    acceleration penalties (never positive), nothing else."""
+    envs = [
+        LocoTraining(make_env("loco-flat", robot="wheeled_legged"), seed=0, rank=0, curriculum=False, **kw)
+        for kw in ({}, {"alive": 1.0}, {"effort_scale": 0.1}, {"effort_scale": 0.0})
+    ]
+    try:
+        rng = np.random.default_rng(1)
+        for e in envs:
+            e.reset(seed=2, options={"command": (1.0, 0.0, 0.0)})
+        for a in np.clip(0.2 * rng.standard_normal((30, 16)), -1, 1):
+            plain, alive, tenth, none = (e.step(a)[1] for e in envs)
+            assert alive == pytest.approx(plain + 1.0, abs=1e-9)
+            assert none >= tenth >= plain and tenth - plain == pytest.approx(0.9 * (none - plain))
+    finally:
+        for e in envs:
+            e.close()
+
+
 @pytest.fixture(scope="module")
 def grid(tmp_path_factory):
     path = tmp_path_factory.mktemp("grid") / "grid.toml"

@@ -177,6 +177,19 @@ class TrainConfig(BaseModel):
         "from citygen.runner.learn.loco.COMMANDS instead of the task's own (a general model that "
         "follows a navigation policy's commands).",
     )
+    effort_scale: Annotated[float, Field(ge=0, le=10)] = Field(
+        1.0,
+        description="Locomotion, training only: factor on the gait shaping's torque and joint "
+        "acceleration penalties (legged_gym's weights suit a 12-15 kg quadruped; the 76 kg "
+        "wheeled-legged robot's joints, at kp 1500, pay ~190x the quadruped's torque penalty "
+        "for the same action noise).",
+    )
+    alive: Annotated[float, Field(ge=0, le=10)] = Field(
+        0.0,
+        description="Locomotion, training only: reward a step for not having fallen (part of the gait "
+        "shaping): where a noisy first policy's penalties outweigh what standing earns, it keeps a "
+        "fall the worse choice while leaving the shaping's slope between standing and walking.",
+    )
     only_positive: bool = Field(
         False,
         description="Locomotion, training only: a step's reward before the fall penalty is clipped "

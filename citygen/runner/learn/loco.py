@@ -24,9 +24,12 @@ adds what makes the same policy learnable on a laptop in hours:
   a standing robot to walk), a forward-progress term ``v_xy . c_xy / |c_xy|^2`` clipped to
   [-1, 1] (the share of the commanded speed made good along the command: linear from a
   standstill, so the first steps already pay), ``-0.05 |w_xy|^2``, ``-0.5 |g_xy|^2`` (tilt),
-  ``-1e-5 |tau|^2``, ``-2.5e-7 |qdd|^2`` and a foot air-time reward ``+1.0 sum (t_air - 0.25)`` at each
-  touch-down while the command asks to move (the stepping that a trot needs; not for a robot
-  whose locomotion action drives wheels, which roll where a foot steps).
+  ``-1e-5 |tau|^2``, ``-2.5e-7 |qdd|^2`` (both times ``effort_scale``: the wheeled-legged
+  robot's kp 1500 joints pay ~190x the quadruped's torque penalty for the same action
+  noise), ``alive`` a step (a survival bonus, 0 unless set) and a foot air-time reward
+  ``+1.0 sum (t_air - 0.25)`` at each touch-down while the command asks to move (the stepping
+  that a trot needs; not for a robot whose locomotion action drives wheels, which roll where a
+  foot steps).
 """
 
 from __future__ import annotations
@@ -64,9 +67,13 @@ class LocoTraining(gymnasium.Wrapper):
     def __init__(
         self, env: gymnasium.Env, *, seed: int, rank: int, shaping: float = 1.0,
         command_mix: float = 0.0, curriculum: bool = True, only_positive: bool = False,
+        effort_scale: float = 1.0, alive: float = 0.0,
     ):  # fmt: skip
         super().__init__(env)
         self.shaping = float(shaping)
+        self._torque = WEIGHTS["torque"] * float(effort_scale)
+        self._joint_acc = WEIGHTS["joint_acc"] * float(effort_scale)
+        self._alive = float(alive)
         self.only_positive = bool(only_positive)
         self.command_mix = float(command_mix)
         self.curriculum = bool(curriculum)
@@ -138,10 +145,10 @@ class LocoTraining(gymnasium.Wrapper):
             r += WEIGHTS["progress"] * min(max((vx * c0 + vy * c1) / asked, -1.0), 1.0)
         r += WEIGHTS["ang_vel_xy"] * float(w @ w)
         r += WEIGHTS["tilt"] * float(g @ g)
-        r += WEIGHTS["torque"] * float(tau @ tau)
+        r += self._alive + self._torque * float(tau @ tau)
         if self._last_qvel is not None:
             acc = (qvel - self._last_qvel) / u.dt
-            r += WEIGHTS["joint_acc"] * float(acc @ acc)
+            r += self._joint_acc * float(acc @ acc)
         self._last_qvel = qvel
         touching = self._feet_touching()
         landed = touching & (self._air > 0)

@@ -212,6 +212,8 @@ def make_training_env(cfg: TrainConfig) -> Sb3VecEnv:
                 "command_mix": cfg.command_mix,
                 "curriculum": cfg.curriculum,
                 "only_positive": cfg.only_positive,
+                "effort_scale": cfg.effort_scale,
+                "alive": cfg.alive,
             },
             cfg.locomotion,
         )
