@@ -20,6 +20,15 @@ import numpy as np
 from numba import njit
 
 
+@njit(cache=True, inline="always")
+def _point(k, n, u, v, x, y, cs, sn):
+    """Point ``k`` of the grid ``(u, v)`` (m, the robot's frame) around ``(x, y)`` turned by
+    ``(cs, sn)``, and ``(x, y)`` itself for ``k == n``."""
+    if k < n:
+        return x + cs * u[k] - sn * v[k], y + sn * u[k] + cs * v[k]
+    return x, y
+
+
 @njit(cache=True)
 def ground_around(flat, rows, cols, x0, y0, inv, u, v, x, y, cs, sn):
     """Ground heights (m) at the points ``(x + cs u - sn v, y + sn u + cs v)`` for the grid
@@ -33,11 +42,7 @@ def ground_around(flat, rows, cols, x0, y0, inv, u, v, x, y, cs, sn):
     dx = 1 if cols > 1 else 0
     dy = cols if rows > 1 else 0
     for k in range(n + 1):
-        if k < n:
-            px = x + cs * u[k] - sn * v[k]
-            py = y + sn * u[k] + cs * v[k]
-        else:
-            px, py = x, y
+        px, py = _point(k, n, u, v, x, y, cs, sn)
         fx = min(max(px * inv - off_x, 0.0), max_x)
         fy = min(max(py * inv - off_y, 0.0), max_y)
         ix, iy = int(fx), int(fy)
@@ -64,11 +69,7 @@ def flat_tiles_around(kind, height, flat_code, size, ox, oy, rows, cols, u, v, x
     n = u.size
     out = np.zeros(n + 1)
     for k in range(n + 1):
-        if k < n:
-            px = x + cs * u[k] - sn * v[k]
-            py = y + sn * u[k] + cs * v[k]
-        else:
-            px, py = x, y
+        px, py = _point(k, n, u, v, x, y, cs, sn)
         if math.isnan(px) or math.isnan(py):
             out[k] = math.nan
             continue
