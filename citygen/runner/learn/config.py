@@ -97,6 +97,16 @@ class TrainConfig(BaseModel):
         "down to 0 at `steps` (a long fine-tuning run's updates shrink instead of collapsing it).",
     )
     gamma: Annotated[float, Field(ge=0, le=1)] = 0.99
+    use_sde: bool = Field(
+        False,
+        description="Generalised state-dependent exploration (gSDE, Raffin et al. 2022; SB3's use_sde): "
+        "action noise that is a function of the state, redrawn every sde_sample_freq steps, instead "
+        "of independent per-step noise (smooth exploration: a wheel that keeps turning one way). "
+        "The exported policy acts with the mean, as without it.",
+    )
+    sde_sample_freq: Annotated[int, Field(ge=-1, le=10_000)] = Field(
+        -1, description="Steps between two draws of gSDE's noise matrix (-1: once a rollout)."
+    )
     gae_lambda: Annotated[float, Field(ge=0, le=1)] = 0.95
     clip_range: Annotated[float, Field(gt=0, le=1)] = 0.2
     vf_coef: Annotated[float, Field(ge=0)] = 1.0

@@ -599,6 +599,8 @@ def train(
             vf_coef=cfg.vf_coef,
             max_grad_norm=cfg.max_grad_norm,
             target_kl=cfg.target_kl,
+            use_sde=cfg.use_sde,
+            sde_sample_freq=cfg.sde_sample_freq,
             seed=cfg.seed,
             device="cpu",
             verbose=0,
