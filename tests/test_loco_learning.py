@@ -244,3 +244,40 @@ def test_a_general_model_serves_every_loco_task_without_a_terrain_model(tmp_path
     assert P.general_locomotion("quadruped") == general
     with pytest.raises(P.PolicyError, match="no general locomotion model shipped for robot humanoid"):
         P.general_locomotion("humanoid")
+
+
+def test_a_gsde_run_exports_the_mean_and_the_state_dependent_std_of_torch(tmp_path, cli):
+    """``use_sde``: the exported policy acts with the torch policy's mean, and samples with
+    gSDE's state-dependent std (``sqrt(latent^2 @ exp(log_std)^2)``, a matrix of log stds)."""
+    import pickle
+
+    from stable_baselines3 import PPO
+
+    from citygen.runner.learn.export import read_policy
+
+    config = tmp_path / "sde.toml"
+    config.write_text(
+        'envs = 2\nn_steps = 64\nminibatches = 2\nn_epochs = 1\nnet_arch = [16, 16]\nactivation = "elu"\n'
+        "use_sde = true\nsde_sample_freq = 8\n"
+    )
+    out = tmp_path / "run"
+    args = ["train", "--task", "loco-flat", "--robot", "wheeled_legged", "--steps", "256"]
+    result = cli(*args, "--config", config, "--out", out)
+    assert result.code == 0, result.err
+    model = PPO.load(out / "model.zip", device="cpu")
+    assert model.use_sde
+    with open(out / "vecnormalize.pkl", "rb") as f:
+        stats = pickle.load(f)
+    policy = read_policy(out / "policy.npz")
+    assert policy.log_std.ndim == 2  # (hidden, actions)
+    env = make_env("loco-flat", robot="wheeled_legged")
+    obs, _ = env.reset(seed=0)
+    batch = []
+    for _ in range(8):
+        batch.append({k: obs[k] for k in policy.keys})
+        obs, *_ = env.step(0.1 * env.action_space.sample())
+    stacked = {k: np.stack([o[k] for o in batch]) for k in policy.keys}
+    torch_actions, _ = model.predict(stats.normalize_obs(stacked), deterministic=True)
+    np.testing.assert_allclose(policy.predict(stacked), torch_actions, atol=1e-5)
+    dist = model.policy.get_distribution(model.policy.obs_to_tensor(stats.normalize_obs(stacked))[0])
+    np.testing.assert_allclose(policy.std(stacked), dist.distribution.stddev.detach().numpy(), rtol=1e-4)

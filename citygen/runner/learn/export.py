@@ -133,19 +133,33 @@ class NumpyPolicy:
             parts.append(x.reshape(x.shape[0], -1))
         return np.concatenate(parts, axis=1)
 
-    def mean(self, obs: dict[str, Any]) -> np.ndarray:
-        """The action distribution's mean, ``(batch, n)``, before clipping to the action space."""
+    def _latent(self, obs: dict[str, Any]) -> np.ndarray:
+        """The last hidden layer's output, ``(batch, hidden)``."""
         h = self.features(obs)
         for w, b in zip(self.weights[:-1], self.biases[:-1], strict=True):
             h = self.activation(h @ w.T + b)
-        return h @ self.weights[-1].T + self.biases[-1]
+        return h
+
+    def mean(self, obs: dict[str, Any]) -> np.ndarray:
+        """The action distribution's mean, ``(batch, n)``, before clipping to the action space."""
+        return self._latent(obs) @ self.weights[-1].T + self.biases[-1]
+
+    def std(self, obs: dict[str, Any]) -> np.ndarray | None:
+        """The action distribution's std, ``(batch, n)``: ``exp(log_std)``, or for a policy
+        trained with gSDE (``log_std`` a ``(hidden, n)`` matrix) its state-dependent std
+        ``sqrt(latent^2 @ exp(log_std)^2)`` as SB3 computes it; None if not exported."""
+        if self.log_std is None:
+            return None
+        if self.log_std.ndim == 2:
+            return np.sqrt(self._latent(obs) ** 2 @ np.exp(self.log_std) ** 2)
+        return np.broadcast_to(np.exp(self.log_std), (len(self.features(obs)), self.log_std.size))
 
     def predict(self, obs: dict[str, Any], rng: np.random.Generator | None = None) -> np.ndarray:
         """Actions, ``(batch, *action_shape)``: the mean (deterministic), or with ``rng`` a draw
-        from the trained Gaussian (``exp(log_std)``) as in training, clipped to the space."""
+        from the trained Gaussian (:meth:`std`) as in training, clipped to the space."""
         a = self.mean(obs)
         if rng is not None and self.log_std is not None:
-            a = a + np.exp(self.log_std) * rng.standard_normal(a.shape).astype(np.float32)
+            a = a + self.std(obs) * rng.standard_normal(a.shape).astype(np.float32)
         return np.clip(a, self.low, self.high).reshape(-1, *self.meta["action_shape"])
 
     # The runner's Policy protocol (citygen.runner.policies).
