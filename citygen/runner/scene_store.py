@@ -60,11 +60,11 @@ def code_digest() -> str:
     of its exporters, and MuJoCo's version."""
     import mujoco
 
-    import citygen
-    import citygen.exporters
+    from citygen import exporters
 
     h = hashlib.sha256(f"{FORMAT} {mujoco.__version__}".encode())
-    roots = {Path(citygen.__file__).parent.resolve(), Path(citygen.exporters.__file__).parent.resolve()}
+    package = Path(__file__).resolve().parents[1]  # citygen/
+    roots = {package, Path(exporters.__file__).parent.resolve()}
     for root in sorted(roots):
         for path in sorted(root.rglob("*.py")):
             h.update(str(path.relative_to(root)).encode())
