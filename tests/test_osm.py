@@ -42,6 +42,18 @@ def _project(scene):
     return Transformer.from_crs("EPSG:4326", scene.meta.source.projection, always_xy=True)
 
 
+def building_of(area, t) -> tuple[str, shapely.Geometry]:
+    """A building area's scene id suffix (``w45``, ``r6``) and footprint, projected by ``t``."""
+    polys = [
+        Polygon(
+            [t.transform(n.lon, n.lat) for n in outer],
+            [[t.transform(n.lon, n.lat) for n in r] for r in area.inner_rings(outer)],
+        )
+        for outer in area.outer_rings()
+    ]
+    return ("w" if area.from_way() else "r") + str(area.orig_id()), shapely.union_all(polys)
+
+
 def _mapped(scene):
     """The extract's junctions, buildings and tagged nodes inside the scene's bounds, in its metres."""
     t = _project(scene)
@@ -59,14 +71,8 @@ def _mapped(scene):
             for k, ref in enumerate(refs):
                 uses[ref] += 1 if k in (0, len(refs) - 1) else 2
         elif isinstance(obj, osmium.osm.Area) and "building" in obj.tags:
-            polys = [
-                Polygon(
-                    [t.transform(n.lon, n.lat) for n in outer],
-                    [[t.transform(n.lon, n.lat) for n in r] for r in obj.inner_rings(outer)],
-                )
-                for outer in obj.outer_rings()
-            ]
-            buildings[("w" if obj.from_way() else "r") + str(obj.orig_id())] = shapely.union_all(polys)
+            fid, shape = building_of(obj, t)
+            buildings[fid] = shape
     junctions = [
         nodes[n][0] for n, k in uses.items() if k >= 3 and frame.contains(shapely.Point(nodes[n][0]))
     ]

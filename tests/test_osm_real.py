@@ -12,7 +12,6 @@ from collections import Counter, defaultdict
 
 import osmium
 import pytest
-import shapely
 from pyproj import Transformer
 from shapely.geometry import Point, Polygon, box
 
@@ -21,6 +20,7 @@ from citygen.generate.layouts.osm import osm_config
 from citygen.generate.pipeline import generate
 from citygen.generate.places import left_out
 from tests.conftest import ROOT
+from tests.test_osm import building_of
 
 FILE = ROOT / "tests" / "data" / "osm" / "helsinki-esplanadi.osm.pbf"
 BOX = (24.9422, 60.1647, 24.9494, 60.1683)
@@ -42,14 +42,8 @@ def mapped(place):
         if isinstance(obj, osmium.osm.Node) and obj.tags:
             nodes[f"n{obj.id}"] = (t.transform(obj.location.lon, obj.location.lat), dict(obj.tags))
         elif isinstance(obj, osmium.osm.Area) and "building" in obj.tags:
-            polys = [
-                Polygon(
-                    [t.transform(n.lon, n.lat) for n in outer],
-                    [[t.transform(n.lon, n.lat) for n in r] for r in obj.inner_rings(outer)],
-                )
-                for outer in obj.outer_rings()
-            ]
-            buildings[("w" if obj.from_way() else "r") + str(obj.orig_id())] = shapely.union_all(polys)
+            fid, shape = building_of(obj, t)
+            buildings[fid] = shape
     return nodes, buildings
 
 

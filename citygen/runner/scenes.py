@@ -104,22 +104,22 @@ class SceneSource:
             if self._content is None:
                 self._content = f"scene {_digest(self._scene)}"
             return self._content
-        i = index % self.size
-        for part in self._parts:
-            if i < part.scenes:
-                return f"split {hashlib.sha256(part.model_dump_json().encode()).hexdigest()} {i}"
-            i -= part.scenes
-        raise AssertionError("unreachable")  # pragma: no cover
+        part, i = self._part(index)
+        return f"split {hashlib.sha256(part.model_dump_json().encode()).hexdigest()} {i}"
 
     def scene(self, index: int) -> Scene:
         if self._scene is not None:
             return self._scene
         from citygen.generate.splits import generate_scene
 
+        return generate_scene(*self._part(index))
+
+    def _part(self, index: int) -> tuple[Any, int]:
+        """The split part scene ``index`` falls in, and its index within that part."""
         i = index % self.size
         for part in self._parts:
             if i < part.scenes:
-                return generate_scene(part, i)
+                return part, i
             i -= part.scenes
         raise AssertionError("unreachable")  # pragma: no cover
 

@@ -102,15 +102,15 @@ def place_mapped(
         name: [f"{name}/{int(v):04d}" for v in rng.choice(10_000, PALETTE, replace=False)]
         for name in sorted({m.category for m in mapped})
     }
+    slimmest = {name: sorted(variants, key=_base_area) for name, variants in palette.items()}
     placed: list[Placement] = []
     bases: list[Polygon] = list(taken)
     left_out = 0
     for k, m in enumerate(mapped):
-        choices = palette[m.category]
         # Its own variant first, then the category's others, slimmest first: a street tree
         # mapped on a narrow sidewalk is a slimmer tree on its point, not left out.
-        others = sorted((a for a in choices if a != choices[k % PALETTE]), key=_base_area)
-        assets = [choices[k % PALETTE], *others]
+        own = palette[m.category][k % PALETTE]
+        assets = [own, *(a for a in slimmest[m.category] if a != own)]
         yaw = m.direction if m.direction is not None else _facing(m.position, streets)
         yaw = round(math.remainder(yaw, 2 * math.pi), 6) + 0.0
         suits = CATEGORIES[m.category].zones | OPEN_GROUND
