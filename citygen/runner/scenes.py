@@ -37,6 +37,14 @@ MAP_RESOLUTION = 0.05
 MAX_MAP_CELLS = 2**24
 #: Most compiled scenes a process keeps, whatever their size.
 CACHE_SIZE = 4096
+#: How an environment's scene compiles its slopes and rough tiles (the MJCF exporter's
+#: ``terrain`` option): ``"heightfield"`` for wheels and the ideal servo (the navigation
+#: baselines' physics), ``"hybrid"`` (slopes as exact convex prisms, rough tiles as
+#: heightfields) under feet: MuJoCo's contacts of a small sphere or capsule sunk a centimetre
+#: into a heightfield's prisms point sideways, and hold a walking foot where it stands (a
+#: quadruped's general model went 0.3 m in 20 s on a test slope's flat pit floor, 1-4 m on
+#: prisms; docs/runner.md, "Terrain under feet").
+TERRAIN_OPTIONS = ("heightfield", "hybrid")
 #: Memory (MiB) the compiled scenes a process keeps may take, by :meth:`Prepared.footprint`
 #: (1.3 MiB for a 10 m Urban-Nav training scene, 2.7 MiB for a 15 m test scene; the process's
 #: resident memory grows by 2.3 and 4.4 MiB per scene kept, caches of assets and the
@@ -322,9 +330,10 @@ def map_resolution(scene: Scene) -> float:
     return res
 
 
-def _scene_mjcf(scene: Scene) -> Any:
+def _scene_mjcf(scene: Scene, terrain: str = "heightfield") -> Any:
     """The scene's MJCF, its heightfields sampled every 0.1 m, or coarser where a city's
-    terrain would exceed the exporter's sample budget."""
+    terrain would exceed the exporter's sample budget; ``terrain`` is the exporter's option
+    (:data:`TERRAIN_OPTIONS`)."""
     from citygen.errors import ExportError
     from citygen.exporters import ExportWarning, mjcf
 
@@ -335,15 +344,16 @@ def _scene_mjcf(scene: Scene) -> Any:
                 # Per-tile friction approximations and the like: the exporter's notes to a
                 # user writing files, not news to an environment on every scene it samples.
                 warnings.simplefilter("ignore", ExportWarning)
-                return mjcf.to_mjcf(scene, apron=5.0, resolution=resolution)
+                return mjcf.to_mjcf(scene, apron=5.0, resolution=resolution, terrain=terrain)
         except ExportError as exc:
             if "coarser resolution" not in str(exc) or resolution >= 1.0:
                 raise
             resolution *= 2
 
 
-def prepare(scene: Scene, robot: Any) -> Prepared:
-    """Compile ``scene`` with ``robot`` at the task's start and rasterise its maps."""
+def prepare(scene: Scene, robot: Any, terrain: str = "heightfield") -> Prepared:
+    """Compile ``scene`` with ``robot`` at the task's start (its slopes and rough tiles as
+    ``terrain`` says, :data:`TERRAIN_OPTIONS`) and rasterise its maps."""
     from citygen.exporters import mjcf
     from citygen.exporters.occupancy import occupancy
     from citygen.geometry.terrain import height_at
@@ -353,7 +363,7 @@ def prepare(scene: Scene, robot: Any) -> Prepared:
     x, y = start.position if start is not None else scene.bounds.min
     yaw = start.yaw if start is not None else 0.0
     z = float(height_at(scene, x, y))
-    model = compose(_scene_mjcf(scene), robot, (x, y, z, yaw))
+    model = compose(_scene_mjcf(scene, terrain), robot, (x, y, z, yaw))
     occ = occupancy(scene, map_resolution(scene))
     labels = mjcf.geom_labels(model)
     obstacle = np.array([lab is not None and lab[0] in ("object", "agent") for lab in labels])
@@ -408,8 +418,10 @@ class SceneCache:
         self.hits = 0
         self.misses = 0
 
-    def get(self, source: SceneSource, index: int, robot: Any) -> Prepared:
-        key = (source.key(index), robot.name, robot.timestep, hashlib.sha256(robot.xml.encode()).hexdigest())
+    def get(self, source: SceneSource, index: int, robot: Any, terrain: str = "heightfield") -> Prepared:
+        key = (
+            source.key(index), robot.name, robot.timestep, hashlib.sha256(robot.xml.encode()).hexdigest(), terrain
+        )  # fmt: skip
         hit = self._items.get(key)
         if hit is not None:
             self.hits += 1
@@ -419,10 +431,10 @@ class SceneCache:
         item = None
         disk = scene_store.store()
         if disk is not None:
-            stored = scene_store.entry_key(source.content_key(index), robot)
+            stored = scene_store.entry_key(source.content_key(index), robot, terrain)
             item = disk.load(stored, robot)
         if item is None:
-            item = prepare(source.scene(index), robot)
+            item = prepare(source.scene(index), robot, terrain)
             if disk is not None:
                 disk.save(stored, item)
         size = item.footprint()

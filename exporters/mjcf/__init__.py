@@ -20,7 +20,12 @@ What the model holds (metres, radians, Z up; ``<compiler angle="radian"/>``):
   every tile edge is exact and meets its neighbour; with ``terrain="convex"`` (for readers
   without heightfields) they are convex pieces instead, exact for slopes, within
   ``tolerance`` of ``height_at`` for rough tiles (:mod:`citygen.geometry.pieces`: geoms
-  ``terrain:<kind>:<row>_<col>:<k>``, prisms' meshes ``terrain:mesh:<n>``). A non-level
+  ``terrain:<kind>:<row>_<col>:<k>``, prisms' meshes ``terrain:mesh:<n>``); with
+  ``terrain="hybrid"`` (the runner's) slopes are convex prisms and rough tiles heightfields.
+  MuJoCo's collisions of small spheres and capsules (a robot's feet and shins) with a
+  heightfield's prisms give contact normals that lie flat once a foot sinks a centimetre,
+  which holds a walking foot in place: on a heightfield slope a quadruped's trot goes
+  nowhere where on boxes or prisms it walks. A non-level
   tile has one friction: its own (``friction`` or ``material``),
   else that of the zone covering most of it, else :data:`DEFAULT_FRICTION`; where zones
   of different friction share such a tile an :class:`ExportWarning` says so.
@@ -133,9 +138,11 @@ if TYPE_CHECKING:
     import mujoco
 
 _OPTIONS = ("name", "resolution", "apron", "mesh_dir", "terrain", "tolerance")
-#: The ``terrain`` option's values: slope and rough tiles as heightfields (MuJoCo), or as
-#: convex pieces (readers without heightfields, such as Genesis).
-TERRAINS = ("heightfield", "convex")
+#: The ``terrain`` option's values: slope and rough tiles as heightfields (MuJoCo), as
+#: convex pieces (readers without heightfields, such as Genesis), or slopes as convex pieces
+#: (exact, five prisms a tile) and rough tiles as heightfields (the runner's: see the module
+#: docstring, "Terrain").
+TERRAINS = ("heightfield", "convex", "hybrid")
 
 
 def _check_options(options: Mapping[str, object]) -> dict[str, Any]:
@@ -182,7 +189,8 @@ def to_mjcf(scene: Scene | str | Path, **options: object) -> MJCF:
     ``mesh_dir`` (the folder mesh paths are relative to, for a scene given as a model),
     ``terrain`` (``"heightfield"``, the default: slope and rough tiles as heightfields;
     ``"convex"``: as convex pieces, :mod:`citygen.geometry.pieces`, for readers without
-    heightfields such as Genesis), ``tolerance`` (m, how far a convex rough tile's pieces may
+    heightfields such as Genesis; ``"hybrid"``: slopes as convex pieces, rough tiles as
+    heightfields, what the runner simulates), ``tolerance`` (m, how far a convex rough tile's pieces may
     lie from ``height_at``; default 0.01, coarser with one warning where the pieces would
     exceed ``pieces.PIECE_BUDGETS["mjcf"]``).
     Anything the format cannot express is reported as an :class:`~citygen.exporters.ExportWarning`.

@@ -94,6 +94,14 @@ def _hfield_cells(tile: SlopeTile | RoughTile, s: float, resolution: float) -> i
     return int(min(max(cells, 1), MAX_HFIELD_SIDE - 1))
 
 
+def _not_hfield(b: Builder) -> tuple[type, ...]:
+    """The tile kinds that are not heightfields under the builder's ``terrain`` option (stairs
+    are boxes; the others of these, convex pieces)."""
+    return {"heightfield": (StairTile,), "hybrid": (StairTile, SlopeTile)}.get(
+        b.terrain, (StairTile, SlopeTile, RoughTile)
+    )
+
+
 def _geometry_key(tile: SlopeTile | RoughTile) -> tuple:
     return tuple(sorted(tile.model_dump(exclude={"height", "material", "friction"}).items()))
 
@@ -107,7 +115,7 @@ def hfield_plan(b: Builder, shaped: list[int]) -> dict[int, int]:
     beyond :data:`MAX_HFIELD_SAMPLES` is an ExportError."""
     terrain = b.scene.terrain
     s = terrain.tile_size
-    tiles = {k: terrain.tiles[k] for k in shaped if not isinstance(terrain.tiles[k], StairTile)}
+    tiles = {k: terrain.tiles[k] for k in shaped if not isinstance(terrain.tiles[k], _not_hfield(b))}
     res = b.resolution if b.resolution is not None else DEFAULT_RESOLUTION
     cells = {k: _hfield_cells(t, s, res) for k, t in tiles.items()}
 
@@ -190,7 +198,7 @@ def shaped_tiles(
             mixed.append(k)
         prefix = f"terrain:{tile.kind}:{row}_{col}"
         common = {"class": "static", "material": mat, "friction": friction(mu)}
-        if b.terrain == "convex" and not isinstance(tile, StairTile):
+        if not isinstance(tile, StairTile) and isinstance(tile, _not_hfield(b)):
             _convex_tile(b, tile, prefix, (x, y), common, pieces)
             continue
         if isinstance(tile, StairTile):

@@ -45,6 +45,9 @@ class _CitygenEnv(Sensors, gymnasium.Env):
     #: The robot when given none: the family's in :data:`citygen.runner.tasks.DEFAULT_ROBOT`.
     default_robot: str
     dt = NAV_DT
+    #: How the scene's slopes and rough tiles are compiled (:data:`citygen.runner.scenes.TERRAIN_OPTIONS`):
+    #: heightfields for a robot on wheels or the servo, slopes as prisms under feet.
+    terrain = "heightfield"
 
     def __init__(
         self,
@@ -113,7 +116,7 @@ class _CitygenEnv(Sensors, gymnasium.Env):
     # --- scenes and the model ------------------------------------------------------------
 
     def _load(self, index: int) -> None:
-        prepared = process_cache().get(self.source, index, self.robot)
+        prepared = process_cache().get(self.source, index, self.robot, self.terrain)
         if prepared is not self.prepared:
             # A scene this environment ran lately keeps its MjData and robot handle: coming
             # back to it swaps a few references instead of allocating them again.

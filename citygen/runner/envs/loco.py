@@ -59,6 +59,7 @@ class LocoEnv(_CitygenEnv):
 
     default_robot = DEFAULT_ROBOT["loco"]
     dt = LOCO_DT
+    terrain = "hybrid"  # feet stick in a heightfield's slope (citygen.runner.scenes.TERRAIN_OPTIONS)
     metadata = {"render_modes": ["rgb_array"], "render_fps": 50}
 
     def __init__(self, task: str = "loco-flat", scene: Scene | str | Path | None = None, **kwargs: Any):

@@ -69,6 +69,8 @@ class NavEnv(_CitygenEnv):
         #: A legged robot's learned legs (``locomotion="learned"``, :mod:`~citygen.runner.envs.legs`)
         #: or None (the robot's own drive: wheels, or the ideal servo on a legged robot's base).
         self.legs = learned_legs(self, locomotion)
+        if self.legs is not None:  # feet, as in locomotion (citygen.runner.scenes.TERRAIN_OPTIONS)
+            self.terrain = "hybrid"
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         obs = {
             "goal": spaces.Box(-np.inf, np.inf, (2,), np.float32),
