@@ -131,6 +131,23 @@ def test_boxes_dropped_on_every_tile_kind_rest_on_the_ground():
         assert np.linalg.norm(data.body(f"drop{i}").cvel) < 0.05, (k, (x, y))  # at rest
 
 
+def test_hybrid_terrain_is_slopes_as_prisms_and_rough_tiles_as_heightfields():
+    """``terrain="hybrid"`` (the runner's under feet): every slope tile is convex pieces, every
+    rough tile one heightfield, stairs boxes, and the ground under a ray is where it was."""
+    scene = terrain_scene()
+    model = mjcf.build(scene, terrain="hybrid")
+    kinds: dict[str, set[int]] = {}
+    for (layer, cls, _), g in zip(labels(model), range(model.ngeom), strict=True):
+        if layer == "terrain":
+            kinds.setdefault(cls, set()).add(int(model.geom_type[g]))
+    hfield, mesh, box = (
+        int(t) for t in (mujoco.mjtGeom.mjGEOM_HFIELD, mujoco.mjtGeom.mjGEOM_MESH, mujoco.mjtGeom.mjGEOM_BOX)
+    )
+    assert kinds["slope"] <= {mesh, box} and mesh in kinds["slope"]
+    assert kinds["rough"] == {hfield} and kinds["stair"] == {box}
+    assert check_ground_by_rays(scene, model, 200, seed=6, own={2: 1.1}) > 30
+
+
 def check_ground_by_rays(scene: Scene, model, n: int, seed: int, own: dict[int, float] | None = None) -> int:
     """Cast ``n`` rays down at random points in and around the scene: each hits the ground
     at ``height_at``, on the geom of the tile (a stair, slope or rough one) or of the zone

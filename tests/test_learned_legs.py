@@ -59,8 +59,10 @@ def test_every_legged_robot_with_a_general_model_walks_a_nav_task_on_it(general,
     assert env.observation_space == servo.observation_space  # navigation sees the same keys
     env.reset(seed=0)
     servo.reset(seed=0)
-    servo.step(np.array([1.0, 0.0]))  # its servo damps the free joint of the scene they share
-    assert servo.model is env.model and servo.handle._damped
+    servo.step(np.array([1.0, 0.0]))  # its servo damps its robot's free joint
+    assert servo.handle._damped
+    # Feet get the slopes as prisms, the servo heightfields: two compiled scenes, never one.
+    assert (env.terrain, servo.terrain) == ("hybrid", "heightfield") and servo.model is not env.model
     assert env.legs.path == general[robot] and env.legs.repeats == 5  # 0.1 s nav step, 50 Hz legs
     for episode in range(2):
         obs, _ = env.reset(seed=episode)

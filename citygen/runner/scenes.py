@@ -419,9 +419,8 @@ class SceneCache:
         self.misses = 0
 
     def get(self, source: SceneSource, index: int, robot: Any, terrain: str = "heightfield") -> Prepared:
-        key = (
-            source.key(index), robot.name, robot.timestep, hashlib.sha256(robot.xml.encode()).hexdigest(), terrain
-        )  # fmt: skip
+        digest = hashlib.sha256(robot.xml.encode()).hexdigest()
+        key = (source.key(index), robot.name, robot.timestep, digest, terrain)
         hit = self._items.get(key)
         if hit is not None:
             self.hits += 1

