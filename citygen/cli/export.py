@@ -101,8 +101,9 @@ def export(
         str,
         typer.Option(
             "--mjcf-terrain",
-            help="MJCF: slope and rough tiles as heightfield (MuJoCo) or convex pieces (readers "
-            "without heightfields: Genesis).",
+            help="MJCF: slope and rough tiles as heightfield (MuJoCo), convex pieces (readers "
+            "without heightfields: Genesis), or hybrid (slopes convex, rough tiles heightfields: "
+            "what the runner gives a legged robot).",
         ),
     ] = "heightfield",
     piece_tolerance: Annotated[
