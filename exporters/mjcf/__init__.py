@@ -21,11 +21,13 @@ What the model holds (metres, radians, Z up; ``<compiler angle="radian"/>``):
   without heightfields) they are convex pieces instead, exact for slopes, within
   ``tolerance`` of ``height_at`` for rough tiles (:mod:`citygen.geometry.pieces`: geoms
   ``terrain:<kind>:<row>_<col>:<k>``, prisms' meshes ``terrain:mesh:<n>``); with
-  ``terrain="hybrid"`` (the runner's) slopes are convex prisms and rough tiles heightfields.
-  MuJoCo's collisions of small spheres and capsules (a robot's feet and shins) with a
-  heightfield's prisms give contact normals that lie flat once a foot sinks a centimetre,
-  which holds a walking foot in place: on a heightfield slope a quadruped's trot goes
-  nowhere where on boxes or prisms it walks. A non-level
+  ``terrain="hybrid"`` (the runner's) slopes are convex prisms and rough tiles heightfields
+  with stiffer contacts (``solref`` time constant
+  :data:`~citygen.exporters.mjcf.heightfield.HYBRID_HFIELD_TIMECONST`). MuJoCo's collisions of
+  small spheres and capsules (a robot's feet and shins) with a heightfield's prisms give
+  contact normals that lie flat once a foot sinks a centimetre, which holds a walking foot
+  in place: on a heightfield a quadruped's walk goes nowhere where on boxes or prisms it
+  walks, and on the stiffer heightfield it walks. A non-level
   tile has one friction: its own (``friction`` or ``material``),
   else that of the zone covering most of it, else :data:`DEFAULT_FRICTION`; where zones
   of different friction share such a tile an :class:`ExportWarning` says so.

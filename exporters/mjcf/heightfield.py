@@ -25,6 +25,12 @@ from citygen.spec.terrain import RoughTile, SlopeTile, StairTile
 
 #: Thickness (m) of every heightfield below its lowest sample.
 HFIELD_BASE = 1.0
+#: Contact time constant (s) of a heightfield under ``terrain="hybrid"`` (the runner's under
+#: feet), against MuJoCo's 0.02 elsewhere: a trotting foot sinks about a millimetre into it
+#: rather than 1.4 cm, short of the depth at which a heightfield's contacts turn sideways and
+#: hold the foot (see :mod:`citygen.exporters.mjcf`, "Terrain"). Twice a 5 ms physics step,
+#: the stiffest MuJoCo keeps stable.
+HYBRID_HFIELD_TIMECONST = 0.01
 #: Default of the ``resolution`` option: heightfield sample spacing (m).
 DEFAULT_RESOLUTION = 0.1
 #: Height step (m) of heightfield samples (they are written as whole numbers of it).
@@ -228,9 +234,10 @@ def shaped_tiles(
             )  # fmt: skip
             hfields[key] = (name, lo)
         name, lo = hfields[key]
+        stiff = {"solref": nums((HYBRID_HFIELD_TIMECONST, 1.0))} if b.terrain == "hybrid" else {}
         ET.SubElement(
             b.world, "geom", name=f"{prefix}:0", type="hfield", hfield=name,
-            pos=nums((x + s / 2, y + s / 2, tile.height + lo)), **common,
+            pos=nums((x + s / 2, y + s / 2, tile.height + lo)), **common, **stiff,
         )  # fmt: skip
     if mixed:
         b.warnings.append(
