@@ -145,6 +145,10 @@ def test_hybrid_terrain_is_slopes_as_prisms_and_rough_tiles_as_heightfields():
     )
     assert kinds["slope"] <= {mesh, box} and mesh in kinds["slope"]
     assert kinds["rough"] == {hfield} and kinds["stair"] == {box}
+    stiff = model.geom_solref[model.geom_type == hfield]  # feet sink too deep at MuJoCo's 0.02 s
+    assert (stiff == (heightfield.HYBRID_HFIELD_TIMECONST, 1.0)).all()
+    plain = mjcf.build(scene)
+    assert (plain.geom_solref[plain.geom_type == hfield][:, 0] == 0.02).all()
     assert check_ground_by_rays(scene, model, 200, seed=6, own={2: 1.1}) > 30
 
 

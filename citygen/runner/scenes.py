@@ -39,11 +39,10 @@ MAX_MAP_CELLS = 2**24
 CACHE_SIZE = 4096
 #: How an environment's scene compiles its slopes and rough tiles (the MJCF exporter's
 #: ``terrain`` option): ``"heightfield"`` for wheels and the ideal servo (the navigation
-#: baselines' physics), ``"hybrid"`` (slopes as exact convex prisms, rough tiles as
+#: baselines' physics), ``"hybrid"`` (slopes as exact convex prisms, rough tiles as stiffer
 #: heightfields) under feet: MuJoCo's contacts of a small sphere or capsule sunk a centimetre
-#: into a heightfield's prisms point sideways, and hold a walking foot where it stands (a
-#: quadruped's general model went 0.3 m in 20 s on a test slope's flat pit floor, 1-4 m on
-#: prisms; docs/runner.md, "Terrain under feet").
+#: into a heightfield's prisms point sideways, and hold a walking foot where it stands
+#: (docs/runner.md, "Terrain under feet").
 TERRAIN_OPTIONS = ("heightfield", "hybrid")
 #: Memory (MiB) the compiled scenes a process keeps may take, by :meth:`Prepared.footprint`
 #: (1.3 MiB for a 10 m Urban-Nav training scene, 2.7 MiB for a 15 m test scene; the process's
