@@ -149,6 +149,10 @@ def test_export_command_writes_each_format_and_reports_what_a_format_drops(tmp_p
     ("args", "needle"),
     [
         (["--format", "obj"], "--format: expected one of mjcf"),
+        (
+            ["--mjcf-terrain", "mesh"],
+            "--mjcf-terrain: expected one of heightfield, convex, hybrid, got 'mesh'",
+        ),
         (["missing.json"], "missing.json"),
     ],
 )

@@ -131,10 +131,13 @@ def export(
     """
     from citygen.errors import ExportError
     from citygen.exporters.batch import export_batch
+    from citygen.exporters.mjcf import TERRAINS as MJCF_TERRAINS
     from citygen.generate.dataset import default_jobs
 
     if fmt != "all" and fmt not in EXPORT_FORMATS:
         raise ExportError(f"--format: expected one of {', '.join(EXPORT_FORMATS)} or all, got {fmt!r}")
+    if mjcf_terrain not in MJCF_TERRAINS:
+        raise ExportError(f"--mjcf-terrain: expected one of {', '.join(MJCF_TERRAINS)}, got {mjcf_terrain!r}")
     if resolution is not None and occupancy_resolution not in (None, resolution):
         raise ExportError(
             f"--resolution: the same as --occupancy-resolution, given both as {resolution:g} and "
