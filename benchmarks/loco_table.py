@@ -55,14 +55,22 @@ PAPER = {
 METRICS = ("balance", "x_displacement", "ttf", "smoothness")
 NAMES = {"quadruped": "Quadruped", "wheeled_legged": "Wheeled-legged", "humanoid": "Humanoid"}
 MARK = ("<!-- loco-table: made by benchmarks/loco_table.py -->", "<!-- /loco-table -->")
+#: The physics a task's cells were measured on, where it changed since the first table: a
+#: cell measured on other physics is measured again (docs/runner.md, "Terrain under feet").
+PHYSICS = {
+    "loco-slope": "slope tiles as convex prisms (4f6860a)",
+    "loco-rough": "rough heightfields at solref 0.01 s (05b88de)",
+}
 
 
 def _digest(robot: str, task: str, policy: str) -> str:
-    """What a cell's figures depend on: the policy file's bytes, or the scripted gait's name."""
+    """What a cell's figures depend on: the policy file's bytes, or the scripted gait's name,
+    and the task's physics where it changed (:data:`PHYSICS`)."""
+    physics = f" on {PHYSICS[task]}" if task in PHYSICS else ""
     if policy != "ppo":
-        return policy
+        return policy + physics
     path = shipped().get((task, robot))
-    return hashlib.sha256(path.read_bytes()).hexdigest()[:16] if path else ""
+    return hashlib.sha256(path.read_bytes()).hexdigest()[:16] + physics if path else ""
 
 
 def measure(robot: str, task: str, policy: str, episodes: int, jobs: int) -> dict:
