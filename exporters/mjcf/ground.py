@@ -65,7 +65,7 @@ def add_ground(b: Builder) -> None:
         # The heightfields' plan first: a resolution too fine for the sample limit fails here,
         # before the city's slabs are built (the runner retries coarser on that error).
         shaped = [k for k, tile in enumerate(terrain.tiles) if not level(tile)]
-        plan = hfield_plan(b, shaped) if b.terrain != "convex" else {}
+        plan = hfield_plan(b, shaped)  # {} when no tile is a heightfield
         s = terrain.tile_size
         ox, oy = terrain.origin
         grid = rect(ox, oy, ox + terrain.cols * s, oy + terrain.rows * s)

@@ -100,12 +100,11 @@ def _hfield_cells(tile: SlopeTile | RoughTile, s: float, resolution: float) -> i
     return int(min(max(cells, 1), MAX_HFIELD_SIDE - 1))
 
 
-def _not_hfield(b: Builder) -> tuple[type, ...]:
-    """The tile kinds that are not heightfields under the builder's ``terrain`` option (stairs
-    are boxes; the others of these, convex pieces)."""
-    return {"heightfield": (StairTile,), "hybrid": (StairTile, SlopeTile)}.get(
-        b.terrain, (StairTile, SlopeTile, RoughTile)
-    )
+#: The tile kinds each ``terrain`` option draws as heightfields; the other slope and rough
+#: tiles are convex pieces, stairs always boxes.
+HFIELD_KINDS: dict[str, tuple[type, ...]] = {
+    "heightfield": (SlopeTile, RoughTile), "hybrid": (RoughTile,), "convex": (),
+}  # fmt: skip
 
 
 def _geometry_key(tile: SlopeTile | RoughTile) -> tuple:
@@ -121,7 +120,7 @@ def hfield_plan(b: Builder, shaped: list[int]) -> dict[int, int]:
     beyond :data:`MAX_HFIELD_SAMPLES` is an ExportError."""
     terrain = b.scene.terrain
     s = terrain.tile_size
-    tiles = {k: terrain.tiles[k] for k in shaped if not isinstance(terrain.tiles[k], _not_hfield(b))}
+    tiles = {k: terrain.tiles[k] for k in shaped if isinstance(terrain.tiles[k], HFIELD_KINDS[b.terrain])}
     res = b.resolution if b.resolution is not None else DEFAULT_RESOLUTION
     cells = {k: _hfield_cells(t, s, res) for k, t in tiles.items()}
 
@@ -204,7 +203,7 @@ def shaped_tiles(
             mixed.append(k)
         prefix = f"terrain:{tile.kind}:{row}_{col}"
         common = {"class": "static", "material": mat, "friction": friction(mu)}
-        if not isinstance(tile, StairTile) and isinstance(tile, _not_hfield(b)):
+        if not isinstance(tile, (StairTile, *HFIELD_KINDS[b.terrain])):
             _convex_tile(b, tile, prefix, (x, y), common, pieces)
             continue
         if isinstance(tile, StairTile):
