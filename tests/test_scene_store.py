@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from citygen.runner import scene_store
+from citygen.runner.envs import base as envs_base
 from citygen.runner.make import make_env
 from citygen.runner.scenes import SceneCache, SceneSource
 from tests.conftest import ROOT
@@ -106,6 +107,10 @@ def test_an_unwritable_folder_or_off_keeps_nothing_and_fails_nothing(tmp_path, m
     blocker = tmp_path / "a-file"
     blocker.write_text("not a folder")
     monkeypatch.setenv("CITYGEN_CACHE_DIR", str(blocker))
+    # a cache of this test's own: a worker's earlier test may hold this scene in the process's
+    # cache, and then the store would never be asked (the CI failure of stop 51)
+    cache = SceneCache()
+    monkeypatch.setattr(envs_base, "process_cache", lambda: cache)
     env = make_env("nav-static", scene=SCENE)
     env.reset(seed=0)
     env.step(env.action_space.sample())
