@@ -62,15 +62,21 @@ PHYSICS = {
     "loco-rough": "rough heightfields at solref 0.01 s (05b88de)",
 }
 
+#: What the episodes give a learned policy, where it changed since the first table: a learned
+#: cell measured otherwise is measured again. The scripted gaits copy the command at the
+#: start and are not affected.
+PROTOCOL = " with heading control (citygen.runner.envs.loco.HEADING_STIFFNESS)"
+
 
 def _digest(robot: str, task: str, policy: str) -> str:
     """What a cell's figures depend on: the policy file's bytes, or the scripted gait's name,
-    and the task's physics where it changed (:data:`PHYSICS`)."""
+    the task's physics where it changed (:data:`PHYSICS`) and, for a learned policy, the
+    protocol (:data:`PROTOCOL`)."""
     physics = f" on {PHYSICS[task]}" if task in PHYSICS else ""
     if policy != "ppo":
         return policy + physics
     path = shipped().get((task, robot))
-    return hashlib.sha256(path.read_bytes()).hexdigest()[:16] + physics if path else ""
+    return hashlib.sha256(path.read_bytes()).hexdigest()[:16] + physics + PROTOCOL if path else ""
 
 
 def measure(robot: str, task: str, policy: str, episodes: int, jobs: int) -> dict:

@@ -135,16 +135,66 @@ def test_a_walking_foot_does_not_stick_in_slope_or_rough_tiles(task):
     LocoRough's mildest row, walks as it does on flat ground: slope tiles are prisms under
     feet and rough tiles stiffer heightfields (``terrain="hybrid"``). On MuJoCo's plain
     heightfields its feet sank, the contacts turned sideways and held them: 0.17 m (slope)
-    and 0.13 m (rough) in 3 s, where it walks 2.7 and 2.3 m."""
+    and 0.13 m (rough) in 3 s, where it walks 2.7 and 2.3 m. The physics, not the protocol:
+    the command stays fixed (heading control's turning slows this flat walker to 1.7 m in
+    3 s on rough ground)."""
     from citygen.runner.learn.policy import load_policy
     from citygen.runner.learn.shipped_models import baseline
 
     policy = load_policy(baseline("loco-flat", "quadruped"))
-    env = make_env(task, robot="quadruped", max_steps=150)  # 3 s
+    env = make_env(task, robot="quadruped", max_steps=150, heading_control=False)  # 3 s
     try:
         region = (0, 1 if task == "loco-slope" else 5)
         result = run_episode(env, policy, seed=0, options={"region": region})
         assert env.terrain == "hybrid" and (env.model.nhfield == 0) == (task == "loco-slope")
         assert result["balance"] == 100.0 and result["x_displacement"] > 2.0, result
+    finally:
+        env.close()
+
+
+def test_a_straight_command_holds_the_heading_and_a_yaw_rate_command_stays(rough):
+    """Heading control (Isaac Lab's ``heading_command``): a straight command's yaw rate turns
+    the robot back to its start heading (0.5 times the error); a command with a yaw rate of
+    its own, or ``heading_control=False``, stays as drawn. With it the shipped LocoFlat
+    walker, turned 0.4 rad off, comes back within 3 s; without, it walks on askew."""
+    import mujoco
+
+    from citygen.runner.learn.policy import load_policy
+    from citygen.runner.learn.shipped_models import baseline
+
+    def turned(env, options=None, hold=True):
+        env.heading_control = hold
+        obs, _ = env.reset(seed=0, options={"region": (0, 0), **(options or {})})
+        h = env.handle
+        yaw0 = h.pose(env.data)[3]
+        q = np.array(env.data.qpos[h.qadr + 3 : h.qadr + 7])
+        mujoco.mju_mulQuat(env.data.qpos[h.qadr + 3 : h.qadr + 7], np.array([np.cos(0.2), 0, 0, np.sin(0.2)]), q)
+        mujoco.mj_forward(env.model, env.data)
+        return obs, yaw0
+
+    def error(env, yaw0):
+        return abs(np.remainder(env.handle.pose(env.data)[3] - yaw0 + np.pi, 2 * np.pi) - np.pi)
+
+    turned(rough)
+    obs, *_ = rough.step(np.zeros(rough.n_actions))
+    assert obs["command"][2] == pytest.approx(-0.2, abs=0.02)  # 0.5 x (0 - 0.4 rad)
+    turned(rough, {"command": (0.5, 0.0, 0.2)})
+    assert rough.step(np.zeros(rough.n_actions))[0]["command"][2] == 0.2
+    turned(rough, hold=False)
+    assert rough.step(np.zeros(rough.n_actions))[0]["command"][2] == 0.0
+    rough.heading_control = True
+
+    policy = load_policy(baseline("loco-flat", "quadruped"))
+    env = make_env("loco-flat", robot="quadruped")
+    try:
+        errors = []
+        for hold in (True, False):
+            obs, yaw0 = turned(env, hold=hold)
+            policy.reset(env)
+            for _ in range(150):
+                obs, _, fallen, _, _ = env.step(policy.act(obs))
+                assert not fallen
+            errors.append(error(env, yaw0))
+        assert errors[0] < 0.12 < 0.25 < errors[1], errors
     finally:
         env.close()

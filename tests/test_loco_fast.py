@@ -17,7 +17,7 @@ from citygen.geometry.terrain import height_at
 from citygen.geometry.tiles import KIND_CODES, build_table
 from citygen.runner import metrics as M
 from citygen.runner.envs.height_kernel import flat_tiles_around, ground_around
-from citygen.runner.envs.loco import FALL_FORCE
+from citygen.runner.envs.loco import FALL_FORCE, HEADING_STIFFNESS
 from citygen.runner.envs.sensors import HEIGHT_MAP
 from citygen.runner.learn.loco import AIR_TIME, WEIGHTS, LocoTraining
 from citygen.runner.make import make_env
@@ -84,6 +84,9 @@ def _reference_step(env, action):
         reward -= 100.0
     env.last_action = a
     env.recorder.record_step((x, y), np.array(env.data.actuator_force), fallen=fallen)
+    if env._hold is not None:  # heading control: the next step's yaw rate
+        yaw = env.handle.pose(env.data)[3]
+        env.command[2] = float(np.clip(HEADING_STIFFNESS * math.remainder(env._hold - yaw, 2 * math.pi), -1.0, 1.0))
     truncated = not fallen and env.steps >= env.horizon
     info = {"scene": env.source.name, "index": env._index, "fallen": fallen}
     if fallen or truncated:

@@ -52,6 +52,15 @@ START_JITTER = 0.25
 #: are redrawn up to :data:`START_TRIES` times.
 START_MARGIN = 1.0
 START_TRIES = 64
+#: Locomotion: a straight command (no yaw rate) holds the robot's heading, as Isaac Lab's
+#: velocity command does (``heading_command``; URBAN-SIM's locomotion is built on it): each
+#: step the command's yaw rate becomes this stiffness (1/s) times the heading error (the start
+#: heading minus the robot's), within :data:`YAW_RATE_LIMIT`. Without it a robot that drifts
+#: a few degrees a second walks off the direction X-displacement is measured in and is never
+#: asked to turn back. ``make_env(..., heading_control=False)`` keeps the command fixed.
+HEADING_STIFFNESS = 0.5
+#: Locomotion: the largest yaw rate (rad/s) heading control asks for (Isaac Lab's default range).
+YAW_RATE_LIMIT = 1.0
 
 
 class LocoEnv(_CitygenEnv):
@@ -66,6 +75,7 @@ class LocoEnv(_CitygenEnv):
         if not task.startswith("loco"):
             raise SpecError(f"task: expected a locomotion task kind, got {task!r}")
         self.randomize = bool(kwargs.pop("randomize", True))
+        self.heading_control = bool(kwargs.pop("heading_control", True))
         super().__init__(task, scene, **kwargs)
         check_robot(task, self.robot)
         n = len(self.robot.leg_joints)
@@ -109,6 +119,8 @@ class LocoEnv(_CitygenEnv):
         self.base_velocity = self.handle._velocity(self.data)
         self.last_action = np.zeros(self.n_actions)
         heading = yaw + math.atan2(self.command[1], self.command[0])
+        # the heading a straight command holds (None: the command stays as drawn)
+        self._hold = yaw if self.heading_control and self.command[2] == 0.0 else None
         self.recorder = M.LocoEpisode(start_xy=(float(x), float(y)), target_heading=heading, dt=self.dt)
         obs = self._observation()
         info = {"scene": self.source.name, "index": self._index, "region": self.region}
@@ -215,6 +227,9 @@ class LocoEnv(_CitygenEnv):
             reward -= 100.0
         self.last_action = a
         self.recorder.record_step((x, y), np.array(d.actuator_force), fallen=fallen)
+        if self._hold is not None:  # the next step's yaw rate turns back to the held heading
+            err = math.remainder(self._hold - pose[3], math.tau)
+            self.command[2] = min(max(HEADING_STIFFNESS * err, -YAW_RATE_LIMIT), YAW_RATE_LIMIT)
         truncated = not fallen and self.steps >= self.horizon
         obs = self._observation(pose, vel)
         info = {"scene": self.source.name, "index": self._index, "fallen": fallen}
