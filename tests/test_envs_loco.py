@@ -168,7 +168,9 @@ def test_a_straight_command_holds_the_heading_and_a_yaw_rate_command_stays(rough
         h = env.handle
         yaw0 = h.pose(env.data)[3]
         q = np.array(env.data.qpos[h.qadr + 3 : h.qadr + 7])
-        mujoco.mju_mulQuat(env.data.qpos[h.qadr + 3 : h.qadr + 7], np.array([np.cos(0.2), 0, 0, np.sin(0.2)]), q)
+        mujoco.mju_mulQuat(
+            env.data.qpos[h.qadr + 3 : h.qadr + 7], np.array([np.cos(0.2), 0, 0, np.sin(0.2)]), q
+        )
         mujoco.mj_forward(env.model, env.data)
         return obs, yaw0
 
