@@ -96,9 +96,10 @@ class BipedStand(_BipedController):
 
 class BipedWalk(_BipedController):
     """Walk at ``command = (vx, vy, wz)`` (m/s, m/s, rad/s; only ``vx`` >= 0 and ``wz``
-    are followed, ``vx`` capped at :data:`WALK_SPEED`). ``period`` (s per step),
-    ``double_support`` (fraction of a step on both feet), ``step_height`` (m),
-    ``crouch`` (m the pelvis walks lower than it stands)."""
+    are followed, ``vx`` capped at ``max_speed``, by default :data:`WALK_SPEED`, the
+    fastest it walks on its own). ``period`` (s per step), ``double_support`` (fraction of a
+    step on both feet), ``step_height`` (m), ``crouch`` (m the pelvis walks lower than it
+    stands)."""
 
     def __init__(
         self,
@@ -109,9 +110,11 @@ class BipedWalk(_BipedController):
         crouch: float = 0.02,
         heading_gain: float = 1.0,
         ankle_gain: float = 0.05,
+        max_speed: float = WALK_SPEED,
     ) -> None:
         super().__init__()
         self.command = tuple(float(c) for c in command)
+        self.max_speed = float(max_speed)
         self.period, self.double_support = period, double_support
         self.step_height, self.crouch = step_height, crouch
         self.heading_gain, self.ankle_gain = heading_gain, ankle_gain
@@ -127,7 +130,7 @@ class BipedWalk(_BipedController):
         self._last = t
         tau = t - self._t0
         ramp = min(1.0, max(0.0, (tau - 0.2) / 1.0))
-        speed = min(max(self.command[0], 0.0), WALK_SPEED) * min(1.0, max(0.0, (tau - 0.6) / 1.0))
+        speed = min(max(self.command[0], 0.0), self.max_speed) * min(1.0, max(0.0, (tau - 0.6) / 1.0))
         yaw = yaw_of(data.qpos[handle.qadr + 3 : handle.qadr + 7])
         self._heading = yaw if self._heading is None else self._heading + self.command[2] * dt
         heading_err = (self._heading - yaw + math.pi) % (2 * math.pi) - math.pi

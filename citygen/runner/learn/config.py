@@ -207,6 +207,18 @@ class TrainConfig(BaseModel):
         "more per step than the -100 of a fall (a heavy robot's torques), a policy would otherwise "
         "learn to fall at once. The fall's -100 stays.",
     )
+    gait: Literal["walk"] | None = Field(
+        None,
+        description="Locomotion, a biped: the policy rides on the scripted walk (a residual over its "
+        "joint action, plus one action setting its speed; it reads the walk's phase as gait_phase; "
+        "citygen.runner.learn.residual). The exported policy records it; the environment and "
+        "its metrics stay the paper's.",
+    )
+    gait_scale: Annotated[float, Field(gt=0, le=2)] = Field(
+        0.2,
+        description="With gait: the residual's weight on the joint action (a unit of action is "
+        "the joint's action scale).",
+    )
     curriculum: bool = Field(
         True,
         description="Locomotion, training only: the terrain curriculum over the training grid's "
@@ -267,6 +279,13 @@ class TrainConfig(BaseModel):
             )
         return n_steps
 
+    @field_validator("gait")
+    @classmethod
+    def _gait_for_locomotion(cls, gait: str | None, info: ValidationInfo) -> str | None:
+        if gait is not None and not str(info.data.get("task", "")).startswith("loco"):
+            raise ValueError(f"a locomotion task (loco-*) for gait {gait!r}")
+        return gait
+
     @field_validator("stack")
     @classmethod
     def _stack_reads_observed_keys(cls, stack: tuple[tuple[str, ...], ...], info: ValidationInfo):
@@ -290,7 +309,8 @@ class TrainConfig(BaseModel):
 
     @property
     def obs_keys(self) -> tuple[str, ...]:
-        return _observed(self.task, self.keys)
+        keys = _observed(self.task, self.keys)
+        return (*keys, "gait_phase") if self.gait and "gait_phase" not in keys else keys
 
     @property
     def batch_size(self) -> int:

@@ -70,6 +70,8 @@ def _sb3_policy(path: Path) -> NumpyPolicy:
         activation=run.get("activation", "tanh"),
         goal_range=run.get("goal_range"),
     )
+    if run.get("gait"):
+        meta["gait"] = {"name": run["gait"], "scale": run.get("gait_scale", 0.2)}
     return NumpyPolicy(meta, arrays)
 
 
@@ -87,14 +89,21 @@ def _load(path: str, mtime: float) -> NumpyPolicy:
         raise PolicyError(f"{path}: expected a policy saved by `citygen train`, got {detail}") from None
 
 
-def load_policy(path: str | Path) -> NumpyPolicy:
-    """A model file as a runner policy (``reset(env)``, ``act(obs)``)."""
+def load_policy(path: str | Path) -> Any:
+    """A model file as a runner policy (``reset(env)``, ``act(obs)``): its
+    :class:`NumpyPolicy`, or for a policy trained on a gait (its meta's ``gait``) a fresh
+    :class:`~citygen.runner.learn.residual.ResidualPolicy` around it."""
     p = Path(path)
     if not p.is_file():
         raise PolicyError(
             f"--policy: expected a model file (.npz or .zip) or ppo, got {str(path)!r} (no such file)"
         )
-    return _load(str(p.resolve()), p.stat().st_mtime)
+    policy = _load(str(p.resolve()), p.stat().st_mtime)
+    if policy.meta.get("gait"):
+        from citygen.runner.learn.residual import ResidualPolicy
+
+        return ResidualPolicy(policy)
+    return policy
 
 
 def check_fits(policy: NumpyPolicy, env: Any, name: str) -> None:

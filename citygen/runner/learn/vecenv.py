@@ -66,7 +66,7 @@ class SceneSchedule(gymnasium.Wrapper):
 def _sub_env(
     task: str, split: str, robot: str, scenes: int | None, sampling: str, seed: int, rank: int, period: int,
     progress: float = 0.0, gamma: float = 0.99, reverse: float = 0.0, keys: tuple[str, ...] | None = None,
-    loco: dict[str, Any] | None = None, locomotion: str = "servo",
+    loco: dict[str, Any] | None = None, locomotion: str = "servo", gait: tuple[str, float] | None = None,
 ) -> gymnasium.Env:  # fmt: skip
     import multiprocessing
     import signal
@@ -78,6 +78,8 @@ def _sub_env(
         # and closes the workers), not a traceback in every worker.
         signal.signal(signal.SIGINT, signal.SIG_IGN)
     walk = {} if locomotion == "servo" else {"locomotion": locomotion}  # learned legs (envs.legs)
+    if keys is not None:  # the walk's phase is the gait's to give (learn.residual)
+        keys = tuple(k for k in keys if k != "gait_phase")
     env = make_env(task, split=split, robot=robot, observations=keys, **walk)  # only what the policy reads
     if (progress or reverse) and task.startswith("nav"):
         from citygen.runner.learn.shaping import ProgressReward
@@ -87,6 +89,10 @@ def _sub_env(
         from citygen.runner.learn.loco import LocoTraining
 
         env = LocoTraining(env, seed=seed, rank=rank, **(loco or {}))
+    if gait is not None:
+        from citygen.runner.learn.residual import ResidualTraining
+
+        env = ResidualTraining(env, gait=gait[0], scale=gait[1])
     return SceneSchedule(env, scenes=scenes, sampling=sampling, seed=seed, rank=rank, period=period)
 
 
@@ -216,6 +222,7 @@ def make_training_env(cfg: TrainConfig) -> Sb3VecEnv:
                 "alive": cfg.alive,
             },
             cfg.locomotion,
+            (cfg.gait, cfg.gait_scale) if cfg.gait else None,
         )
         for rank in range(cfg.envs)
     ]

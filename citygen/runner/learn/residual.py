@@ -1,0 +1,140 @@
+"""Learned locomotion on top of a scripted gait: a residual policy over a gait generator
+(Iscen et al. 2018, "Policies Modulating Trajectory Generators"; Johannink et al. 2019,
+"Residual Reinforcement Learning for Robot Control").
+
+The humanoid's scripted walk (:class:`~citygen.runner.control.gaits_biped.BipedWalk`) keeps
+its balance on flat ground at up to 0.4 m/s from its first step; a policy learnt from scratch
+on a laptop's budget of steps does not. With ``gait = "walk"`` (``citygen train``'s config),
+the policy's action is the environment's joint action plus one number more:
+
+- the walk's forward speed, ``BASE_SPEED + SPEED_SPAN * a[-1]`` within ``[0, MAX_SPEED]``
+  m/s (0 gives the speed the walk keeps its balance at; the policy modulates the generator);
+- a residual added to the walk's joint action: ``walk + scale * a[:-1]``, clipped to [-1, 1].
+
+It reads the environment's observation and the walk's phase (``gait_phase``: the sine and
+cosine of the two-step cycle and the walk's start-up ramp), which the walk's clock gives and
+the environment does not. The environment, its reward and every ``citygen bench`` metric stay
+the paper's: the residual is part of the policy. An exported ``policy.npz`` records
+``gait`` in its meta; :func:`~citygen.runner.learn.policy.load_policy` wraps it in
+:class:`ResidualPolicy`, numpy only, as with every shipped policy.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import gymnasium
+import numpy as np
+
+from citygen.errors import CitygenError
+
+#: Gait generators a residual policy can ride on (TrainConfig.gait).
+GAITS = ("walk",)
+#: The observation key of the walk's phase.
+PHASE_KEY = "gait_phase"
+#: The walk's speed (m/s) at a zero speed action: the fastest it walks on its own.
+BASE_SPEED = 0.4
+#: m/s per unit of the speed action.
+SPEED_SPAN = 0.6
+#: The fastest (m/s) the policy may ask the walk for.
+MAX_SPEED = 1.0
+
+
+class GaitResidual:
+    """The arithmetic both training and the exported policy share: the walk of one episode,
+    its phase, and the joint action of a residual action (see the module docstring)."""
+
+    def __init__(self, gait: str, scale: float):
+        if gait not in GAITS:
+            raise CitygenError(f"gait: expected one of {', '.join(GAITS)}, got {gait!r}")
+        self.gait, self.scale = gait, float(scale)
+        self.walk = None
+
+    def check(self, robot: Any) -> None:
+        """A one-line error unless ``robot`` is one the gait drives (a biped for the walk)."""
+        if len(robot.legs) != 2:
+            raise CitygenError(
+                f"gait {self.gait!r}: a residual over the walk needs a biped, not {robot.name!r}"
+            )
+
+    def reset(self, env: Any) -> None:
+        """A new episode of ``env`` (the unwrapped locomotion environment)."""
+        from citygen.runner.control.gaits_biped import BipedWalk
+
+        self.check(env.robot)
+        # the episode's own turn; under heading control the walk holds its heading itself
+        turn = float(env.command[2]) if getattr(env, "_hold", None) is None else 0.0
+        self.walk = BipedWalk(command=(BASE_SPEED, 0.0, turn), max_speed=MAX_SPEED)
+        self.t = 0.0  # the walk's clock, summed step by step as the scripted walk's policy does
+
+    def phase(self, env: Any) -> np.ndarray:
+        """``gait_phase`` at ``env``'s step: sin and cos of the two-step cycle, the ramp."""
+        tau = env.steps * env.dt
+        angle = math.pi * tau / self.walk.period
+        ramp = min(1.0, max(0.0, (tau - 0.2) / 1.0))
+        return np.array([math.sin(angle), math.cos(angle), ramp], dtype=np.float32)
+
+    def action(self, env: Any, a: np.ndarray) -> np.ndarray:
+        """The environment's action for the residual action ``a`` (one number more)."""
+        a = np.asarray(a, dtype=np.float64)
+        n = env.n_joints
+        speed = min(max(BASE_SPEED + SPEED_SPAN * float(min(max(a[-1], -1.0), 1.0)), 0.0), MAX_SPEED)
+        walk = self.walk
+        walk.command = (speed, 0.0, walk.command[2])
+        base = walk.act(env.handle, env.data, self.t)
+        self.t += env.dt
+        out = np.zeros(env.action_space.shape, dtype=np.float32)  # as the scripted gaits' actions
+        out[:n] = base[:n] + self.scale * a[:n]
+        return out.clip(-1.0, 1.0)
+
+
+class ResidualTraining(gymnasium.Wrapper):
+    """A training sub-environment whose actions are residuals over the gait (see the module
+    docstring): one action more, and ``gait_phase`` in the observation."""
+
+    def __init__(self, env: gymnasium.Env, *, gait: str, scale: float):
+        super().__init__(env)
+        self.residual = GaitResidual(gait, scale)
+        self.residual.check(env.unwrapped.robot)  # before the run folder is written
+        n = env.action_space.shape[0] + 1
+        self.action_space = gymnasium.spaces.Box(-1.0, 1.0, (n,), np.float32)
+        spaces = dict(env.observation_space.spaces)
+        spaces[PHASE_KEY] = gymnasium.spaces.Box(-1.0, 1.0, (3,), np.float32)
+        self.observation_space = gymnasium.spaces.Dict(spaces)
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        obs, info = self.env.reset(seed=seed, options=options)
+        u = self.env.unwrapped
+        self.residual.reset(u)
+        return {**obs, PHASE_KEY: self.residual.phase(u)}, info
+
+    def step(self, action):
+        u = self.env.unwrapped
+        obs, reward, terminated, truncated, info = self.env.step(self.residual.action(u, action))
+        return {**obs, PHASE_KEY: self.residual.phase(u)}, reward, terminated, truncated, info
+
+
+class ResidualPolicy:
+    """An exported residual policy as a runner policy (``reset(env)``, ``act(obs)``): the
+    network reads the environment's observation and the walk's phase, and its action rides
+    on the walk. ``shapes`` and ``meta["action_shape"]`` are the environment's, for
+    :func:`~citygen.runner.learn.policy.check_fits`."""
+
+    def __init__(self, inner: Any):
+        self.inner = inner
+        spec = inner.meta["gait"]
+        self.residual = GaitResidual(spec["name"], spec["scale"])
+        shape = list(inner.meta["action_shape"])
+        self.meta = {**inner.meta, "action_shape": [shape[0] - 1]}
+        self.shapes = {k: s for k, s in inner.shapes.items() if k != PHASE_KEY}
+        self.env = None
+
+    def reset(self, env: Any) -> None:
+        self.env = env.unwrapped
+        self.residual.reset(self.env)
+
+    def act(self, obs: dict[str, Any]) -> np.ndarray:
+        env = self.env
+        a = self.inner.act({**obs, PHASE_KEY: self.residual.phase(env)})
+        return self.residual.action(env, a)

@@ -1,0 +1,134 @@
+"""A locomotion policy riding on the scripted walk (citygen.runner.learn.residual): a zero
+residual at the walk's own speed is the walk to the bit, a tiny run with ``gait = "walk"``
+exports a policy that ``citygen bench`` runs on the walk, and the config says where a gait
+does not belong."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from citygen.errors import SpecError
+from citygen.runner.bench import run_episode
+from citygen.runner.learn.config import load_config
+from citygen.runner.learn.residual import PHASE_KEY, GaitResidual
+from citygen.runner.make import make_env
+from citygen.runner.policies import make_policy
+from tests.conftest import ROOT
+
+#: A 2 x 2 flat Urban-Loc grid (16 m) for the humanoid.
+GRID = """
+size = [16.0, 16.0]
+layout = "curriculum"
+terrain.layout = "curriculum"
+terrain.tile_size = 8.0
+terrain.grid = [2, 2]
+terrain.mix = { flat = 1.0, slope = 0.0, stair = 0.0, rough = 0.0 }
+placement.count = 0
+agents.people = 0
+task.kind = "loco-flat"
+task.robot = "humanoid"
+"""
+
+TINY = """
+envs = 2
+processes = 0
+n_steps = 64
+minibatches = 2
+n_epochs = 1
+net_arch = [16]
+checkpoint_every = 1000
+gait = "walk"
+"""
+
+
+@pytest.fixture(scope="module")
+def grid(tmp_path_factory):
+    path = tmp_path_factory.mktemp("grid") / "grid.toml"
+    path.write_text(GRID)
+    return path
+
+
+def test_a_zero_residual_at_the_walks_speed_is_the_scripted_walk(grid):
+    env = make_env("loco-flat", robot="humanoid", split=str(grid))
+    try:
+        runs = []
+        for residual in (False, True):
+            obs, _ = env.reset(seed=0)
+            gait = GaitResidual("walk", 0.2) if residual else make_policy("trot")  # the biped walk
+            gait.reset(env)
+            trail = []
+            for _ in range(100):
+                a = gait.action(env, np.zeros(env.n_actions + 1)) if residual else gait.act(obs)
+                obs, _, fallen, _, _ = env.step(a)
+                assert not fallen
+                trail.append(env.data.qpos.copy())
+            runs.append(np.array(trail))
+        assert runs[0].tobytes() == runs[1].tobytes()
+        assert np.hypot(*(runs[0][-1, :2] - runs[0][0, :2])) > 0.3  # it walked
+    finally:
+        env.close()
+
+
+def test_a_tiny_residual_run_exports_a_policy_that_rides_on_the_walk(tmp_path, grid):
+    from citygen.runner.learn.export import read_policy, write_policy
+    from citygen.runner.learn.policy import load_policy
+    from citygen.runner.learn.residual import ResidualPolicy
+
+    config = tmp_path / "tiny.toml"
+    config.write_text(TINY)
+    out = tmp_path / "run"
+    train = [sys.executable, "-m", "citygen", "train", "--task", "loco-flat", "--robot", "humanoid"]
+    r = subprocess.run(
+        [*train, "--split", str(grid), "--steps", "128", "--config", str(config), "--out", str(out)],
+        capture_output=True, text=True, cwd=ROOT, timeout=300,
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    meta = json.loads((out / "policy.json").read_text())
+    assert meta["gait"] == {"name": "walk", "scale": 0.2} and PHASE_KEY in meta["keys"]
+    bench = [sys.executable, "-m", "citygen", "bench", "--task", "loco-flat", "--robot", "humanoid"]
+    r = subprocess.run(
+        [*bench, "--split", str(grid), "--policy", str(out / "policy.npz"), "--episodes", "1", "--jobs", "1"],
+        capture_output=True, text=True, cwd=ROOT, timeout=300,
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert "Balance" in r.stdout
+    # its network silenced (a zero mean), the policy is the walk at 0.4 m/s: it walks
+    trained = read_policy(out / "policy.npz")
+    arrays = {f"w{i}": w for i, w in enumerate(trained.weights)} | {
+        f"b{i}": b for i, b in enumerate(trained.biases)
+    }
+    last = len(trained.weights) - 1
+    arrays[f"w{last}"], arrays[f"b{last}"] = (
+        np.zeros_like(arrays[f"w{last}"]),
+        np.zeros_like(arrays[f"b{last}"]),
+    )
+    silent = write_policy(tmp_path / "silent.npz", trained.meta, arrays)
+    policy = load_policy(silent)
+    assert isinstance(policy, ResidualPolicy) and PHASE_KEY not in policy.shapes
+    env = make_env("loco-flat", robot="humanoid", split=str(grid), max_steps=250)
+    try:
+        result = run_episode(env, policy, seed=1)
+    finally:
+        env.close()
+    assert result["balance"] == 100.0 and result["x_displacement"] > 1.0, result
+
+
+def test_a_gait_is_for_locomotion_and_the_walk_for_a_biped(tmp_path, grid):
+    from citygen.errors import CitygenError
+    from citygen.runner.learn.residual import ResidualTraining
+
+    config = tmp_path / "nav.toml"
+    config.write_text('task = "nav-static"\ngait = "walk"\n')
+    with pytest.raises(SpecError, match=r"gait.*locomotion task"):
+        load_config(config)
+    env = make_env("loco-flat", robot="quadruped", split=str(grid))
+    try:
+        with pytest.raises(CitygenError, match="needs a biped, not 'quadruped'"):
+            ResidualTraining(env, gait="walk", scale=0.2)
+    finally:
+        env.close()
