@@ -115,3 +115,55 @@ def town(town_config):
     scene = generate(town_config, scene_seed(2025, "urban-tra-city", 0))
     assert scene.signals and citygen.validate(scene) == []
     return scene
+
+
+def loco_grid(kind: str, robot: str) -> str:
+    """A 2 x 2 Urban-Loc grid (16 m) of ``kind`` tiles (``flat``, ``rough``, ...) for a
+    ``loco-<kind>`` task of ``robot``, as a split file's TOML: the train and test splits'
+    30 x 30 and 16 x 16 grids take longer to generate than a whole tiny training run."""
+    mix = ", ".join(f"{k} = {1.0 if k == kind else 0.0}" for k in ("flat", "slope", "stair", "rough"))
+    return f"""
+size = [16.0, 16.0]
+layout = "curriculum"
+terrain.layout = "curriculum"
+terrain.tile_size = 8.0
+terrain.grid = [2, 2]
+terrain.mix = {{ {mix} }}
+placement.count = 0
+agents.people = 0
+task.kind = "loco-{kind}"
+task.robot = "{robot}"
+"""
+
+
+#: A tiny locomotion training run's config (seconds): add a line or two for what a test tries.
+TINY_LOCO = """
+envs = 2
+processes = 0
+n_steps = 64
+minibatches = 2
+n_epochs = 1
+net_arch = [16]
+checkpoint_every = 1000
+"""
+
+
+def tiny_loco_run(tmp_path: Path, task: str, robot: str, grid: Path, config: str) -> tuple[Path, str]:
+    """``citygen train`` of ``config`` (TOML) for 128 steps on ``grid``, then ``citygen bench``
+    of its policy.npz for one episode, both as a user runs them (asserting both succeed): the
+    run folder and what the bench printed."""
+    import subprocess
+    import sys
+
+    (tmp_path / "tiny.toml").write_text(config)
+    out = tmp_path / "run"
+    common = ["--task", task, "--robot", robot, "--split", str(grid)]
+    for args in (
+        ["train", *common, "--steps", "128", "--config", str(tmp_path / "tiny.toml"), "--out", str(out)],
+        ["bench", *common, "--policy", str(out / "policy.npz"), "--episodes", "1", "--jobs", "1"],
+    ):
+        r = subprocess.run(
+            [sys.executable, "-m", "citygen", *args], capture_output=True, text=True, cwd=ROOT, timeout=300
+        )
+        assert r.returncode == 0, r.stderr
+    return out, r.stdout

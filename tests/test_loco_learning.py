@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -14,7 +12,7 @@ import pytest
 from citygen.runner.learn.loco import LocoTraining
 from citygen.runner.make import make_env
 from citygen.runner.policies import make_policy
-from tests.conftest import ROOT
+from tests.conftest import TINY_LOCO, loco_grid, tiny_loco_run
 
 pytest.importorskip("stable_baselines3")  # the train extra: the README's test command installs it
 
@@ -158,50 +156,13 @@ def test_the_curriculum_moves_up_after_a_long_walk_and_down_after_a_fall(grid):
         env.close()
 
 
-#: A 2 x 2 Urban-Loc grid (16 m): the train and test splits' 30 x 30 and 16 x 16 grids take
-#: longer to generate than the whole tiny run.
-GRID = """
-size = [16.0, 16.0]
-layout = "curriculum"
-terrain.layout = "curriculum"
-terrain.tile_size = 8.0
-terrain.grid = [2, 2]
-terrain.mix = { flat = 0.0, slope = 0.0, stair = 0.0, rough = 1.0 }
-placement.count = 0
-agents.people = 0
-task.kind = "loco-rough"
-task.robot = "quadruped"
-"""
-
-TINY = """
-envs = 2
-processes = 0
-n_steps = 64
-minibatches = 2
-n_epochs = 1
-net_arch = [16]
-command_mix = 0.5
-checkpoint_every = 1000
-"""
+GRID = loco_grid("rough", "quadruped")
+TINY = TINY_LOCO + "command_mix = 0.5\n"
 
 
 def test_a_tiny_locomotion_run_trains_and_citygen_bench_runs_it(tmp_path, grid):
-    config = tmp_path / "tiny.toml"
-    config.write_text(TINY)
-    out = tmp_path / "run"
-    train = [sys.executable, "-m", "citygen", "train", "--task", "loco-rough", "--robot", "wheeled_legged"]
-    r = subprocess.run(
-        [*train, "--split", str(grid), "--steps", "128", "--config", str(config), "--out", str(out)],
-        capture_output=True, text=True, cwd=ROOT, timeout=300,
-    )  # fmt: skip
-    assert r.returncode == 0, r.stderr
-    bench = [sys.executable, "-m", "citygen", "bench", "--task", "loco-rough", "--robot", "wheeled_legged"]
-    r = subprocess.run(
-        [*bench, "--split", str(grid), "--policy", str(out / "policy.npz"), "--episodes", "1", "--jobs", "1"],
-        capture_output=True, text=True, cwd=ROOT, timeout=300,
-    )  # fmt: skip
-    assert r.returncode == 0, r.stderr
-    assert "Balance" in r.stdout and "X-displacement" in r.stdout
+    _, printed = tiny_loco_run(tmp_path, "loco-rough", "wheeled_legged", grid, TINY)
+    assert "Balance" in printed and "X-displacement" in printed
 
 
 def test_the_shipped_quadruped_walks_a_flat_test_episode():

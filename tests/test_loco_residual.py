@@ -6,8 +6,6 @@ does not belong."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -18,32 +16,10 @@ from citygen.runner.learn.config import load_config
 from citygen.runner.learn.residual import PHASE_KEY, GaitResidual
 from citygen.runner.make import make_env
 from citygen.runner.policies import make_policy
-from tests.conftest import ROOT
+from tests.conftest import TINY_LOCO, loco_grid, tiny_loco_run
 
-#: A 2 x 2 flat Urban-Loc grid (16 m) for the humanoid.
-GRID = """
-size = [16.0, 16.0]
-layout = "curriculum"
-terrain.layout = "curriculum"
-terrain.tile_size = 8.0
-terrain.grid = [2, 2]
-terrain.mix = { flat = 1.0, slope = 0.0, stair = 0.0, rough = 0.0 }
-placement.count = 0
-agents.people = 0
-task.kind = "loco-flat"
-task.robot = "humanoid"
-"""
-
-TINY = """
-envs = 2
-processes = 0
-n_steps = 64
-minibatches = 2
-n_epochs = 1
-net_arch = [16]
-checkpoint_every = 1000
-gait = "walk"
-"""
+GRID = loco_grid("flat", "humanoid")
+TINY = TINY_LOCO + 'gait = "walk"\n'
 
 
 @pytest.fixture(scope="module")
@@ -79,24 +55,10 @@ def test_a_tiny_residual_run_exports_a_policy_that_rides_on_the_walk(tmp_path, g
     from citygen.runner.learn.policy import load_policy
     from citygen.runner.learn.residual import ResidualPolicy
 
-    config = tmp_path / "tiny.toml"
-    config.write_text(TINY)
-    out = tmp_path / "run"
-    train = [sys.executable, "-m", "citygen", "train", "--task", "loco-flat", "--robot", "humanoid"]
-    r = subprocess.run(
-        [*train, "--split", str(grid), "--steps", "128", "--config", str(config), "--out", str(out)],
-        capture_output=True, text=True, cwd=ROOT, timeout=300,
-    )  # fmt: skip
-    assert r.returncode == 0, r.stderr
+    out, printed = tiny_loco_run(tmp_path, "loco-flat", "humanoid", grid, TINY)
     meta = json.loads((out / "policy.json").read_text())
     assert meta["gait"] == {"name": "walk", "scale": 0.2} and PHASE_KEY in meta["keys"]
-    bench = [sys.executable, "-m", "citygen", "bench", "--task", "loco-flat", "--robot", "humanoid"]
-    r = subprocess.run(
-        [*bench, "--split", str(grid), "--policy", str(out / "policy.npz"), "--episodes", "1", "--jobs", "1"],
-        capture_output=True, text=True, cwd=ROOT, timeout=300,
-    )  # fmt: skip
-    assert r.returncode == 0, r.stderr
-    assert "Balance" in r.stdout
+    assert "Balance" in printed
     # its network silenced (a zero mean), the policy is the walk at 0.4 m/s: it walks
     trained = read_policy(out / "policy.npz")
     arrays = {f"w{i}": w for i, w in enumerate(trained.weights)} | {
