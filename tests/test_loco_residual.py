@@ -19,7 +19,7 @@ from citygen.runner.policies import make_policy
 from tests.conftest import TINY_LOCO, loco_grid, tiny_loco_run
 
 GRID = loco_grid("flat", "humanoid")
-TINY = TINY_LOCO + 'gait = "walk"\n'
+TINY = TINY_LOCO + 'gait = "walk"\ngait_max_speed = 0.6\n'
 
 
 @pytest.fixture(scope="module")
@@ -57,7 +57,7 @@ def test_a_tiny_residual_run_exports_a_policy_that_rides_on_the_walk(tmp_path, g
 
     out, printed = tiny_loco_run(tmp_path, "loco-flat", "humanoid", grid, TINY)
     meta = json.loads((out / "policy.json").read_text())
-    assert meta["gait"] == {"name": "walk", "scale": 0.2} and PHASE_KEY in meta["keys"]
+    assert meta["gait"] == {"name": "walk", "scale": 0.2, "max_speed": 0.6} and PHASE_KEY in meta["keys"]
     assert "Balance" in printed
     # its network silenced (a zero mean), the policy is the walk at 0.4 m/s: it walks
     trained = read_policy(out / "policy.npz")

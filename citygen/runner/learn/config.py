@@ -219,6 +219,11 @@ class TrainConfig(BaseModel):
         description="With gait: the residual's weight on the joint action (a unit of action is "
         "the joint's action scale).",
     )
+    gait_max_speed: Annotated[float, Field(ge=0.1, le=1.0)] = Field(
+        1.0,
+        description="With gait: the fastest (m/s) the policy may ask the walk for, a speed "
+        "curriculum by stages (each stage --init the one before with a higher cap).",
+    )
     curriculum: bool = Field(
         True,
         description="Locomotion, training only: the terrain curriculum over the training grid's "

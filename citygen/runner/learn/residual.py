@@ -7,9 +7,11 @@ its balance on flat ground at up to 0.4 m/s from its first step; a policy learnt
 on a laptop's budget of steps does not. With ``gait = "walk"`` (``citygen train``'s config),
 the policy's action is the environment's joint action plus one number more:
 
-- the walk's forward speed, ``BASE_SPEED + SPEED_SPAN * a[-1]`` within ``[0, MAX_SPEED]``
+- the walk's forward speed, ``BASE_SPEED + SPEED_SPAN * a[-1]`` within ``[0, max_speed]``
   m/s (0 gives the speed the walk keeps its balance at; the policy modulates the generator),
-  which the walk follows at up to ``SPEED_RATE`` m/s^2;
+  which the walk follows at up to ``SPEED_RATE`` m/s^2. ``max_speed`` (``gait_max_speed`` of
+  the config, recorded in the exported file) is a speed curriculum by stages: a policy left
+  free to ask for any speed at once raises it faster than it learns to balance it;
 - a residual added to the walk's joint action: ``walk + scale * a[:-1]``, clipped to [-1, 1].
 
 It reads the environment's observation and the walk's phase (``gait_phase``: the sine and
@@ -38,7 +40,7 @@ PHASE_KEY = "gait_phase"
 BASE_SPEED = 0.4
 #: m/s per unit of the speed action (a small action noise still explores speeds).
 SPEED_SPAN = 1.2
-#: The fastest (m/s) the policy may ask the walk for.
+#: The fastest (m/s) the policy may ever ask the walk for (``gait_max_speed``'s bound).
 MAX_SPEED = 1.0
 #: How fast (m/s^2) the walk's speed follows the speed action: the stance feet's stride
 #: scales with the speed, and a speed that jumps from step to step (action noise) jerks them
@@ -50,10 +52,10 @@ class GaitResidual:
     """The arithmetic both training and the exported policy share: the walk of one episode,
     its phase, and the joint action of a residual action (see the module docstring)."""
 
-    def __init__(self, gait: str, scale: float):
+    def __init__(self, gait: str, scale: float, max_speed: float = MAX_SPEED):
         if gait not in GAITS:
             raise CitygenError(f"gait: expected one of {', '.join(GAITS)}, got {gait!r}")
-        self.gait, self.scale = gait, float(scale)
+        self.gait, self.scale, self.max_speed = gait, float(scale), float(max_speed)
         self.walk = None
 
     def check(self, robot: Any) -> None:
@@ -70,7 +72,9 @@ class GaitResidual:
         self.check(env.robot)
         # the episode's own turn; under heading control the walk holds its heading itself
         turn = float(env.command[2]) if getattr(env, "_hold", None) is None else 0.0
-        self.walk = BipedWalk(command=(BASE_SPEED, 0.0, turn), max_speed=MAX_SPEED)
+        self.walk = BipedWalk(
+            command=(BASE_SPEED, 0.0, turn), max_speed=MAX_SPEED
+        )  # the cap is self.max_speed
         self.t = 0.0  # the walk's clock, summed step by step as the scripted walk's policy does
         self.speed = BASE_SPEED
 
@@ -85,7 +89,7 @@ class GaitResidual:
         """The environment's action for the residual action ``a`` (one number more)."""
         a = np.asarray(a, dtype=np.float64)
         n = env.n_joints
-        target = min(max(BASE_SPEED + SPEED_SPAN * float(min(max(a[-1], -1.0), 1.0)), 0.0), MAX_SPEED)
+        target = min(max(BASE_SPEED + SPEED_SPAN * float(min(max(a[-1], -1.0), 1.0)), 0.0), self.max_speed)
         step = SPEED_RATE * env.dt
         self.speed += min(max(target - self.speed, -step), step)
         walk = self.walk
@@ -101,9 +105,9 @@ class ResidualTraining(gymnasium.Wrapper):
     """A training sub-environment whose actions are residuals over the gait (see the module
     docstring): one action more, and ``gait_phase`` in the observation."""
 
-    def __init__(self, env: gymnasium.Env, *, gait: str, scale: float):
+    def __init__(self, env: gymnasium.Env, *, gait: str, scale: float, max_speed: float = MAX_SPEED):
         super().__init__(env)
-        self.residual = GaitResidual(gait, scale)
+        self.residual = GaitResidual(gait, scale, max_speed)
         self.residual.check(env.unwrapped.robot)  # before the run folder is written
         n = env.action_space.shape[0] + 1
         self.action_space = gymnasium.spaces.Box(-1.0, 1.0, (n,), np.float32)
@@ -132,7 +136,7 @@ class ResidualPolicy:
     def __init__(self, inner: Any):
         self.inner = inner
         spec = inner.meta["gait"]
-        self.residual = GaitResidual(spec["name"], spec["scale"])
+        self.residual = GaitResidual(spec["name"], spec["scale"], spec.get("max_speed", MAX_SPEED))
         shape = list(inner.meta["action_shape"])
         self.meta = {**inner.meta, "action_shape": [shape[0] - 1]}
         self.shapes = {k: s for k, s in inner.shapes.items() if k != PHASE_KEY}

@@ -66,7 +66,8 @@ class SceneSchedule(gymnasium.Wrapper):
 def _sub_env(
     task: str, split: str, robot: str, scenes: int | None, sampling: str, seed: int, rank: int, period: int,
     progress: float = 0.0, gamma: float = 0.99, reverse: float = 0.0, keys: tuple[str, ...] | None = None,
-    loco: dict[str, Any] | None = None, locomotion: str = "servo", gait: tuple[str, float] | None = None,
+    loco: dict[str, Any] | None = None, locomotion: str = "servo",
+    gait: tuple[str, float, float] | None = None,
 ) -> gymnasium.Env:  # fmt: skip
     import multiprocessing
     import signal
@@ -92,7 +93,7 @@ def _sub_env(
     if gait is not None:
         from citygen.runner.learn.residual import ResidualTraining
 
-        env = ResidualTraining(env, gait=gait[0], scale=gait[1])
+        env = ResidualTraining(env, gait=gait[0], scale=gait[1], max_speed=gait[2])
     return SceneSchedule(env, scenes=scenes, sampling=sampling, seed=seed, rank=rank, period=period)
 
 
@@ -222,7 +223,7 @@ def make_training_env(cfg: TrainConfig) -> Sb3VecEnv:
                 "alive": cfg.alive,
             },
             cfg.locomotion,
-            (cfg.gait, cfg.gait_scale) if cfg.gait else None,
+            (cfg.gait, cfg.gait_scale, cfg.gait_max_speed) if cfg.gait else None,
         )
         for rank in range(cfg.envs)
     ]
