@@ -94,3 +94,20 @@ def test_a_gait_is_for_locomotion_and_the_walk_for_a_biped(tmp_path, grid):
             ResidualTraining(env, gait="walk", scale=0.2)
     finally:
         env.close()
+
+
+def test_the_shipped_humanoid_walks_a_flat_test_episode_on_its_walk():
+    """The shipped LocoFlat humanoid (a residual over the walk, numpy only) walks a whole test
+    episode: no fall in 20 s and at least 90 % of the paper's 16.61 m X-displacement, where
+    the scripted walk alone makes 8.0 m."""
+    from citygen.runner.learn.policy import baseline, load_policy
+    from citygen.runner.learn.residual import ResidualPolicy
+
+    policy = load_policy(baseline("loco-flat", "humanoid"))
+    assert isinstance(policy, ResidualPolicy)
+    env = make_env("loco-flat", robot="humanoid")
+    try:
+        result = run_episode(env, policy, seed=3)
+    finally:
+        env.close()
+    assert result["balance"] == 100.0 and result["x_displacement"] >= 0.9 * 16.61, result
