@@ -56,7 +56,9 @@ class GaitResidual:
         if gait not in GAITS:
             raise CitygenError(f"gait: expected one of {', '.join(GAITS)}, got {gait!r}")
         self.gait, self.scale, self.max_speed = gait, float(scale), float(max_speed)
-        self.walk = None
+        self.walk: Any = None  # the episode's BipedWalk (reset)
+        self.t = 0.0
+        self.speed = BASE_SPEED
 
     def check(self, robot: Any) -> None:
         """A one-line error unless ``robot`` is one the gait drives (a biped for the walk)."""
@@ -72,9 +74,8 @@ class GaitResidual:
         self.check(env.robot)
         # the episode's own turn; under heading control the walk holds its heading itself
         turn = float(env.command[2]) if getattr(env, "_hold", None) is None else 0.0
-        self.walk = BipedWalk(
-            command=(BASE_SPEED, 0.0, turn), max_speed=MAX_SPEED
-        )  # the cap is self.max_speed
+        # the walk may go as fast as any policy may ask; this policy's cap is on the target
+        self.walk = BipedWalk(command=(BASE_SPEED, 0.0, turn), max_speed=MAX_SPEED)
         self.t = 0.0  # the walk's clock, summed step by step as the scripted walk's policy does
         self.speed = BASE_SPEED
 
