@@ -84,10 +84,10 @@ def _reference_step(env, action):
         reward -= 100.0
     env.last_action = a
     env.recorder.record_step((x, y), np.array(env.data.actuator_force), fallen=fallen)
-    if env._hold is not None:  # heading control: the next step's yaw rate
+    if env.held_heading is not None:  # heading control: the next step's yaw rate
         yaw = env.handle.pose(env.data)[3]
         env.command[2] = float(
-            np.clip(HEADING_STIFFNESS * math.remainder(env._hold - yaw, 2 * math.pi), -1.0, 1.0)
+            np.clip(HEADING_STIFFNESS * math.remainder(env.held_heading - yaw, 2 * math.pi), -1.0, 1.0)
         )
     truncated = not fallen and env.steps >= env.horizon
     info = {"scene": env.source.name, "index": env._index, "fallen": fallen}

@@ -76,6 +76,7 @@ class LocoEnv(_CitygenEnv):
             raise SpecError(f"task: expected a locomotion task kind, got {task!r}")
         self.randomize = bool(kwargs.pop("randomize", True))
         self.heading_control = bool(kwargs.pop("heading_control", True))
+        self.held_heading: float | None = None  # set by each reset (heading control)
         super().__init__(task, scene, **kwargs)
         check_robot(task, self.robot)
         n = len(self.robot.leg_joints)
@@ -120,7 +121,7 @@ class LocoEnv(_CitygenEnv):
         self.last_action = np.zeros(self.n_actions)
         heading = yaw + math.atan2(self.command[1], self.command[0])
         # the heading a straight command holds (None: the command stays as drawn)
-        self._hold = yaw if self.heading_control and self.command[2] == 0.0 else None
+        self.held_heading = yaw if self.heading_control and self.command[2] == 0.0 else None
         self.recorder = M.LocoEpisode(start_xy=(float(x), float(y)), target_heading=heading, dt=self.dt)
         obs = self._observation()
         info = {"scene": self.source.name, "index": self._index, "region": self.region}
@@ -227,8 +228,8 @@ class LocoEnv(_CitygenEnv):
             reward -= 100.0
         self.last_action = a
         self.recorder.record_step((x, y), np.array(d.actuator_force), fallen=fallen)
-        if self._hold is not None:  # the next step's yaw rate turns back to the held heading
-            err = math.remainder(self._hold - pose[3], math.tau)
+        if self.held_heading is not None:  # the next step's yaw rate turns back to it
+            err = math.remainder(self.held_heading - pose[3], math.tau)
             self.command[2] = min(max(HEADING_STIFFNESS * err, -YAW_RATE_LIMIT), YAW_RATE_LIMIT)
         truncated = not fallen and self.steps >= self.horizon
         obs = self._observation(pose, vel)

@@ -24,6 +24,9 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validat
 #: layer covers its ground at 0.2 m, and its 187 extra inputs slowed NavClear to 10-16 %
 #: training success at 100k steps where these three keys reach 51 %.
 NAV_KEYS = ("goal", "velocity", "local_map")
+#: The observation key of a gait's phase, which a policy riding on a gait reads beside the
+#: environment's (``gait``; :mod:`citygen.runner.learn.residual` gives it).
+PHASE_KEY = "gait_phase"
 #: Observation keys a locomotion policy sees: the paper's, and the base's tilt.
 LOCO_KEYS = (
     "base_lin_vel", "base_ang_vel", "projected_gravity", "command", "joint_pos", "joint_vel", "last_action",
@@ -315,7 +318,7 @@ class TrainConfig(BaseModel):
     @property
     def obs_keys(self) -> tuple[str, ...]:
         keys = _observed(self.task, self.keys)
-        return (*keys, "gait_phase") if self.gait and "gait_phase" not in keys else keys
+        return (*keys, PHASE_KEY) if self.gait and PHASE_KEY not in keys else keys
 
     @property
     def batch_size(self) -> int:

@@ -71,11 +71,9 @@ def _sb3_policy(path: Path) -> NumpyPolicy:
         goal_range=run.get("goal_range"),
     )
     if run.get("gait"):
-        meta["gait"] = {
-            "name": run["gait"],
-            "scale": run.get("gait_scale", 0.2),
-            "max_speed": run.get("gait_max_speed", 1.0),
-        }
+        from citygen.runner.learn.residual import gait_spec
+
+        meta["gait"] = gait_spec(run)
     return NumpyPolicy(meta, arrays)
 
 

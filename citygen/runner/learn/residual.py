@@ -31,11 +31,10 @@ import gymnasium
 import numpy as np
 
 from citygen.errors import CitygenError
+from citygen.runner.learn.config import PHASE_KEY, TrainConfig
 
 #: Gait generators a residual policy can ride on (TrainConfig.gait).
 GAITS = ("walk",)
-#: The observation key of the walk's phase.
-PHASE_KEY = "gait_phase"
 #: The walk's speed (m/s) at a zero speed action: the fastest it walks on its own.
 BASE_SPEED = 0.4
 #: m/s per unit of the speed action (a small action noise still explores speeds).
@@ -46,6 +45,18 @@ MAX_SPEED = 1.0
 #: scales with the speed, and a speed that jumps from step to step (action noise) jerks them
 #: under the robot (the walk with per-step speed noise of std 0.18 m/s falls within 3-4 s).
 SPEED_RATE = 0.5
+
+
+def gait_spec(config: dict[str, Any]) -> dict[str, Any] | None:
+    """What an exported policy's meta records of the gait it rides on (``meta["gait"]``),
+    from a run's config (a :class:`~citygen.runner.learn.config.TrainConfig` as a dict, as
+    its ``config.json`` holds it; a field it lacks, from a run before the field, is the
+    config's default); None for a run without a gait."""
+    if not config.get("gait"):
+        return None
+    fields = TrainConfig.model_fields
+    scale, cap = (config.get(k, fields[k].default) for k in ("gait_scale", "gait_max_speed"))
+    return {"name": config["gait"], "scale": scale, "max_speed": cap}
 
 
 class GaitResidual:
@@ -73,7 +84,7 @@ class GaitResidual:
 
         self.check(env.robot)
         # the episode's own turn; under heading control the walk holds its heading itself
-        turn = float(env.command[2]) if getattr(env, "_hold", None) is None else 0.0
+        turn = float(env.command[2]) if env.held_heading is None else 0.0
         # the walk may go as fast as any policy may ask; this policy's cap is on the target
         self.walk = BipedWalk(command=(BASE_SPEED, 0.0, turn), max_speed=MAX_SPEED)
         self.t = 0.0  # the walk's clock, summed step by step as the scripted walk's policy does

@@ -700,7 +700,9 @@ def train(
         train=train_notes,
     )
     if cfg.gait:  # the policy rides on the gait (learn.residual); load_policy puts it back under it
-        meta["gait"] = {"name": cfg.gait, "scale": cfg.gait_scale, "max_speed": cfg.gait_max_speed}
+        from citygen.runner.learn.residual import gait_spec
+
+        meta["gait"] = gait_spec(cfg.model_dump())
     policy = write_policy(out / "policy.npz", meta, arrays)
     plot_curve(out)
     seconds = seconds0 + time.perf_counter() - tracker.t0

@@ -24,7 +24,7 @@ import gymnasium
 import numpy as np
 from stable_baselines3.common.vec_env import VecEnv
 
-from citygen.runner.learn.config import TrainConfig
+from citygen.runner.learn.config import PHASE_KEY, TrainConfig
 from citygen.runner.learn.export import clip_goal
 
 
@@ -80,7 +80,7 @@ def _sub_env(
         signal.signal(signal.SIGINT, signal.SIG_IGN)
     walk = {} if locomotion == "servo" else {"locomotion": locomotion}  # learned legs (envs.legs)
     if keys is not None:  # the walk's phase is the gait's to give (learn.residual)
-        keys = tuple(k for k in keys if k != "gait_phase")
+        keys = tuple(k for k in keys if k != PHASE_KEY)
     env = make_env(task, split=split, robot=robot, observations=keys, **walk)  # only what the policy reads
     if (progress or reverse) and task.startswith("nav"):
         from citygen.runner.learn.shaping import ProgressReward
