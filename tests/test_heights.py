@@ -683,6 +683,49 @@ def test_the_runners_ground_raster_is_height_at_within_a_cell():
     env.close()
 
 
+def test_the_tiled_ground_is_the_5cm_map_to_the_bit_and_a_city_servo_casts_no_rays(monkeypatch):
+    """A city's servo stands on the 5 cm raster made tile by tile (TiledGround): on a scene
+    whose map is 5 cm it is Prepared.ground_at to the bit, inside, across tile borders (a
+    tile's last row and column are the next one's first) and past the edges; an environment
+    on a scene whose map is coarser binds it, and a servo step casts no ray."""
+    from citygen.runner import ground as tiled
+    from citygen.runner import scenes
+    from citygen.runner.envs import base
+    from citygen.runner.make import make_env
+
+    monkeypatch.setattr(tiled, "TILE_CELLS", 16)  # many borders on a small scene
+    env = make_env("nav-static", robot="quadruped")
+    env.reset(seed=0, options={"index": 2})
+    p = env.unwrapped.prepared
+    assert p.fine_ground
+    t = tiled.TiledGround(p.scene, scenes.MAP_RESOLUTION)
+    assert t.grid == p.occupancy.grid
+    (x0, y0), (x1, y1) = p.scene.bounds.min, p.scene.bounds.max
+    rng = np.random.default_rng(3)
+    xs = np.concatenate([rng.uniform(x0 - 1, x1 + 1, 3000), t.grid.x0 + 16 * 0.05 * np.arange(1, 9)])
+    ys = np.concatenate([rng.uniform(y0 - 1, y1 + 1, 3000), t.grid.y0 + 16 * 0.05 * np.arange(1, 9) + 0.025])
+    ours = np.array([t.ground_at(x, y) for x, y in zip(xs.tolist(), ys.tolist(), strict=True)])
+    theirs = np.array([p.ground_at(x, y) for x, y in zip(xs.tolist(), ys.tolist(), strict=True)])
+    np.testing.assert_array_equal(ours.view(np.int64), theirs.view(np.int64))
+    env.close()
+
+    # A map coarser than 5 cm (as a city's): the environment's servo reads the tiles.
+    monkeypatch.setattr(scenes, "map_resolution", lambda scene: 0.2)
+    monkeypatch.setenv("CITYGEN_CACHE_DIR", "off")  # nothing stored under the usual key
+    cache = scenes.SceneCache()
+    monkeypatch.setattr(base, "process_cache", lambda: cache)
+    env = make_env("nav-static", robot="quadruped")
+    env.reset(seed=0, options={"index": 2})
+    u = env.unwrapped
+    assert not u.prepared.fine_ground and u.handle.terrain is u.prepared.fine_tiles
+    rays = []
+    monkeypatch.setattr(u.handle._mj, "mj_ray", lambda *a: rays.append(a) or -1.0, raising=False)
+    for _ in range(5):
+        env.step(np.array([0.5, 0.0], dtype=np.float32))
+    assert not rays
+    env.close()
+
+
 def test_bilinear_at_one_point_is_the_array_version_to_the_bit():
     """The environments read the ground under the base every step with Grid.bilinear_point
     (plain Python); observations equal bit for bit only if it is Grid.bilinear's float,

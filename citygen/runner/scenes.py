@@ -233,6 +233,15 @@ class Prepared:
         return ground_at
 
     @functools.cached_property
+    def fine_tiles(self):
+        """The 5 cm ground raster made tile by tile (:class:`~citygen.runner.ground.TiledGround`)
+        where :attr:`fine_ground` is not: what the servo stands on in a city, whose map is
+        coarser. Its ``ground_at`` equals :attr:`ground_at` to the bit on a 5 cm map."""
+        from citygen.runner.ground import TiledGround
+
+        return TiledGround(self.scene, MAP_RESOLUTION)
+
+    @functools.cached_property
     def _raster(self) -> np.ndarray:
         """The occupancy map's heights as float64 (what :meth:`ground` interpolates)."""
         return self.occupancy.heights.astype(np.float64)

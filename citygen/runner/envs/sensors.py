@@ -120,7 +120,8 @@ class Sensors:
     ) -> tuple[float, np.ndarray | None]:
         """The ground height (m) at ``(x, y)`` and the height map's grid of ground heights (m,
         float64, flat) around the pose ``(x, y, yaw)``, from the scene's 5 cm ground raster
-        (:meth:`Prepared.ground`; a city's coarser map: one :func:`height_at` call) and
+        (:meth:`Prepared.ground`; on a city's coarser map its tiles, :attr:`Prepared.fine_tiles`,
+        for the ground and one :func:`height_at` call for the grid) and
         remembered for the last pose (a step asks for them several times). Without ``grid``,
         the ground alone (grid None unless already computed): the same value, computed
         point by point either way."""
@@ -132,8 +133,8 @@ class Sensors:
         if not grid:
             if prepared.fine_ground:
                 ground = prepared.ground_point(x, y)
-            else:
-                ground = float(height_at(self.scene, np.array([x]), np.array([y]))[0])
+            else:  # the same 5 cm raster, made tile by tile (a city's curbs cost height_at ms)
+                ground = prepared.fine_tiles.ground_at(x, y)
             self._around = _Around(self.scene, x, y, yaw, ground, None)
             return ground, None
         u, v, _ = self._hm_local
@@ -149,7 +150,8 @@ class Sensors:
             xs[:-1], ys[:-1] = x + cs * u - sn * v, y + sn * u + cs * v
             xs[-1], ys[-1] = x, y
             z = prepared.ground(xs, ys) if prepared.fine_ground else height_at(self.scene, xs, ys)
-        self._around = _Around(self.scene, x, y, yaw, float(z[-1]), z[:-1])
+        ground = float(z[-1]) if prepared.fine_ground else prepared.fine_tiles.ground_at(x, y)
+        self._around = _Around(self.scene, x, y, yaw, ground, z[:-1])
         return self._around.ground, self._around.grid
 
     def _kernel_for(self, prepared: Any) -> tuple:
