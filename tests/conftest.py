@@ -84,6 +84,28 @@ def run_subprocess(*args: str, env: dict | None = None, cwd: Path = ROOT) -> Res
 
 
 @pytest.fixture(scope="session")
+def city_file(tmp_path_factory, worker_id) -> Path:
+    """urban-tra-city's scene 0 as its JSON file, generated (and validated) once for the whole
+    run: under xdist the first worker to ask writes it into the run's shared temporary folder
+    and the other waits on a lock (a city takes ~45 s to generate; three files need one)."""
+    from filelock import FileLock
+
+    import citygen
+
+    base = tmp_path_factory.getbasetemp()
+    root = base if worker_id == "master" else base.parent  # the run's folder, shared by workers
+    path = root / "urban-tra-city-0000.json"
+    with FileLock(str(path) + ".lock"):
+        if not path.is_file():
+            scene = citygen.generate("urban-tra-city")
+            assert scene.signals and citygen.validate(scene) == []
+            part = path.with_suffix(".part")
+            citygen.save_scene(scene, part)
+            part.replace(path)
+    return path
+
+
+@pytest.fixture(scope="session")
 def town_config():
     """urban-tra-city's config on 400 m x 400 m (a ninth of its area, with a ninth of its
     objects, people and vehicles and a 300 m traverse): the ``town`` fixture's config."""

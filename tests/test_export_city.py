@@ -6,7 +6,8 @@ the URDF tiles' index checked entry by entry with every tile read by yourdfpy an
 along the traverse route loaded in PyBullet, USD through usd-core's validators, GLB in
 trimesh, the occupancy map read back with every object on an obstacle cell at 0.25 m.
 
-The city is generated once and exported once for the module, one `citygen export --format F`
+The city is generated once for the run (conftest's ``city_file``, shared with the traffic and
+generation tests) and exported once for the module, one `citygen export --format F`
 per format, two at a time (the bench times `--format all` in one process); the level of detail
 each format chose is what the exporters pick for any scene of this size.
 """
@@ -45,13 +46,10 @@ def run(*args: str) -> subprocess.CompletedProcess:
 
 
 @pytest.fixture(scope="module")
-def city(tmp_path_factory) -> tuple[Path, Path, dict[str, subprocess.CompletedProcess]]:
+def city(tmp_path_factory, city_file) -> tuple[Path, Path, dict[str, subprocess.CompletedProcess]]:
     """(scene file, export folder, each format's completed export)."""
-    root = tmp_path_factory.mktemp("city")
-    gen = run("generate", "--split", "urban-tra-city", "--out", str(root / "scenes"))
-    assert gen.returncode == 0, gen.stderr[-2000:]
-    scene = root / "scenes" / "urban-tra-city" / "0000.json"
-    out = root / "export"
+    scene = city_file  # conftest's: generated once for the run
+    out = tmp_path_factory.mktemp("city") / "export"
 
     def export(fmt: str) -> subprocess.CompletedProcess:
         extra = ("--occupancy-resolution", str(OCCUPANCY_CELL)) if fmt == "occupancy" else ()

@@ -77,9 +77,10 @@ def check_seed(seed: int) -> dict:
 
 
 @pytest.mark.slow
-def test_500_seeds_every_type_no_overlap_zones_tile_and_valid():
+def test_150_seeds_every_type_no_overlap_zones_tile_and_valid():
+    # Every block type appears by the second seed; 500 seeds cost two minutes of a CI run.
     with ProcessPoolExecutor(2) as pool:
-        results = list(pool.map(check_seed, range(500), chunksize=10))
+        results = list(pool.map(check_seed, range(150), chunksize=10))
     kinds = Counter(k for r in results for k in r["kinds"])
     assert set(kinds) == set(KINDS), kinds
     for r in results:

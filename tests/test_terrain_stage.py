@@ -151,10 +151,10 @@ def assert_mix(kinds: Counter, mix: TerrainMix) -> None:
         assert abs(share - want) <= 0.05, f"{k}: {share:.3f} of tiles, weight {want:.3f}"
 
 
-def test_1000_seeds_of_a_32x32_mixed_grid_agree_stay_in_range_and_follow_the_mix():
+def test_400_seeds_of_a_32x32_mixed_grid_agree_stay_in_range_and_follow_the_mix():
     # The benchmark (benchmarks/bench_wfc.py) runs the same check over 10,000 seeds.
     cfg = TerrainConfig()
-    assert_mix(run_seeds(cfg, range(1000)), cfg.mix)
+    assert_mix(run_seeds(cfg, range(400)), cfg.mix)
 
 
 def test_other_ranges_and_an_uneven_mix():

@@ -40,10 +40,8 @@ STEPS = int(os.environ.get("CITYGEN_TRAFFIC_STEPS", "6000"))
 
 
 @pytest.fixture(scope="module")
-def city():
-    scene = citygen.generate("urban-tra-city")
-    assert scene.signals and citygen.validate(scene) == []
-    return scene
+def city(city_file):
+    return citygen.load_scene(city_file)
 
 
 class Invariants:
