@@ -1,5 +1,6 @@
-"""urban-tra-city (1.2 km x 1.2 km) exported by `citygen export` to every format but PNG, as a
-user runs it, and every file opened in its real consumer: MJCF compiled and stepped in MuJoCo
+"""urban-tra-city (1.2 km x 1.2 km) exported by `citygen export` to every format but PNG and HTML
+(the GLB's geometry in a page, :func:`glb.build`'s: test_export_html and test_export_all
+check the page), as a user runs it, and every file opened in its real consumer: MJCF compiled and stepped in MuJoCo
 (and read by dm_control, a robot attached and the XML it writes stepped in MuJoCo, on a town of
 the city's config),
 the URDF tiles' index checked entry by entry with every tile read by yourdfpy and the tiles
@@ -58,9 +59,10 @@ def city(tmp_path_factory, city_file) -> tuple[Path, Path, dict[str, subprocess.
 
     # The longest first. Not png: the city's picture and perspective view (70 s of CPU, a fifth
     # of the fixture) are drawn by bench_export; test_export_all and test_export_view draw them
-    # on scenes of every kind, and the view's coarser ground for a large scene.
-    order = ["urdf", "usd", "glb", "html", "mjcf", "occupancy"]
-    assert sorted([*order, "png"]) == sorted(FORMATS)
+    # on scenes of every kind, and the view's coarser ground for a large scene. Not html: the
+    # GLB's scene graph built again (a sixth of the fixture) and wrapped in a page.
+    order = ["urdf", "usd", "glb", "mjcf", "occupancy"]
+    assert sorted([*order, "png", "html"]) == sorted(FORMATS)
     with ThreadPoolExecutor(max_workers=2) as pool:
         done = dict(zip(order, pool.map(export, order), strict=True))
     return scene, out, done
@@ -104,16 +106,15 @@ def test_every_format_is_written_and_each_coarsening_is_one_warning_line(city, s
         ".pgm",
         "-occupancy.png",
         ".glb",
-        ".html",
     )
     for suffix in suffixes:
         assert (out / f"{NAME}{suffix}").stat().st_size > 0, suffix
-    # MJCF, URDF, GLB and HTML each say once how finely they sample the ground and how far off.
-    for fmt in ("MJCF", "URDF", "GLB", "HTML"):
+    # MJCF, URDF and GLB each say once how finely they sample the ground and how far off.
+    for fmt in ("MJCF", "URDF", "GLB"):
         errors = coarsening(done[fmt.lower()].stderr, fmt)
         assert len(errors) == 1 and 0 < errors[0] < 30, (fmt, errors)
     # URDF samples rougher tiles finer: closer to height_at than the uniform formats.
-    assert coarsening(done["urdf"].stderr, "URDF")[0] < coarsening(done["html"].stderr, "HTML")[0]
+    assert coarsening(done["urdf"].stderr, "URDF")[0] < coarsening(done["glb"].stderr, "GLB")[0]
     # The occupancy map at its own choice coarsens to fit, saying so in one line.
     res, note = occupancy.auto_resolution(scene)
     assert res > occupancy.DEFAULT_RESOLUTION and "occupancy cells of" in note
