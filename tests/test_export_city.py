@@ -1,11 +1,11 @@
 """urban-tra-city (1.2 km x 1.2 km) exported by `citygen export` to every format but PNG and HTML
 (the GLB's geometry in a page, :func:`glb.build`'s: test_export_html and test_export_all
-check the page), as a user runs it, and every file opened in its real consumer: MJCF compiled and stepped in MuJoCo
-(and read by dm_control, a robot attached and the XML it writes stepped in MuJoCo, on a town of
-the city's config),
-the URDF tiles' index checked entry by entry with every tile read by yourdfpy and the tiles
-along the traverse route loaded in PyBullet, USD through usd-core's validators, GLB in
-trimesh, the occupancy map read back with every object on an obstacle cell at 0.25 m.
+check the page), as a user runs it, and every file opened in its real consumer: MJCF compiled
+and stepped in MuJoCo (and read by dm_control, a robot attached and the XML it writes stepped
+in MuJoCo, on a town of the city's config), the URDF tiles' index checked entry by entry with
+every tile read by yourdfpy and the tiles along the traverse route loaded in PyBullet, USD
+through usd-core's validators, GLB in trimesh, the occupancy map read back with every object
+on an obstacle cell at 0.25 m.
 
 The city is generated once for the run (conftest's ``city_file``, shared with the traffic and
 generation tests) and exported once for the module, one `citygen export --format F`

@@ -107,6 +107,7 @@ class _ReferenceTraining(LocoTraining):
             reward += self.shaping * self._shaping()
         if (terminated or truncated) and self.curriculum and self.level is not None:
             self._move_level(bool(terminated))
+            info = {**info, "terrain_level": self.level}
         return obs, reward, terminated, truncated, info
 
     def _shaping(self) -> float:

@@ -210,6 +210,18 @@ class TrainConfig(BaseModel):
         "more per step than the -100 of a fall (a heavy robot's torques), a policy would otherwise "
         "learn to fall at once. The fall's -100 stays.",
     )
+    fall_penalty: Annotated[float, Field(ge=0, le=1)] = Field(
+        1.0,
+        description="Locomotion, training only: the share of the paper's -100 on a fall that the "
+        "training reward keeps (legged_gym's rough-terrain policies train with none: a fall costs "
+        "the rewards it ends). citygen bench measures the paper's reward and metrics either way.",
+    )
+    foot_clearance: Annotated[float, Field(ge=0, le=100)] = Field(
+        0.0,
+        description="Locomotion, training only: weight of the foot clearance term (swinging feet "
+        "lower than 0.12 m over the ground under them pay the square of the shortfall; "
+        "citygen.runner.learn.loco), so that feet lift over a stair's edge.",
+    )
     gait: Literal["walk"] | None = Field(
         None,
         description="Locomotion, a biped: the policy rides on the scripted walk (a residual over its "

@@ -14,6 +14,13 @@ adds what makes the same policy learnable on a laptop in hours:
   starts at the easiest rows and draws a random column; an episode that covers more than
   half a region (4 m) moves it a row up, one that covers less than half of what its command
   asked moves it a row down; a level past the hardest row restarts at a random one.
+- **Fall penalty** (``fall_penalty``): the share of the paper's ``-100`` on a fall that
+  training pays (1: all of it; legged_gym's rough-terrain policies train with none, a fall
+  costing only the rewards it ends), so that a policy on stairs is not taught that standing
+  at the first riser beats trying.
+- **Foot clearance** (``foot_clearance`` times :meth:`LocoTraining._foot_clearance`): swinging
+  feet lower than :data:`FOOT_CLEARANCE` over the ground under them pay the square of the
+  shortfall (Isaac Lab's Spot reward), so that feet lift over a stair's edge.
 - **Only positive rewards** (``only_positive``, legged_gym's ``only_positive_rewards``): a
   step's reward before the fall's ``-100`` is clipped at zero, so that a noisy first policy
   whose penalties cost more per step than a fall (the wheeled-legged robot's torques: about
@@ -58,6 +65,9 @@ AIR_TIME = 0.25
 FALL_PENALTY = -100.0
 #: Rows of the grid a sub-environment may start its curriculum on (the easiest).
 START_ROWS = 3
+#: Height (m) of a swinging foot's centre over the ground under it that the foot clearance
+#: term asks for (``foot_clearance``): the quadruped's foot radius (0.022 m) over a 0.10 m step.
+FOOT_CLEARANCE = 0.12
 
 
 class LocoTraining(gymnasium.Wrapper):
@@ -67,9 +77,13 @@ class LocoTraining(gymnasium.Wrapper):
     def __init__(
         self, env: gymnasium.Env, *, seed: int, rank: int, shaping: float = 1.0,
         command_mix: float = 0.0, curriculum: bool = True, only_positive: bool = False,
-        effort_scale: float = 1.0, alive: float = 0.0,
+        effort_scale: float = 1.0, alive: float = 0.0, fall_penalty: float = 1.0,
+        foot_clearance: float = 0.0,
     ):  # fmt: skip
         super().__init__(env)
+        self._fall_refund = (1.0 - float(fall_penalty)) * -FALL_PENALTY
+        self._clearance = float(foot_clearance)
+        self._last_feet: np.ndarray | None = None
         self.shaping = float(shaping)
         self._torque = WEIGHTS["torque"] * float(effort_scale)
         self._joint_acc = WEIGHTS["joint_acc"] * float(effort_scale)
@@ -104,6 +118,7 @@ class LocoTraining(gymnasium.Wrapper):
         self._foot_index = {int(g): k for k, g in enumerate(h.foot_geom_ids)}
         self._stepping = not u.robot.loco_wheels
         self._last_qvel = None
+        self._last_feet = None
         return obs, info
 
     def _grid(self, options: dict):
@@ -122,8 +137,11 @@ class LocoTraining(gymnasium.Wrapper):
         if self.only_positive:  # clipped before the fall's penalty, which stays
             fall = FALL_PENALTY if info.get("fallen") else 0.0
             reward = max(reward - fall, 0.0) + fall
+        if self._fall_refund and info.get("fallen"):
+            reward += self._fall_refund
         if (terminated or truncated) and self.curriculum and self.level is not None:
             self._move_level(bool(terminated))
+            info = {**info, "terrain_level": self.level}
         return obs, reward, terminated, truncated, info
 
     def _shaping(self) -> float:
@@ -156,7 +174,29 @@ class LocoTraining(gymnasium.Wrapper):
         if self._stepping and (math.hypot(c0, c1) > 0.1 or abs(c2) > 0.1):
             r += WEIGHTS["air_time"] * float(np.sum((self._air - AIR_TIME) * landed))
         self._air[touching] = 0.0
+        if self._clearance:
+            r += self._clearance * self._foot_clearance(touching)
         return r
+
+    def _foot_clearance(self, touching: np.ndarray) -> float:
+        """``-sum (FOOT_CLEARANCE - h)^2 * tanh(2 |v_xy|) / FOOT_CLEARANCE^2`` over the feet in
+        the air that are lower than :data:`FOOT_CLEARANCE` over the ground under them (h), each
+        weighted by how fast it swings (Isaac Lab's Spot reward, as a penalty): a swinging foot
+        lifted clear of a stair's edge costs nothing, one scuffing along the ground the most."""
+        u = self.env.unwrapped
+        feet = u.data.geom_xpos[u.handle.foot_geom_ids]
+        last, self._last_feet = self._last_feet, feet[:, :2].copy()
+        if last is None:
+            return 0.0
+        ground_at = u.prepared.ground_at
+        speed = np.hypot(*(feet[:, :2] - last).T) / u.dt
+        total = 0.0
+        for (x, y, z), v, down in zip(feet.tolist(), speed.tolist(), touching.tolist(), strict=True):
+            if not down:
+                short = FOOT_CLEARANCE - (z - ground_at(x, y))
+                if short > 0:
+                    total += short * short * math.tanh(2.0 * v)
+        return -total / (FOOT_CLEARANCE * FOOT_CLEARANCE)
 
     def _feet_touching(self) -> np.ndarray:
         """Which feet touch anything (the ground, a step) after this step."""

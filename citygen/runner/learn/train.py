@@ -91,6 +91,7 @@ class _Tracker:
     def __init__(self, start_steps: int):
         self.success: collections.deque[float] = collections.deque(maxlen=100)
         self.returns: collections.deque[float] = collections.deque(maxlen=100)
+        self.levels: collections.deque[int] = collections.deque(maxlen=100)
         self.episodes = 0
         self.t0 = time.perf_counter()
         self.start_steps = start_steps
@@ -119,6 +120,8 @@ def _callbacks(cfg: TrainConfig, out: Path, venv: Any, tracker: _Tracker, bar: A
                     tracker.success.append(float(info.get("is_success", False)))
                     if "episode" in info:
                         tracker.returns.append(float(info["episode"]["r"]))
+                    if "terrain_level" in info:  # a locomotion curriculum's row
+                        tracker.levels.append(int(info["terrain_level"]))
             n = self.model.num_timesteps
             if bar is not None and self.n_calls % 10 == 0:
                 bar.update(n, tracker.rate(n), tracker.success_rate())
@@ -146,6 +149,8 @@ def _callbacks(cfg: TrainConfig, out: Path, venv: Any, tracker: _Tracker, bar: A
             torch.set_num_threads(update_threads)
             # for the update of the rollout just ended
             freeze_actor(self.model.policy, n <= cfg.critic_warmup)
+            if tracker.levels:  # into progress.csv with the update's figures
+                self.logger.record("rollout/terrain_level", sum(tracker.levels) / len(tracker.levels))
             row = {
                 "steps": n,
                 "seconds": round(seconds0 + time.perf_counter() - tracker.t0, 2),

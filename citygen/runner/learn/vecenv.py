@@ -165,6 +165,8 @@ class Sb3VecEnv(VecEnv):
             }
             if "metrics" in final:
                 info["metrics"] = final["metrics"]
+            if "terrain_level" in final:  # LocoTraining's curriculum row, logged by train
+                info["terrain_level"] = final["terrain_level"]
             out.append(info)
         return self._obs(obs), np.asarray(rewards, dtype=np.float32), dones, out
 
@@ -221,6 +223,8 @@ def make_training_env(cfg: TrainConfig) -> Sb3VecEnv:
                 "only_positive": cfg.only_positive,
                 "effort_scale": cfg.effort_scale,
                 "alive": cfg.alive,
+                "fall_penalty": cfg.fall_penalty,
+                "foot_clearance": cfg.foot_clearance,
             },
             cfg.locomotion,
             (cfg.gait, cfg.gait_scale, cfg.gait_max_speed) if cfg.gait else None,
