@@ -273,6 +273,32 @@ def test_same_rng_same_motion():
     assert np.array_equal(crowd.pos, crowd.start) and not crowd.vel.any()
 
 
+def test_a_kept_crowd_moves_as_a_new_one():
+    """crowd_of builds a scene's clearance and paths once per prepared scene: every later
+    episode's crowd (a copy, reset with its own generator) moves as a crowd built anew, and
+    an episode leaves the kept one as it was."""
+    from types import SimpleNamespace
+
+    from citygen.runner.agents.crowd import crowd_of
+
+    scene = citygen.generate("urban-nav-3-test", index=2)
+    prepared = SimpleNamespace(occupancy=occupancy(scene))
+    robot = np.array(scene.task.start.position)
+    runs = []
+    for seed in (7, 8, 7):
+        fresh = Crowd(scene, prepared.occupancy, rng=np.random.default_rng(seed), dt=DT)
+        kept = crowd_of(prepared, scene, rng=np.random.default_rng(seed), dt=DT)
+        assert kept is not prepared._crowd[2]
+        for _ in range(40):
+            for crowd in (fresh, kept):
+                crowd.step(robot, np.zeros(2), ROBOT_R)
+        assert kept.pos.tobytes() == fresh.pos.tobytes() and kept.arrivals.tolist() == fresh.arrivals.tolist()
+        runs.append(kept.pos.tobytes())
+    assert runs[0] == runs[2] != runs[1]
+    template = prepared._crowd[2]
+    assert np.array_equal(template.pos, template.start) and not template.vel.any()
+
+
 def _plaza(people: list[Person], size=(24.0, 24.0), cross: float | None = 5.0) -> Scene:
     """A square of plain ground with a plaza on it: a cross of arms ``cross`` m wide, or all of it."""
     w, h = size

@@ -138,10 +138,10 @@ class NavEnv(_CitygenEnv):
         self.crowd = self.traffic = None
         d = self.data
         if self._dynamic() and self.prepared.agent_bodies:
-            from citygen.runner.agents.crowd import Crowd
+            from citygen.runner.agents.crowd import crowd_of
             from citygen.runner.agents.traffic import Traffic, city_agents
 
-            self.crowd = Crowd(self.scene, self.prepared.occupancy, rng=self.np_random, dt=self.dt)
+            self.crowd = crowd_of(self.prepared, self.scene, rng=self.np_random, dt=self.dt)
             if len(self.crowd.ids) == 0:
                 self.crowd = None
             if self.scene.signals:  # a city: signals for vehicles and people (agents.traffic)
