@@ -29,24 +29,6 @@ import numpy as np
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 
-def town_config():
-    """urban-tra-city's config on 400 m x 400 m, with a ninth of its objects, people and
-    vehicles and a 300 m traverse (the tests' ``town``)."""
-    import citygen
-
-    config = citygen.splits()["urban-tra-city"].config
-    return config.model_copy(
-        update={
-            "size": (400.0, 400.0),
-            "placement": config.placement.model_copy(update={"count": config.placement.count // 9}),
-            "agents": config.agents.model_copy(
-                update={"people": config.agents.people // 9, "vehicles": config.agents.vehicles // 9}
-            ),
-            "task": config.task.model_copy(update={"min_distance": 300.0}),
-        }
-    )
-
-
 def measure(label: str, scene, steps: int, robot: str) -> dict:
     """Reset (cold, then from the on-disk store) and step figures of Traverse on ``scene``."""
     import mujoco
@@ -114,6 +96,7 @@ def main() -> None:
 
     import citygen
     from citygen.generate import generate
+    from citygen.generate.splits import town_config
     from citygen.seeding import scene_seed
 
     figures: dict = {"steps": args.steps, "robot": args.robot}

@@ -109,19 +109,9 @@ def city_file(tmp_path_factory, worker_id) -> Path:
 def town_config():
     """urban-tra-city's config on 400 m x 400 m (a ninth of its area, with a ninth of its
     objects, people and vehicles and a 300 m traverse): the ``town`` fixture's config."""
-    import citygen
+    from citygen.generate.splits import town_config
 
-    config = citygen.splits()["urban-tra-city"].config
-    return config.model_copy(
-        update={
-            "size": (400.0, 400.0),
-            "placement": config.placement.model_copy(update={"count": config.placement.count // 9}),
-            "agents": config.agents.model_copy(
-                update={"people": config.agents.people // 9, "vehicles": config.agents.vehicles // 9}
-            ),
-            "task": config.task.model_copy(update={"min_distance": 300.0}),
-        }
-    )
+    return town_config(400.0)
 
 
 @pytest.fixture(scope="module")

@@ -698,7 +698,8 @@ def test_the_tiled_ground_is_the_5cm_map_to_the_bit_and_a_city_servo_casts_no_ra
     env.reset(seed=0, options={"index": 2})
     p = env.unwrapped.prepared
     assert p.fine_ground
-    t = tiled.TiledGround(p.scene, scenes.MAP_RESOLUTION)
+    t = tiled.TiledGround.of_scene(p.scene, scenes.MAP_RESOLUTION)
+    assert t.tile_cells == 16
     assert t.grid == p.occupancy.grid
     (x0, y0), (x1, y1) = p.scene.bounds.min, p.scene.bounds.max
     rng = np.random.default_rng(3)

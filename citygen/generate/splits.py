@@ -29,7 +29,7 @@ from citygen.generate.manifests import (
 )
 from citygen.generate.pipeline import generate
 from citygen.seeding import scene_seed
-from citygen.spec.config import SplitConfig
+from citygen.spec.config import GeneratorConfig, SplitConfig
 from citygen.spec.scene import Scene
 
 __all__ = [
@@ -45,6 +45,7 @@ __all__ = [
     "resolve",
     "seeds_dir",
     "splits",
+    "town_config",
 ]
 
 
@@ -67,3 +68,31 @@ def generate_split(name_or_path: str | Path | SplitConfig, seed: int | None = No
     if isinstance(index, bool) or not isinstance(index, int) or index < 0:
         raise SpecError([Problem("index", "an integer >= 0", repr(index))])
     return generate_scene(split, index)
+
+
+def town_config(side: float = 400.0) -> GeneratorConfig:
+    """urban-tra-city's config on ``side`` x ``side`` m: its kinds of streets, signals,
+    objects and agents, with objects, people and vehicles in proportion to the area and a
+    traverse of at least ``0.75 side``. A town runs where the 1.2 km city would take minutes
+    (tests, ``benchmarks/bench_traverse.py``); ``generate(town_config(), seed)`` makes one.
+
+    >>> c = town_config(); c.size, c.agents.people, c.task.min_distance
+    ((400.0, 400.0), 22, 300.0)
+    """
+    config = splits()["urban-tra-city"].config
+    share = side * side / (config.size[0] * config.size[1])
+
+    def part(count: int) -> int:
+        return int(count * share + 1e-9)
+
+    agents = config.agents
+    return config.model_copy(
+        update={
+            "size": (float(side), float(side)),
+            "placement": config.placement.model_copy(update={"count": part(config.placement.count)}),
+            "agents": agents.model_copy(
+                update={"people": part(agents.people), "vehicles": part(agents.vehicles)}
+            ),
+            "task": config.task.model_copy(update={"min_distance": 0.75 * side}),
+        }
+    )

@@ -9,8 +9,8 @@ rays through the whole scene instead, one per drive period and per foot probe: o
 is the same raster (the occupancy grid at :data:`~citygen.runner.scenes.MAP_RESOLUTION` over
 the scene's bounds, :func:`~citygen.geometry.terrain.height_at` at the cell centres, stored
 as float32 then read as float64, as the occupancy map stores its heights) computed one tile
-of :data:`TILE_CELLS` cells at a time when first read, with the interpolation of
-``Prepared.ground_at``: on a scene with a 5 cm map the two agree to the bit.
+of :data:`TILE_CELLS` cells at a time when first read. ``Prepared.ground_at`` on a 5 cm map
+is the same class over one tile, the map's heights: the two agree to the bit.
 """
 
 from __future__ import annotations
@@ -34,17 +34,26 @@ class TiledGround:
     ``ground_at(x, y)`` is the interface the servo reads (:attr:`RobotHandle.terrain
     <citygen.runner.robots.handle.RobotHandle.terrain>`)."""
 
-    def __init__(self, scene, resolution: float) -> None:
-        (x0, y0), (x1, y1) = scene.bounds.min, scene.bounds.max
-        self.scene = scene
-        self.grid = Grid.covering((x0, y0, x1, y1), resolution)
+    def __init__(self, scene, grid: Grid, raster: np.ndarray | None = None) -> None:
+        self.scene, self.grid = scene, grid
         self._tiles: dict[tuple[int, int], tuple[memoryview, int]] = {}
+        #: Cells on a tile's side: one tile of the whole ``raster`` when one is given.
+        self.tile_cells = TILE_CELLS if raster is None else max(grid.rows, grid.cols)
+        if raster is not None:
+            flat = np.ascontiguousarray(raster, dtype=np.float64).reshape(-1)
+            self._tiles[(0, 0)] = (memoryview(flat), grid.cols)
         self.ground_at: Callable[[float, float], float] = self._bind()
+
+    @classmethod
+    def of_scene(cls, scene, resolution: float) -> TiledGround:
+        """The raster over the scene's bounds at ``resolution``, tiles made as they are read."""
+        (x0, y0), (x1, y1) = scene.bounds.min, scene.bounds.max
+        return cls(scene, Grid.covering((x0, y0, x1, y1), resolution))
 
     def tile(self, ty: int, tx: int) -> np.ndarray:
         """The heights (float64, rows along y) of tile ``(ty, tx)``: cells ``ty * TILE_CELLS``
         to ``(ty + 1) * TILE_CELLS`` inclusive (fewer at the grid's last row or column)."""
-        g, n = self.grid, TILE_CELLS
+        g, n = self.grid, self.tile_cells
         r0, c0 = ty * n, tx * n
         rows = np.arange(r0, min(r0 + n, g.rows - 1) + 1)
         cols = np.arange(c0, min(c0 + n, g.cols - 1) + 1)
@@ -63,13 +72,13 @@ class TiledGround:
         return out
 
     def _bind(self) -> Callable[[float, float], float]:
-        g, n, tiles, cells_of = self.grid, TILE_CELLS, self._tiles, self._cells
+        g, n, tiles, cells_of = self.grid, self.tile_cells, self._tiles, self._cells
         x0, y0, res = g.x0, g.y0, g.resolution
         xmax, ymax = max(g.cols - 1 - 1e-9, 0.0), max(g.rows - 1 - 1e-9, 0.0)
         last_col, last_row = g.cols - 1, g.rows - 1
 
         def ground_at(x: float, y: float) -> float:
-            # Prepared.ground_at's arithmetic, the cells read from the point's tile.
+            # Bilinear between the four cells around the point, read from its tile.
             fx = (x - x0) / res - 0.5
             fy = (y - y0) / res - 0.5
             fx = 0.0 if fx < 0.0 else xmax if fx > xmax else fx

@@ -202,35 +202,16 @@ class Prepared:
     def ground_at(self) -> Callable[[float, float], float]:
         """:meth:`ground` at one point ``ground_at(x, y)``, as a float, in plain Python (~1
         microsecond: the ideal-locomotion servo asks at every drive period and for every
-        foot): a function with the raster's constants bound, reading its cells through a
+        foot): :class:`~citygen.runner.ground.TiledGround` over one tile, the map's heights,
+        a function with the raster's constants bound reading its cells through a
         ``memoryview`` (a Python float each, where indexing the array makes numpy scalars).
         The same interpolation as :meth:`ground` in another order of operations, so it may
         differ from it in the last bit (about 1e-15 m); :meth:`ground_point` is the bit-exact
         one. The servo keeps this one: its trajectories, and so the shipped quadruped
         baselines, were made with it."""
-        h = np.ascontiguousarray(self._raster)
-        g = self.occupancy.grid
-        rows, cols = h.shape
-        cells = memoryview(h.reshape(-1))
-        x0, y0, res = g.x0, g.y0, g.resolution
-        xmax, ymax = max(cols - 1 - 1e-9, 0.0), max(rows - 1 - 1e-9, 0.0)
-        last_col, last_row = cols - 1, rows - 1
+        from citygen.runner.ground import TiledGround
 
-        def ground_at(x: float, y: float) -> float:
-            fx = (x - x0) / res - 0.5
-            fy = (y - y0) / res - 0.5
-            fx = 0.0 if fx < 0.0 else xmax if fx > xmax else fx
-            fy = 0.0 if fy < 0.0 else ymax if fy > ymax else fy
-            ix, iy = int(fx), int(fy)
-            fx, fy = fx - ix, fy - iy
-            jx = ix + 1 if ix < last_col else last_col
-            row, below = iy * cols, (iy + 1 if iy < last_row else last_row) * cols
-            a, b = cells[row + ix], cells[row + jx]
-            c, d = cells[below + ix], cells[below + jx]
-            top = a + fx * (b - a)
-            return top + fy * (c + fx * (d - c) - top)
-
-        return ground_at
+        return TiledGround(self.scene, self.occupancy.grid, self._raster).ground_at
 
     @functools.cached_property
     def fine_tiles(self):
@@ -239,7 +220,7 @@ class Prepared:
         coarser. Its ``ground_at`` equals :attr:`ground_at` to the bit on a 5 cm map."""
         from citygen.runner.ground import TiledGround
 
-        return TiledGround(self.scene, MAP_RESOLUTION)
+        return TiledGround.of_scene(self.scene, MAP_RESOLUTION)
 
     @functools.cached_property
     def _raster(self) -> np.ndarray:
