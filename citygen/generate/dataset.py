@@ -168,8 +168,9 @@ def chunks(work: list[tuple[SplitConfig, int]], jobs: int) -> Iterator[tuple[Spl
 
 
 def _clean_temporaries(out: Path, rels: set[str]) -> None:
-    """Remove the hidden temporary files a killed run left beside the scenes it was writing."""
-    for folder in sorted({str(Path(out, r).parent) for r in rels}):
+    """Remove the hidden temporary files a killed run left beside the scenes it was writing,
+    and beside the dataset's index in ``out`` (a kill while it was written)."""
+    for folder in sorted({str(Path(out, r).parent) for r in rels} | {str(Path(out))}):
         for tmp in Path(folder).glob(".*.json.*.tmp"):
             tmp.unlink(missing_ok=True)
 
