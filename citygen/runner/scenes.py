@@ -209,18 +209,25 @@ class Prepared:
         differ from it in the last bit (about 1e-15 m); :meth:`ground_point` is the bit-exact
         one. The servo keeps this one: its trajectories, and so the shipped quadruped
         baselines, were made with it."""
-        from citygen.runner.ground import TiledGround
-
-        return TiledGround(self.scene, self.occupancy.grid, self._raster).ground_at
+        return self._map_tiles.ground_at
 
     @functools.cached_property
     def fine_tiles(self):
-        """The 5 cm ground raster made tile by tile (:class:`~citygen.runner.ground.TiledGround`)
-        where :attr:`fine_ground` is not: what the servo stands on in a city, whose map is
-        coarser. Its ``ground_at`` equals :attr:`ground_at` to the bit on a 5 cm map."""
+        """The 5 cm ground raster the servo stands on (:attr:`RobotHandle.terrain
+        <citygen.runner.robots.handle.RobotHandle.terrain>`), a
+        :class:`~citygen.runner.ground.TiledGround`: the map's own where :attr:`fine_ground`
+        (the one :attr:`ground_at` reads), else (a city's coarser map) made tile by tile as it
+        is read."""
         from citygen.runner.ground import TiledGround
 
-        return TiledGround.of_scene(self.scene, MAP_RESOLUTION)
+        return self._map_tiles if self.fine_ground else TiledGround.of_scene(self.scene, MAP_RESOLUTION)
+
+    @functools.cached_property
+    def _map_tiles(self):
+        """The map's heights as one tile of a :class:`~citygen.runner.ground.TiledGround`."""
+        from citygen.runner.ground import TiledGround
+
+        return TiledGround(self.scene, self.occupancy.grid, self._raster)
 
     @functools.cached_property
     def _raster(self) -> np.ndarray:

@@ -142,8 +142,7 @@ class _CitygenEnv(Sensors, gymnasium.Env):
 
         model = prepared.model
         handle = RobotHandle(model, self.robot)
-        # The servo reads the 5 cm ground raster, not rays: the map's own, or a city's tiles.
-        handle.terrain = prepared if prepared.fine_ground else prepared.fine_tiles
+        handle.terrain = prepared.fine_tiles  # the servo reads the 5 cm ground raster, not rays
         robot_geoms = np.zeros(model.ngeom, dtype=bool)
         robot_geoms[handle.geom_ids] = True
         foot_geoms = np.zeros(model.ngeom, dtype=bool)
