@@ -36,6 +36,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from citygen.geometry import pieces_kernel
 from citygen.geometry.terrain import MIN_THICKNESS, tile_boxes, tile_grid, tile_height
 from citygen.spec.terrain import FlatTile, RoughTile, SlopeTile, StairTile, peak
 
@@ -139,18 +140,30 @@ def _rough_cells(tile: RoughTile, s: float, tolerance: float) -> tuple[np.ndarra
     n = int(min(max(math.ceil(s * SAMPLES_PER_SCALE / tile.scale), 2), MAX_SAMPLES))
     g = np.linspace(0.0, s, n + 1)
     z = tile_grid(tile, s, g, g)  # z[i, j]: v = g[i], u = g[j]
-    cells: list[tuple[int, int, int, int, tuple[float, float, float], float]] = []
+    index, plane = pieces_kernel.rough_cells(g, z, float(tolerance))
+    order = np.lexsort((index[:, 1], index[:, 0]))
+    cells = zip(index[order].tolist(), plane[order].tolist(), strict=True)
+    boxes = np.array(
+        [_plate(g[j0], g[j0 + nj], g[i0], g[i0 + ni], (c, a, b)) for (i0, j0, ni, nj), (c, a, b, _) in cells]
+    )
+    return boxes, float(plane[:, 3].max())
+
+
+def _cells_reference(g: np.ndarray, z: np.ndarray, tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`~citygen.geometry.pieces_kernel.rough_cells` in numpy, the reference it is
+    tested against: split each cell across its longer side until its plane (:func:`_fit`)
+    is within ``tolerance`` of its samples; ``(i0, j0, ni, nj)`` and ``(c, a, b, err)``."""
+    n = len(g) - 1
+    cells: list[tuple[tuple[int, int, int, int], tuple[float, float, float, float]]] = []
     stack = [(0, 0, n, n)]
     while stack:
         i0, j0, ni, nj = stack.pop()
         plane, err = _fit(g, z, i0, j0, ni, nj)
         if err <= tolerance or (ni == 1 and nj == 1):
-            cells.append((i0, j0, ni, nj, plane, err))
+            cells.append(((i0, j0, ni, nj), (*plane, err)))
             continue
         stack += _split(g, z, i0, j0, ni, nj)
-    boxes = np.array([_plate(g[j0], g[j0 + nj], g[i0], g[i0 + ni], plane) for i0, j0, ni, nj, plane, _ in
-                      sorted(cells, key=lambda c: (c[0], c[1]))])  # fmt: skip
-    return boxes, max(c[5] for c in cells)
+    return np.array([c[0] for c in cells], dtype=np.int64), np.array([c[1] for c in cells])
 
 
 def _fit(g: np.ndarray, z: np.ndarray, i0: int, j0: int, ni: int, nj: int):
@@ -180,7 +193,8 @@ def _split(
         halves.append([(i0, j0, ni, h), (i0, j0 + h, ni, nj - h)])
     if len(halves) == 1:
         return halves[0]
-    return min(halves, key=lambda cut: max(_fit(g, z, *cell)[1] for cell in cut))
+    across_i, across_j = (max(_fit(g, z, *cell)[1] for cell in cut) for cut in halves)
+    return halves[1] if across_j < across_i - pieces_kernel.TIE else halves[0]
 
 
 def _plate(u0: float, u1: float, v0: float, v1: float, plane: tuple[float, float, float]) -> np.ndarray:
