@@ -21,6 +21,7 @@ from citygen.io import load_scene
 from citygen.runner.envs.legs import free_damping
 from citygen.runner.learn import shipped_models
 from citygen.runner.learn.export import write_policy
+from citygen.runner.learn.loco import COMMANDS
 from citygen.runner.make import make_env
 from citygen.runner.robots import BUILTIN, load_robot
 from citygen.spec.task import LocoTask
@@ -112,6 +113,11 @@ def test_the_locomotion_model_sees_what_locoenv_would_in_the_same_state(general)
     assert seen["command"].tolist() == pytest.approx(
         [0.8 * env.robot.max_speed, 0.0, 0.3 * env.robot.max_yaw_rate]
     )
+    # a command past what the model was trained on is clipped into its ranges
+    env.step(np.array([-1.0, -1.0]))
+    (v_lo, _), _, (w_lo, _) = COMMANDS
+    assert -env.robot.max_speed < v_lo and -env.robot.max_yaw_rate < w_lo
+    assert env.legs.command.tolist() == [v_lo, 0.0, w_lo]
 
 
 def test_a_fall_ends_the_navigation_episode_as_a_failure(general):

@@ -127,26 +127,31 @@ def test_the_survival_bonus_and_the_effort_scale_shift_only_their_terms():
             e.close()
 
 
-def test_the_fall_share_and_the_foot_clearance_change_only_their_terms():
+def test_the_fall_share_the_foot_clearance_and_the_turn_progress_change_only_their_terms():
     """``fall_penalty=0.25`` gives 75 of a fall's 100 back and nothing on any other step;
     ``foot_clearance`` never pays and costs where feet swing low (action noise on flat
-    ground); an episode's end tells its curriculum row (``terrain_level``, the training log's)."""
-    kws = ({}, {"fall_penalty": 0.25}, {"foot_clearance": 1.0})
+    ground); ``turn_progress`` adds its weight times the share of the commanded turn made
+    good; an episode's end tells its curriculum row (``terrain_level``, the training log's)."""
+    kws = ({}, {"fall_penalty": 0.25}, {"foot_clearance": 1.0}, {"turn_progress": 2.0})
     envs = [LocoTraining(make_env("loco-flat", robot="quadruped"), seed=0, rank=0, **kw) for kw in kws]
     try:
         for e in envs:
-            e.reset(seed=4)
+            e.reset(seed=4, options={"command": (0.5, 0.0, 0.8)})
         rng = np.random.default_rng(2)
-        low, fell = [], False
+        low, turned, fell = [], [], False
         for a in np.clip(0.8 * rng.standard_normal((600, 12)), -1, 1):
-            (_, plain, end, _, info), (_, share, *_), (_, clear, *_) = (e.step(a) for e in envs)
+            steps = [e.step(a) for e in envs]
+            (_, plain, end, _, info), (_, share, *_), (_, clear, *_), (_, turn, *_) = steps
             if end:
                 fell = info["fallen"]
                 assert share == pytest.approx(plain + 75.0) and info["terrain_level"] == envs[0].level
                 break
             assert share == plain and clear <= plain
+            wz = envs[3].unwrapped.base_velocity[3]
+            assert turn == pytest.approx(plain + 2.0 * min(max(wz / 0.8, -1.0), 1.0), abs=1e-9)
             low.append(clear < plain)
-        assert fell and any(low)
+            turned.append(turn != plain)
+        assert fell and any(low) and any(turned)
     finally:
         for e in envs:
             e.close()

@@ -5,7 +5,9 @@ general locomotion model instead of the ideal servo on its base.
 learned`` on ``citygen bench``, ``run`` and ``train``; :data:`LOCOMOTION`) gives the
 :class:`~citygen.runner.envs.nav.NavEnv` a :class:`LearnedLegs`: each navigation step's
 action, the velocity ``(v, w)`` the servo would track, becomes the velocity command
-``(vx, vy, wz) = (v, 0, w)`` of the robot's general locomotion model
+``(vx, vy, wz) = (v, 0, w)`` of the robot's general locomotion model, clipped into the
+ranges it was trained on (:data:`citygen.runner.learn.loco.COMMANDS`: the quadruped's servo
+backs up at 1 m/s and turns at 1.5 rad/s, the model learnt at most 0.5 and 1)
 (:func:`citygen.runner.learn.shipped_models.general_locomotion`), which sets the joints'
 targets every :data:`~citygen.runner.envs.loco.LOCO_DT` s (50 Hz; several times per
 navigation step) from what :class:`~citygen.runner.envs.loco.LocoEnv` would observe in the
@@ -28,6 +30,7 @@ import numpy as np
 from citygen.errors import Problem, SpecError
 from citygen.runner.envs import legged
 from citygen.runner.envs.loco import FALL_FORCE, LOCO_DT
+from citygen.runner.learn.loco import COMMANDS
 
 #: Values of the ``locomotion`` option: the ideal servo on the base (the default, with which
 #: the shipped navigation results were measured) or the robot's learned general model.
@@ -149,15 +152,17 @@ class LearnedLegs:
         return legged.leg_observation(env, self.keys, self.command, self.last_action, self._vel_dofs, pose)
 
     def walk(self, v: float, w: float) -> None:
-        """One navigation step: the command ``(v, 0, w)`` (m/s, rad/s) to the locomotion
-        model, which sets the joints' targets every :data:`LOCO_DT` s (:attr:`repeats`
-        times) as in LocoEnv's step; stops at a fall (:attr:`fell`)."""
+        """One navigation step: the command ``(v, 0, w)`` (m/s, rad/s; clipped into the
+        model's training ranges) to the locomotion model, which sets the joints' targets
+        every :data:`LOCO_DT` s (:attr:`repeats` times) as in LocoEnv's step; stops at a
+        fall (:attr:`fell`)."""
         import mujoco
 
         env = self.env
         self._bind()
         m, d, h = env.model, env.data, env.handle
-        self.command[:] = (v, 0.0, w)
+        (v_lo, v_hi), _, (w_lo, w_hi) = COMMANDS
+        self.command[:] = (min(max(v, v_lo), v_hi), 0.0, min(max(w, w_lo), w_hi))
         m.dof_damping[h.dadr : h.dadr + 6] = self._free_damping  # no servo's (free_damping)
         for _ in range(self.repeats):
             a = np.asarray(self.policy.act(self.observation()), dtype=np.float64)

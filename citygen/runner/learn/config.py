@@ -222,6 +222,14 @@ class TrainConfig(BaseModel):
         "lower than 0.12 m over the ground under them pay the square of the shortfall; "
         "citygen.runner.learn.loco), so that feet lift over a stair's edge.",
     )
+    turn_progress: Annotated[float, Field(ge=0, le=10)] = Field(
+        0.0,
+        description="Locomotion, training only: weight of a turn-progress term (the share of a "
+        "commanded yaw rate made good, w_z c_wz / c_wz^2 clipped to [-1, 1], where the command "
+        "turns): linear from a standstill, as the forward-progress term is for speed, so that a "
+        "policy learns to turn in place (the 0.25 rad/s tracking kernel pays a standing robot "
+        "almost nothing for a 1 rad/s turn).",
+    )
     gait: Literal["walk"] | None = Field(
         None,
         description="Locomotion, a biped: the policy rides on the scripted walk (a residual over its "

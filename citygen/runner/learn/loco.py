@@ -21,6 +21,10 @@ adds what makes the same policy learnable on a laptop in hours:
 - **Foot clearance** (``foot_clearance`` times :meth:`LocoTraining._foot_clearance`): swinging
   feet lower than :data:`FOOT_CLEARANCE` over the ground under them pay the square of the
   shortfall (Isaac Lab's Spot reward), so that feet lift over a stair's edge.
+- **Turn progress** (``turn_progress``): ``w_z / c_wz`` clipped to [-1, 1] where the command
+  turns (|c_wz| > 0.1 rad/s), the forward-progress term's twin for yaw: the tracking kernel
+  pays a robot standing under a 1 rad/s command almost nothing, so nothing led the general
+  model to turn in place (it walked forward and turned while walking only).
 - **Only positive rewards** (``only_positive``, legged_gym's ``only_positive_rewards``): a
   step's reward before the fall's ``-100`` is clipped at zero, so that a noisy first policy
   whose penalties cost more per step than a fall (the wheeled-legged robot's torques: about
@@ -78,11 +82,12 @@ class LocoTraining(gymnasium.Wrapper):
         self, env: gymnasium.Env, *, seed: int, rank: int, shaping: float = 1.0,
         command_mix: float = 0.0, curriculum: bool = True, only_positive: bool = False,
         effort_scale: float = 1.0, alive: float = 0.0, fall_penalty: float = 1.0,
-        foot_clearance: float = 0.0,
+        foot_clearance: float = 0.0, turn_progress: float = 0.0,
     ):  # fmt: skip
         super().__init__(env)
         self._fall_refund = (1.0 - float(fall_penalty)) * -FALL_PENALTY
         self._clearance = float(foot_clearance)
+        self._turn = float(turn_progress)
         self._last_feet: np.ndarray | None = None
         self.shaping = float(shaping)
         self._torque = WEIGHTS["torque"] * float(effort_scale)
@@ -161,6 +166,8 @@ class LocoTraining(gymnasium.Wrapper):
         asked = c0 * c0 + c1 * c1
         if asked > 0.01:
             r += WEIGHTS["progress"] * min(max((vx * c0 + vy * c1) / asked, -1.0), 1.0)
+        if self._turn and abs(c2) > 0.1:
+            r += self._turn * min(max(wz / c2, -1.0), 1.0)
         r += WEIGHTS["ang_vel_xy"] * float(w @ w)
         r += WEIGHTS["tilt"] * float(g @ g)
         r += self._alive + self._torque * float(tau @ tau)

@@ -225,6 +225,7 @@ def make_training_env(cfg: TrainConfig) -> Sb3VecEnv:
                 "alive": cfg.alive,
                 "fall_penalty": cfg.fall_penalty,
                 "foot_clearance": cfg.foot_clearance,
+                "turn_progress": cfg.turn_progress,
             },
             cfg.locomotion,
             (cfg.gait, cfg.gait_scale, cfg.gait_max_speed) if cfg.gait else None,
