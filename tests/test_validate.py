@@ -75,7 +75,7 @@ def test_height_only_on_buildings():
 def test_a_zone_without_height_writes_no_height_key():
     zone = {"id": "b", "kind": "building", "polygon": square(0, 0, 5, 5)}
     assert "height" not in dumps(scene(zones=[zone]))
-    assert "\"height\": 12.5" in dumps(scene(zones=[{**zone, "height": 12.5}]))
+    assert '"height": 12.5' in dumps(scene(zones=[{**zone, "height": 12.5}]))
 
 
 def test_zone_with_hole_and_its_filling_do_not_overlap():
