@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import trimesh
-from shapely.geometry import Polygon
+from shapely.geometry import Point, Polygon
 
 from citygen import validate
 from citygen.exporters import mjcf
@@ -149,3 +149,21 @@ def test_the_runner_takes_the_solid_for_an_obstacle_in_contacts_and_the_local_ma
     yard = across & (ahead > -3.0) & (ahead < 3.0)
     assert np.all(grid[0][wall] == localmap.MAX_ELEVATION) and np.all(grid[1][wall] == 0)
     assert np.all(grid[0][yard] == 0.0) and np.all(grid[1][yard] == 1)
+
+
+def test_glb_draws_each_solid_and_the_occupancy_map_blocks_its_footprint_only(scene):
+    from citygen.exporters import glb
+    from citygen.exporters.occupancy import occupancy
+
+    graph = glb.build(scene, y_up=False)
+    for solid in solids(scene):
+        mesh = graph.geometry[f"solid/{solid.zone.id}"]
+        assert f"solid/{solid.zone.id}" in graph.graph.nodes
+        assert mesh.is_watertight and mesh.bounds[1, 2] == pytest.approx(solid.top)
+        assert mesh.volume == pytest.approx(solid.shape.area * solid.zone.height)
+    occ = occupancy(scene, resolution=0.25)
+    blocked, walkable = occ.obstacle_mask(), occ.walkable_mask()
+    for (x, y), _ in DROPS.values():
+        inside = any(s.shape.contains(Point(x, y)) for s in solids(scene))
+        assert blocked[occ.cell(x, y)] == inside
+    assert walkable[occ.cell(29.0, 11.0)]  # the courtyard's plaza
