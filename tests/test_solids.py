@@ -167,3 +167,23 @@ def test_glb_draws_each_solid_and_the_occupancy_map_blocks_its_footprint_only(sc
         inside = any(s.shape.contains(Point(x, y)) for s in solids(scene))
         assert blocked[occ.cell(x, y)] == inside
     assert walkable[occ.cell(29.0, 11.0)]  # the courtyard's plaza
+
+
+def test_a_robot_driving_at_a_wall_stops_at_it_and_is_in_collision(scene):
+    from citygen.runner.make import make_env
+
+    data = scene.model_dump(mode="json", exclude_none=True)
+    walk = [[38, 0], [40, 0], [40, 24], [38, 24]]  # east of the courtyard building
+    data["zones"].append({"id": "walk", "kind": "sidewalk", "polygon": walk})
+    data["task"] = {
+        "kind": "nav-static", "robot": "wheeled", "start": {"position": [28.0, 11.0], "yaw": 0.0},
+        "goal": [39.0, 11.0], "time_limit": 60.0,
+    }  # fmt: skip
+    env = make_env("nav-static", Scene.model_validate(data), max_steps=200)
+    env.reset(seed=0)
+    hits, furthest = 0, 0.0
+    for _ in range(100):  # full speed ahead, at the courtyard's east wall (x = 33)
+        *_, info = env.step(np.array([1.0, 0.0], dtype=np.float32))
+        hits += bool(info["collision"])
+        furthest = max(furthest, env.handle.pose(env.data)[0])
+    assert hits > 10 and 32.0 < furthest < 33.0
