@@ -225,6 +225,10 @@ def _check_zones(scene: Scene, polys: list[Polygon], area: Polygon) -> list[Prob
             problems.append(
                 Problem(f"{where}.strip", "no strip on a zone that is not a sidewalk", repr(zone.strip))
             )
+        if zone.height is not None and zone.kind != "building":
+            problems.append(
+                Problem(f"{where}.height", "no height on a zone that is not a building", _fmt(zone.height))
+            )
         if not poly.is_valid:
             problems.append(
                 Problem(f"{where}.polygon", "a valid simple polygon", explain_validity(poly).lower())

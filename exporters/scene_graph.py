@@ -36,6 +36,7 @@ from citygen.exporters.meshes import (
     zone_rgba,
 )
 from citygen.exporters.options import AUTO, resolution_option, scene_dir_of
+from citygen.exporters.solids import solids
 from citygen.geometry.terrain import height_at, terrain_mesh
 from citygen.spec.agents import Vehicle
 from citygen.spec.scene import Scene
@@ -175,6 +176,8 @@ def _coloured_mesh(mesh: trimesh.Trimesh, colour: RGBA) -> trimesh.Trimesh:
 
 
 def _add_zones(g: _Graph, scene: Scene, polys: list, tm: trimesh.Trimesh | None) -> None:
+    """Each zone's ground surface (``zone/<id>``) and each zone's solid (``solid/<id>``: a
+    building extruded from its footprint, :mod:`citygen.exporters.solids`), in its kind's colour."""
     surfaces = drape(scene, polys, mesh=tm)
     for zone, (verts, faces) in zip(scene.zones, surfaces, strict=True):
         if len(faces):
@@ -182,6 +185,10 @@ def _add_zones(g: _Graph, scene: Scene, polys: list, tm: trimesh.Trimesh | None)
             colour = zone_rgba(zone.kind)
             name = f"zone/{zone.id}"
             g.add(name, name, lambda v=lifted, f=faces, c=colour: flat_coloured(v, f, c), np.eye(4))
+    for solid in solids(scene, polys):
+        name = f"solid/{solid.zone.id}"
+        make = lambda s=solid: flat_coloured(*s.mesh(), zone_rgba(s.zone.kind))  # noqa: E731
+        g.add(name, name, make, np.eye(4))
 
 
 def _add_placements(g: _Graph, scene: Scene, folder: Path | None) -> None:

@@ -12,6 +12,9 @@ fixed to the root by a joint named ``joint/<link>`` whose origin places it:
 - ``zone/<id>``: each zone's draped ground surface as its visual (coloured by kind), and
   where the zone lies outside the terrain grid a slab from ``-zone_thickness`` up to
   ``z = 0`` as its collision, with the zone's friction.
+- ``solid/<id>``: each zone's solid (a building's footprint, holes cut out, extruded to its
+  ``height``: :mod:`citygen.exporters.solids`), its closed mesh as the visual and its convex
+  pieces as the collision, with the zone's friction.
 - ``ground/plane``: the rest of the scene's bounds outside the grid, a slab like the zones';
   ``ground/apron``: four boxes ``apron`` metres wide around the scene and its grid at
   ``z = 0`` (the MJCF's apron), so a body that rolls off the scene stays on the ground.
@@ -70,9 +73,7 @@ from citygen.exporters.ground import (
     drape,
     fit_terrain,
     grid_box,
-    polygon_parts,
     rough_cells,
-    triangulate,
     zone_polygons,
 )
 from citygen.exporters.meshes import (
@@ -95,6 +96,7 @@ from citygen.exporters.pieces import (
     terrain_pieces,
     tolerance_option,
 )
+from citygen.exporters.solids import extrude, solids
 from citygen.geometry.features import feature_boxes
 from citygen.geometry.pieces import Pieces, axis_boxes, prism_mesh
 from citygen.geometry.terrain import MIN_THICKNESS, tile_boxes, tile_mesh
@@ -305,27 +307,6 @@ def _add_part(
 # --- the ground ---------------------------------------------------------------------------
 
 
-def _slab(geom: shapely.Geometry, bottom: float, top: float) -> tuple[np.ndarray, np.ndarray]:
-    """A polygonal area extruded from ``bottom`` to ``top`` (m): a closed, outward mesh."""
-    verts, faces, count = [], [], 0
-    for poly in polygon_parts(geom):
-        xy, tri = triangulate(poly)
-        n = len(xy)
-        poly = shapely.geometry.polygon.orient(poly, 1.0)
-        rings = [poly.exterior, *poly.interiors]
-        sizes = [len(r.coords) - 1 for r in rings]
-        start = np.r_[0, np.cumsum(sizes)[:-1]]
-        ring_i = np.concatenate([np.arange(s) + o for s, o in zip(sizes, start, strict=True)])
-        nxt = np.concatenate([(np.arange(s) + 1) % s + o for s, o in zip(sizes, start, strict=True)])
-        sides = np.r_[np.c_[ring_i, nxt, nxt + n], np.c_[ring_i, nxt + n, ring_i + n]]
-        verts.append(np.r_[np.c_[xy, np.full(n, bottom)], np.c_[xy, np.full(n, top)]])
-        faces.append(np.r_[tri[:, ::-1], tri + n, sides] + count)
-        count += 2 * n
-    if not verts:
-        return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64)
-    return np.concatenate(verts), np.concatenate(faces)
-
-
 def _add_ground(
     w: _Writer, scene: Scene, polys: list, resolution: float | None, thickness: float, apron: np.ndarray
 ) -> None:
@@ -349,7 +330,7 @@ def _add_ground(
         rest = rest.difference(shapely.union_all(polys))
     if not rest.is_empty and rest.area > 1e-9:
         link = w.link("ground/plane", friction=FRICTION["concrete"])
-        sv, sf = _slab(rest, -thickness, 0.0)
+        sv, sf = extrude(rest, -thickness, 0.0)
         if w.visual and len(sf):
             _element(
                 link, "visual", _mesh_geometry(w.mesh(sv, sf)), material=w.material("ground", GROUND_RGBA)
@@ -362,6 +343,19 @@ def _add_ground(
                 box = ("box", {"size": _v(2.0 * half)})
                 _element(link, "visual", box, centre, material=w.material("ground", GROUND_RGBA))
         w.pieces(link, Pieces(apron, (), -thickness))
+
+
+def _add_solids(w: _Writer, scene: Scene, polys: list) -> None:
+    """Each zone's solid (:mod:`citygen.exporters.solids`: a building extruded from its
+    footprint) as a link ``solid/<zone id>``: its closed mesh as the visual, its convex pieces
+    as the collision (a hull would fill a courtyard), with the zone's friction."""
+    for solid in solids(scene, polys):
+        zone = solid.zone
+        link = w.link(f"solid/{zone.id}", friction=zone.mu)
+        if w.visual:
+            material = w.material(f"zone-{zone.kind}", zone_rgba(zone.kind))
+            _element(link, "visual", _mesh_geometry(w.mesh(*solid.mesh())), material=material)
+        w.pieces(link, solid.pieces())
 
 
 #: Step (m) tile frictions are rounded to, so tiles share links.
@@ -525,7 +519,7 @@ def _add_terrain(
                 boxes += list(tile_boxes(t.tiles[k], s, floor=floor) + corner)
         for lo, hi in boxes:
             _element(link, "visual", ("box", {"size": _v(hi - lo)}), (lo + hi) / 2, material=terrain_material)
-        slabs = [_slab(area, min(floor, h - MIN_THICKNESS), h) for area, h in split.get(mu, [])]
+        slabs = [extrude(area, min(floor, h - MIN_THICKNESS), h) for area, h in split.get(mu, [])]
         meshes = [k for k in members.tolist() if tile_kind(t.tiles[k]).boxes is None]
         if meshes:
             slabs.append(_tiles(t, np.asarray(meshes), floor, resolution))
@@ -590,6 +584,7 @@ def _write(
     w = _Writer(out, name, options.get("assets"), options["visual"])
     apron = apron_boxes(options["model"], options["apron"], -options["thickness"], piece.box)
     _add_ground(w, view, piece.zones, visual, options["thickness"], apron)
+    _add_solids(w, view, piece.zones)
     _add_terrain(
         w, view, piece.zones, friction[piece.terrain_tiles], terrain, options["floor"], options["tolerance"]
     )
@@ -649,7 +644,8 @@ def frictions(path: str | Path) -> dict[str, float]:
 
 def links(scene: Scene) -> int:
     """About how many links the scene's URDF has in one file."""
-    return 2 + len(scene.zones) + len(scene.placements) + (8 if scene.terrain is not None else 0)
+    solid = sum(z.height is not None for z in scene.zones)
+    return 2 + len(scene.zones) + solid + len(scene.placements) + (8 if scene.terrain is not None else 0)
 
 
 def tile_side(scene: Scene) -> float:

@@ -114,24 +114,24 @@ def test_junctions_and_buildings_match_the_map(town):
     assert any(z.holes for z in town.zones if z.id == "building-r1")  # the courtyard
 
 
-def test_building_massing_stands_in_its_footprint_near_the_mapped_height(town):
-    from citygen.assets.catalog import resolve
-
+def mapped_heights(path) -> dict[str, float]:
+    """Each building's height (m) as its tags give it: ``height``, else 3 m a level of
+    ``building:levels``, else 3 levels (9 m)."""
     tall = {}
-    for obj in osmium.FileProcessor(str(TOWN)).with_areas():
+    for obj in osmium.FileProcessor(str(path)).with_areas():
         if isinstance(obj, osmium.osm.Area) and "building" in obj.tags:
             fid = ("w" if obj.from_way() else "r") + str(obj.orig_id())
             height, levels = obj.tags.get("height"), obj.tags.get("building:levels")
-            tall[fid] = float(height) if height else 3.0 * float(levels) + 1.0
-    footprints = {z.id: Polygon(z.polygon, z.holes) for z in town.zones if z.kind == "building"}
-    misses = []
-    for p in town.placements:
-        if p.asset.startswith("building/"):
-            (zid,) = [k for k, f in footprints.items() if f.contains(shapely.Point(p.position[:2]))]
-            want = tall[zid.removeprefix("building-")]
-            misses.append(abs(resolve(p.asset).height * p.scale - want) / want)
-    assert len(misses) == len(footprints) == 18
-    assert max(misses) < 0.3 and float(np.median(misses)) < 0.15
+            tall[fid] = float(height.removesuffix("m")) if height else 3.0 * float(levels) if levels else 9.0
+    return tall
+
+
+def test_each_building_is_a_solid_as_tall_as_mapped_and_no_massing_stands_in_it(town):
+    tall = mapped_heights(TOWN)
+    heights = {z.id.removeprefix("building-"): z.height for z in town.zones if z.kind == "building"}
+    assert len(heights) == 18 and heights == {fid: tall[fid] for fid in heights}
+    assert {z.height for z in town.zones if z.kind != "building"} == {None}
+    assert not [p.id for p in town.placements if p.asset.startswith("building/")]
 
 
 def test_every_bench_tree_and_signal_is_where_the_map_puts_it(town):

@@ -16,11 +16,12 @@ from pyproj import Transformer
 from shapely.geometry import Point, Polygon, box
 
 import citygen
+from citygen.exporters.solids import solids
 from citygen.generate.layouts.osm import osm_config
 from citygen.generate.pipeline import generate
 from citygen.generate.places import left_out
 from tests.conftest import ROOT
-from tests.test_osm import building_of
+from tests.test_osm import building_of, mapped_heights
 
 FILE = ROOT / "tests" / "data" / "osm" / "helsinki-esplanadi.osm.pbf"
 BOX = (24.9422, 60.1647, 24.9494, 60.1683)
@@ -66,10 +67,28 @@ def test_every_mapped_building_is_its_footprint(place, mapped):
             zones[z.id.removeprefix("building-").split("-")[0]].append(Polygon(z.polygon, z.holes))
     crossing = {fid for fid, p in buildings.items() if p.intersection(frame).area >= 0.5}
     assert len(crossing) > 70 and set(zones) == crossing
+    # Each a solid (its convex pieces, as MJCF and URDF collide them) covering the mapped area.
+    pieces = defaultdict(float)
+    for solid in solids(scene):
+        cut = solid.pieces()
+        tops = [Polygon(p[:, :2]).area for p in cut.prisms] + [4 * h[0] * h[1] for _, h, _ in cut.boxes]
+        pieces[solid.zone.id.removeprefix("building-").split("-")[0]] += sum(tops)
+    assert set(pieces) == crossing
     for fid, poly in buildings.items():
         if frame.contains(poly):
             area = sum(p.area for p in zones[fid])
             assert abs(area - poly.area) <= 0.05 * poly.area, (fid, area, poly.area)
+            assert abs(pieces[fid] - poly.area) <= 0.05 * poly.area, (fid, pieces[fid], poly.area)
+
+
+def test_each_building_is_as_tall_as_mapped(place):
+    _, scene = place
+    tall = mapped_heights(FILE)
+    for z in scene.zones:
+        if z.kind == "building":
+            want = min(max(tall[z.id.removeprefix("building-").split("-")[0]], 0.5), 500.0)
+            assert z.height == pytest.approx(want, abs=1e-3), z.id
+    assert not [p.id for p in scene.placements if p.asset.startswith("building/")]
 
 
 def test_mapped_benches_and_trees_stand_on_their_points_and_the_rest_is_named(place, mapped):

@@ -8,6 +8,7 @@ import pytest
 import trimesh
 
 from citygen import load_scene, validate
+from citygen.io import dumps
 from citygen.spec import Scene
 from citygen.spec.terrain import SIDES, edge_profile, profiles_match
 from tests.conftest import EXAMPLES
@@ -61,6 +62,20 @@ def test_strip_only_on_sidewalks():
         scene(zones=[{"id": "z", "kind": "plaza", "strip": "clear", "polygon": square(0, 0, 5, 5)}])
     )
     assert paths(problems) == ["$.zones[0].strip"]
+
+
+def test_height_only_on_buildings():
+    building = {"id": "b", "kind": "building", "height": 12.5, "polygon": square(0, 0, 5, 5)}
+    assert validate(scene(zones=[building])) == []
+    problems = validate(scene(zones=[{**building, "kind": "plaza"}]))
+    assert paths(problems) == ["$.zones[0].height"]
+    assert str(problems[0]).endswith("expected no height on a zone that is not a building, got 12.5")
+
+
+def test_a_zone_without_height_writes_no_height_key():
+    zone = {"id": "b", "kind": "building", "polygon": square(0, 0, 5, 5)}
+    assert "height" not in dumps(scene(zones=[zone]))
+    assert '"height": 12.5' in dumps(scene(zones=[{**zone, "height": 12.5}]))
 
 
 def test_zone_with_hole_and_its_filling_do_not_overlap():

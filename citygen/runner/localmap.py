@@ -6,9 +6,9 @@ robot and turned with its yaw. Row ``i`` is the forward distance ``u`` (ascendin
 the robot first), column ``j`` the leftward distance ``v`` (ascending, right first):
 
 - channel 0, **elevation** (m) of the highest thing in the cell relative to the ground
-  under the robot: the terrain, static objects (their catalog height, buildings and
-  anything taller clipped at :data:`MAX_ELEVATION`), and moving people and vehicles as
-  discs of their radius (:data:`AGENT_HEIGHT` tall);
+  under the robot: the terrain, static objects (their catalog height, a building zone's
+  solid its ``height``; buildings and anything taller clipped at :data:`MAX_ELEVATION`),
+  and moving people and vehicles as discs of their radius (:data:`AGENT_HEIGHT` tall);
 - channel 1, **walkability**: 1 where every part of the cell is walkable ground without an
   object or a moving agent on it, 0 elsewhere (also outside the scene).
 
@@ -73,7 +73,8 @@ class StaticLayers(NamedTuple):
 
 def _object_heights(scene: Any, occ: Any) -> np.ndarray:
     """Height (m) above the ground of the object standing on each occupancy cell (0 where
-    none): each catalog placement's base painted with its height, tallest last."""
+    none): each catalog placement's base and each building zone's solid (its ``height``)
+    painted with its height, tallest last."""
     from shapely.geometry import Polygon
 
     from citygen.assets import resolve
@@ -92,6 +93,7 @@ def _object_heights(scene: Any, occ: Any) -> np.ndarray:
         ring = np.asarray(asset.base.exterior.coords) * pl.scale
         xy = ring @ np.array([[c, s], [-s, c]]) + np.asarray(pl.position[:2])
         items.append((float(asset.height) * pl.scale, Polygon(xy)))
+    items += [(float(z.height), Polygon(z.polygon, z.holes)) for z in scene.zones if z.height is not None]
     for height, shape in sorted(items, key=lambda item: item[0]):
         paint(occ.grid, out, shape, height)
     blocked = occ.obstacle_mask()

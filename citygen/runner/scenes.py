@@ -362,8 +362,9 @@ def prepare(scene: Scene, robot: Any, terrain: str = "heightfield") -> Prepared:
     model = compose(_scene_mjcf(scene, terrain), robot, (x, y, z, yaw))
     occ = occupancy(scene, map_resolution(scene))
     labels = mjcf.geom_labels(model)
-    obstacle = np.array([lab is not None and lab[0] in ("object", "agent") for lab in labels])
-    ground = np.array([lab is not None and lab[0] not in ("object", "agent") for lab in labels])
+    # Objects, buildings' solids and agents stand in the way; the rest is ground.
+    obstacle = np.array([lab is not None and lab[0] in ("object", "solid", "agent") for lab in labels])
+    ground = np.array([lab is not None and lab[0] not in ("object", "solid", "agent") for lab in labels])
     # Unnamed static geoms of the scene (none today) and the apron count as ground.
     agents = {}
     for a in scene.agents:

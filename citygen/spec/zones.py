@@ -1,6 +1,7 @@
 """Functional zones (stage 2): the ground of the scene divided by use.
 
-A zone is a polygon (with optional holes) of one kind of public space. Its
+A zone is a polygon (with optional holes) of one kind of public space (a building
+zone with a ``height`` is the building itself, its footprint extruded). Its
 walkability follows from its kind (:data:`~citygen.spec.surfaces.WALKABLE_ZONES`);
 its surface material and friction default to the kind's and the material's.
 Zones never overlap. Ground that no zone covers is non-walkable.
@@ -40,6 +41,11 @@ class Zone(SpecModel):
     """Sliding friction coefficient; when left out, the material's default."""
     strip: SidewalkStrip | None = None
     """For sidewalks only: frontage, clear (pedestrian through zone) or furnishing strip."""
+    height: bounded_float(0.5, 500.0) | None = None
+    """For buildings only: the building's height in metres. A building zone with a height is a
+    solid, its polygon (holes cut out) extruded from the lowest ground under it up to that
+    height; without one the zone is the building's lot (the synthetic city stands a catalog
+    massing on it)."""
 
     @property
     def walkable(self) -> bool:

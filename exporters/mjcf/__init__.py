@@ -37,6 +37,11 @@ What the model holds (metres, radians, Z up; ``<compiler angle="radian"/>``):
   otherwise. A placement's mesh file (relative to the scene file) is split into its
   connected parts, each a mesh geom; MuJoCo collides a mesh as its convex hull, so an
   :class:`ExportWarning` names every placement with a non-convex part.
+- **Solids.** A zone with a ``height`` (a building from its mapped footprint) is a solid
+  (:mod:`citygen.exporters.solids`): its polygon, holes cut out, from the lowest ground under
+  it up that height, cut into convex pieces (boxes where a piece is a rectangle, convex mesh
+  prisms otherwise), so a courtyard or an L's inner corner stays open ground; static geoms
+  ``solid:<zone kind>:<zone id>:<k>`` of the object class (group 1), with the zone's friction.
 - **Agents.** One mocap body per agent (``agent:<id>``) at its start, on the ground,
   facing its goal: people are capsules of their radius, :data:`PERSON_HEIGHT` tall;
   vehicles boxes of their length and width, :data:`VEHICLE_HEIGHT` tall. The body's
@@ -64,7 +69,7 @@ world never collides with itself or with agents. A robot's geoms should use
 ``contype=ROBOT_BIT`` and ``conaffinity=ROBOT_CONAFFINITY`` (static world and agents;
 add ``ROBOT_BIT`` for self-collision). Static geoms have ``priority="1"``, so a contact
 between a robot (priority 0) and the ground uses the ground's friction, not a mix.
-Geom groups: 0 ground and terrain, 1 objects, 2 agents (so a ray or a rendering can
+Geom groups: 0 ground and terrain, 1 objects and solids, 2 agents (so a ray or a rendering can
 select them: ``mj_ray(..., geomgroup=[1, 0, 0, 0, 0, 0], ...)`` sees only the ground).
 
 Names (the runner may rely on them; they are a public contract, the naming table of docs/exporting.md):
@@ -74,6 +79,7 @@ the parts of every name are joined by ``:`` (:data:`SEP`), never ``/``, which dm
 ``zone:<zone kind>:<zone id>:<k>`` (``zone:none:ground:<k>`` for ground no zone covers,
 ``zone:none:outside:<k>`` for the apron), ``terrain:<tile kind>:<row>_<col>:<k>``,
 ``object:<semantic class>:<placement id>:<k>`` (``object:mesh:...`` for mesh files),
+``solid:<zone kind>:<zone id>:<k>`` (meshes ``solid:<zone id>:<k>``),
 ``agent:<agent kind>:<agent id>:0``. Ground and terrain geoms use the material
 ``zone:<kind>`` (or ``ground``) of the ground they stand for; heightfields are
 ``terrain:<n>``. Bodies are ``object:<id>`` and ``agent:<id>``; sites ``agent:<id>:goal``,

@@ -1,6 +1,7 @@
 """The whole MJCF model put together (:func:`assemble`): compiler, size, visual settings,
-the default classes that set every geom's contact bits, then the ground, the objects, the
-agents (mocap bodies), signals, task sites and custom entries, a light and two cameras."""
+the default classes that set every geom's contact bits, then the ground, the zones' solids,
+the objects, the agents (mocap bodies), signals, task sites and custom entries, a light and
+two cameras."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ import numpy as np
 from citygen.exporters.mjcf.builder import Builder
 from citygen.exporters.mjcf.contract import AGENT_BIT, MJCF, STATIC_BIT, arena_mb
 from citygen.exporters.mjcf.ground import add_ground
-from citygen.exporters.mjcf.objects import add_objects
+from citygen.exporters.mjcf.objects import add_objects, add_solids
 from citygen.exporters.mjcf.text import num, nums
 from citygen.geometry.terrain import height_at
 from citygen.spec.agents import Person
@@ -199,6 +200,7 @@ def assemble(b: Builder, name: str) -> MJCF:
     )  # fmt: skip
     b.world = ET.SubElement(root, "worldbody")
     add_ground(b)
+    add_solids(b)
     add_objects(b)
     _agents(b)
     _signals(b)

@@ -23,8 +23,9 @@ STATIC_BIT = 1
 #: The separator of the parts of every name this exporter gives (``object:bench:bench-1:0``).
 #: Not ``/``: dm_control's ``mjcf`` reserves that for the scopes of attached models.
 SEP = ":"
-#: The first part of every geom name: what the geom stands for.
-LAYERS = ("zone", "terrain", "object", "agent")
+#: The first part of every geom name: what the geom stands for (``solid``: a zone's solid, a
+#: building from its footprint; it stands up from the ground as an object does).
+LAYERS = ("zone", "terrain", "object", "agent", "solid")
 
 #: The bit a robot's geoms should set in ``contype``.
 ROBOT_BIT = 2

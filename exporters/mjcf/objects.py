@@ -1,6 +1,7 @@
 """Placed objects in MJCF: one static body per placement whose geoms are its asset's convex
 parts (MuJoCo primitives where a part is one, convex meshes otherwise), or a placement's
-mesh file split into its connected parts."""
+mesh file split into its connected parts; and the zones' solids (a building from its
+footprint, :mod:`citygen.exporters.solids`) as their convex pieces."""
 
 from __future__ import annotations
 
@@ -13,8 +14,10 @@ import numpy as np
 
 from citygen.assets import Box, Capsule, ConvexMesh, Cylinder, UnknownAsset, resolve
 from citygen.errors import ExportError, Problem, SpecError
-from citygen.exporters.mjcf.builder import DEFAULT_FRICTION, Builder, friction
+from citygen.exporters.mjcf.builder import DEFAULT_FRICTION, ZONE_RGBA, Builder, friction
 from citygen.exporters.mjcf.text import num, nums
+from citygen.exporters.solids import solids
+from citygen.geometry.pieces import prism_mesh, rpy_quat
 from citygen.spec.surfaces import FRICTION
 
 #: A mesh file with more connected parts than this is one mesh geom (one convex hull).
@@ -63,6 +66,34 @@ def add_objects(b: Builder) -> None:
             top = asset.height * pl.scale
         b.top = max(b.top, z + top)
         b.bottom = min(b.bottom, z)
+
+
+def add_solids(b: Builder) -> None:
+    """Each zone's solid as its convex pieces (MuJoCo collides a mesh as its convex hull, so an
+    L-shaped or courtyard building is cut into convex prisms and boxes): static geoms
+    ``solid:<zone kind>:<zone id>:<k>`` of the object class (group 1), meshes
+    ``solid:<zone id>:<k>``, with the zone's colour and friction."""
+    for solid in solids(b.scene):
+        zone = solid.zone
+        pieces = solid.pieces()
+        common = {
+            "class": "object",
+            "material": b.material(f"zone:{zone.kind}", ZONE_RGBA[zone.kind]),
+            "friction": friction(zone.mu),
+        }
+        prefix = f"solid:{zone.kind}:{zone.id}"
+        quats = rpy_quat(pieces.boxes[:, 2])
+        for k, ((centre, half, _), quat) in enumerate(zip(pieces.boxes, quats, strict=True)):
+            ET.SubElement(
+                b.world, "geom", name=f"{prefix}:{k}", type="box", pos=nums(centre), size=nums(half),
+                quat=nums(quat), **common,
+            )  # fmt: skip
+        for k, top in enumerate(pieces.prisms, start=len(pieces.boxes)):
+            mesh = f"solid:{zone.id}:{k}"
+            ET.SubElement(b.asset, "mesh", name=mesh, vertex=nums(prism_mesh(top, pieces.bottom)[0]))
+            ET.SubElement(b.world, "geom", name=f"{prefix}:{k}", type="mesh", mesh=mesh, **common)
+        b.top = max(b.top, solid.top)
+        b.bottom = min(b.bottom, solid.bottom)
 
 
 def _part(b: Builder, body: ET.Element, name: str, part: Any, scale: float) -> None:

@@ -18,6 +18,8 @@ Stage (``upAxis = "Z"``, ``metersPerUnit = 1``, ``kilogramsPerUnit = 1``,
       Ground/Unzoned             Mesh of flat ground no zone covers, label "ground"
       Ground/Terrain/<kind>      Mesh of the terrain tiles mostly in zones of that kind
                                  ("ground" outside zones), materials as GeomSubsets
+      Solids/<zone id>           Mesh of a zone's solid (a building's footprint, holes cut
+                                 out, extruded to its height), label = zone kind
       Roads/<block id>           Xform at the block's entry pose; citygen:kind, lanes, json
       Objects/<placement id>     Xform, instanceable, references @./assets/<digest>.usda@;
                                  xformOps translate, rotateZ (degrees), scale
@@ -61,7 +63,9 @@ its own material and friction, else those of the zone covering most of it (as th
 exporter), else concrete's; an :class:`~citygen.exporters.ExportWarning` counts the
 tiles where grounds of different friction meet. Every ground mesh is a triangle-mesh
 collider (approximation ``none``); static friction = dynamic friction = the spec's
-coefficient, restitution 0.
+coefficient, restitution 0. A zone with a ``height`` (a building from its mapped footprint)
+keeps its ground mesh and has a closed mesh of its solid under ``Solids``, a triangle-mesh
+collider too (exact, courtyards open), with the zone's material.
 
 The same scene and options give the same bytes, in usda and usdc: no time, user or
 absolute path is written. :func:`check` runs every validator usd-core registers

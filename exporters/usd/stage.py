@@ -1,6 +1,6 @@
 """The stage's prims under ``/World`` (see :mod:`citygen.exporters.usd`): the ground's
-meshes with their materials and labels, road blocks, objects referencing their asset
-layers, agents, signals and the task."""
+meshes with their materials and labels, the zones' solids (buildings), road blocks, objects
+referencing their asset layers, agents, signals and the task."""
 
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ import numpy as np
 import shapely
 from shapely.geometry import Polygon
 
+from citygen.exporters.solids import solids
 from citygen.exporters.usd.assets import bind, define_material
 from citygen.exporters.usd.sdf import (
     Gf,
@@ -66,9 +67,11 @@ GRAVITY = 9.81
 
 
 def author_ground(world: Sdf.PrimSpec, scene: Scene, resolution: float | None, floor: float) -> None:
-    """``world``'s ``Looks`` (the ground's materials, by surface and friction) and ``Ground``:
+    """``world``'s ``Looks`` (the ground's materials, by surface and friction), ``Ground``:
     each zone's flat mesh, the flat ground no zone covers and the terrain's meshes by class,
-    each a collider labelled with its class (see the module docstring of the package)."""
+    and ``Solids``: each zone's solid (:mod:`citygen.exporters.solids`, a building extruded
+    from its footprint) as one closed mesh with its zone's material; each a collider labelled
+    with its class (see the module docstring of the package)."""
     grid = flat_grid(scene.terrain)
     polys = [Polygon(z.polygon, z.holes) for z in scene.zones]
     tree = shapely.STRtree(polys)
@@ -90,7 +93,8 @@ def author_ground(world: Sdf.PrimSpec, scene: Scene, resolution: float | None, f
     # owner's faces and vertices are contiguous runs.
     face_owner = np.asarray(owners, dtype=np.int64)[face_piece]
     face_runs = np.searchsorted(face_owner, np.arange(len(polys) + 2))
-    names = [*prim_names(z.id for z in scene.zones), "Unzoned"]
+    zone_names = prim_names(z.id for z in scene.zones)
+    names = [*zone_names, "Unzoned"]
     for i in range(len(polys) + 1):
         f0, f1 = face_runs[i], face_runs[i + 1]
         if f0 == f1:
@@ -110,6 +114,11 @@ def author_ground(world: Sdf.PrimSpec, scene: Scene, resolution: float | None, f
             p = parts[label]
             verts, faces, keys = np.concatenate(p.verts), np.concatenate(p.faces), np.concatenate(p.keys)
             meshes.append(("Terrain", prim_names([label])[0], label, verts, faces, keys))
+    for solid in solids(scene, polys):
+        zone = solid.zone
+        verts, faces = solid.mesh()
+        key = ground.key((zone.surface, zone.mu))
+        meshes.append(("Solids", zone_names[solid.index], zone.kind, verts, faces, np.full(len(faces), key)))
     # Materials in a fixed order (by name and friction).
     looks = define(world, "Looks", "Scope")
     mats: dict[int, Sdf.Path] = {}
@@ -122,6 +131,8 @@ def author_ground(world: Sdf.PrimSpec, scene: Scene, resolution: float | None, f
     for group in ("Zones", "Terrain"):
         if any(m[0] == group for m in meshes):
             groups[group] = define(root, group, "Xform")
+    if any(m[0] == "Solids" for m in meshes):
+        groups["Solids"] = define(world, "Solids", "Xform")
     for group, name, label, verts, faces, keys in meshes:
         spec = define_mesh(groups[group], name, verts, faces)
         collider(spec, "none")

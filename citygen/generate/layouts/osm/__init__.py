@@ -5,16 +5,14 @@ box (:class:`~citygen.spec.osm.OsmArea`); nothing is fetched from the network.
 :mod:`.place` reads and projects it. Then the stages run as a city's, on the map's ground:
 
 - stage 1, :mod:`.streets`: the street graph, junctions and road blocks of the mapped streets;
-- stage 2, :mod:`.ground`: buildings, crosswalks, roadway, curbs, sidewalks, walkways, plazas,
-  parking, water and vegetation as mapped, tiling the box; a signal plan
-  (:func:`~citygen.generate.signals.signalise`) at every junction block the map gives traffic
-  signals;
+- stage 2, :mod:`.ground`: buildings (solids as tall as mapped, :mod:`.buildings`),
+  crosswalks, roadway, curbs, sidewalks, walkways, plazas, parking, water and vegetation as
+  mapped, tiling the box; a signal plan (:func:`~citygen.generate.signals.signalise`) at every
+  junction block the map gives traffic signals;
 - stage 3: the terrain flat (the config's terrain mix; no height source is read), with the
   city's curbs, curb ramps and front steps (:func:`~citygen.generate.layouts.city.terrain.city_features`);
-- stage 4: building massing in the mapped footprints as tall as mapped (:mod:`.buildings`),
-  the mapped furniture and trees where the
-  map puts them (:mod:`.objects`), then the city's rows of street furniture around them and
-  traffic lights at the signals;
+- stage 4: the mapped furniture and trees where the map puts them (:mod:`.objects`), then
+  the city's rows of street furniture around them and traffic lights at the signals;
 - stage 5 and the task as in the city: people, vehicles on the road blocks, a traverse along
   the sidewalks and crosswalks (around the mapped objects).
 
@@ -35,7 +33,7 @@ from citygen.errors import SpecError
 from citygen.generate.layouts.base import BaseLayout, Plan
 from citygen.generate.layouts.city import City, _corridor
 from citygen.generate.layouts.city.furniture import street_furniture
-from citygen.generate.layouts.osm.buildings import massing
+from citygen.generate.layouts.osm.buildings import with_heights
 from citygen.generate.layouts.osm.ground import plan_ground, street_ground
 from citygen.generate.layouts.osm.objects import place_mapped
 from citygen.generate.layouts.osm.place import Place, check_area, load_place
@@ -111,6 +109,7 @@ class Osm(City):
         blocks = street_blocks(list(place.edges), list(place.junctions), size)
         layers, sidewalks = street_ground(list(place.streets), list(place.junctions), list(place.crossings))
         zones = plan_ground(size, layers, sidewalks, list(place.walkways), list(place.areas))
+        zones = with_heights(zones, place.heights)
         lit = {f"j-n{n}" for n in place.signalised}
         signals = signalise([b for b in blocks if b.id in lit], zones) or None
         return Plan(
@@ -133,9 +132,9 @@ class Osm(City):
     def scatter(
         self, terrain: Terrain | None, ends: Endpoints | None, passable: BaseGeometry, level: float
     ) -> tuple[Placement, ...]:
-        """Building massing as tall as mapped (:mod:`.buildings`) and any scattered objects, the
-        mapped objects (which move the scattered ones they would touch), then the city's street
-        furniture around them."""
+        """Any scattered objects (no building massing: the buildings are their zones' solids,
+        :mod:`.buildings`), the mapped objects (which move the scattered ones they would touch),
+        then the city's street furniture around them."""
         place = place_of(self.config)
         others = tuple(c for c in (self.config.placement.categories or CATEGORIES) if c != "building")
         placement = self.config.placement.model_copy(update={"categories": others})
@@ -144,7 +143,6 @@ class Osm(City):
             self.scene.bounds, self.scene.zones, terrain, placement, stage,
             level=level, ends=ends, seed=self.seed, walkable=passable,
         )  # fmt: skip
-        sampled = (*massing(self.scene.zones, place.heights, terrain, child(stage, 500)), *sampled)
         rng = child(stage_rng(self.seed, "placement"), 400)
         lines = shapely.MultiLineString([LineString(s.points) for s in place.streets])
         # Curb ramps stay clear for wheels (street_furniture removes what stands on one): a
@@ -154,10 +152,7 @@ class Osm(City):
         mapped, _ = place_mapped(list(place.mapped), list(self.scene.zones), terrain, lines, rng, ramps)
         if mapped:
             tree = shapely.STRtree([base_of(p) for p in mapped])
-            sampled = tuple(
-                p for p in sampled
-                if p.asset.startswith("building/") or not len(tree.query(base_of(p), predicate="intersects"))
-            )  # fmt: skip
+            sampled = tuple(p for p in sampled if not len(tree.query(base_of(p), predicate="intersects")))
         rows = child(stage_rng(self.seed, "placement"), 300)
         return street_furniture(
             self.scene.zones, terrain, (*sampled, *mapped), rows, keep_clear=_corridor(ends)

@@ -1,61 +1,37 @@
-"""Stage 4 for ``layout = "osm"``: a building massing in each mapped footprint, as tall as mapped.
+"""Stage 2 for ``layout = "osm"``: a mapped building is a solid, its footprint extruded.
 
-Each building zone gets one massing from the catalog (``building/NNNN``), fitted inside the
-footprint as the city fits one into its lot (:func:`~citygen.generate.placement._fit`: turned
-to the footprint's long side, scaled to fill its rectangle and shrunk until it fits). Of a
-palette of :data:`PALETTE` variants drawn for the scene, the one whose fitted height is nearest
-the mapped ``height`` (or ``building:levels``) is chosen; without one, the one whose scale is
-nearest 1, as the city chooses. The footprint itself is the zone, exact; the massing is what
-stands on it.
+Each building zone (:mod:`.ground`: the mapped footprint, courtyards as holes) carries its
+``height`` (:attr:`~citygen.spec.zones.Zone.height`): the map's ``height`` tag, else
+:data:`LEVEL` metres a level of ``building:levels`` (:mod:`.place` reads them), else
+:data:`DEFAULT_LEVELS` levels' worth. Every exporter stands the zone's polygon up to that
+height, so the building covers exactly the ground the map says it covers; no catalog massing
+stands in it.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
-import numpy as np
-
-from citygen.assets.catalog import resolve
-from citygen.generate.placement import _base_ring, _fit, _Ground, _pose
-from citygen.geometry.terrain import height_at
-from citygen.spec.placements import Placement
-from citygen.spec.terrain import Terrain
 from citygen.spec.zones import Zone
 
-#: Building variants one scene draws its massing from.
-PALETTE = 12
+#: Height (m) of one level of ``building:levels``.
+LEVEL = 3.0
+#: Levels of a building whose map gives neither ``height`` nor ``building:levels``.
+DEFAULT_LEVELS = 3
+#: The heights a zone may carry (m; :attr:`~citygen.spec.zones.Zone.height`'s bounds): a
+#: mapped height outside them is taken to the nearest.
+LOWEST, HIGHEST = 0.5, 500.0
 
 
-def massing(
-    zones: Sequence[Zone], heights: dict[str, float], terrain: Terrain | None, rng: np.random.Generator
-) -> list[Placement]:
-    """One massing per building zone (see the module docstring); ``heights`` (m) by OSM id."""
-    ground = _Ground(zones)
-    variants = [resolve(f"building/{int(v):04d}") for v in rng.choice(10_000, PALETTE, replace=False)]
+def with_heights(zones: Sequence[Zone], heights: dict[str, float]) -> tuple[Zone, ...]:
+    """``zones`` with every building zone's ``height``: ``heights`` (m) by OSM id (a zone
+    ``building-w45`` or ``building-w45-2`` is way 45's), else :data:`DEFAULT_LEVELS` levels."""
+    default = DEFAULT_LEVELS * LEVEL
     out = []
-    for poly, zone in zip(ground.polys, ground.zones, strict=True):
-        if zone.kind != "building" or poly.area < 4.0:
-            continue
-        fits = [(f, a) for a in variants if (f := _fit(a, poly, ground)) is not None]
-        if not fits:
-            continue
-        want = heights.get(zone.id.removeprefix("building-").split("-")[0])
-
-        def miss(fa, want=want):
-            (_, _, _, scale), asset = fa
-            return abs(math.log(asset.height * scale / want)) if want else abs(math.log(scale))
-
-        (x, y, yaw, scale), asset = min(fits, key=miss)
-        ring = _pose(_base_ring(asset), x, y, yaw, scale)
-        z = float(np.min(height_at(terrain, np.append(ring[:, 0], x), np.append(ring[:, 1], y))))
-        out.append(
-            Placement(
-                id=f"building-{len(out) + 1}",
-                asset=asset.id,
-                position=(x, y, round(z, 3) + 0.0),
-                yaw=yaw,
-                scale=scale,
-            )
-        )
-    return out
+    for zone in zones:
+        if zone.kind == "building":
+            osm_id = zone.id.removeprefix("building-").split("-")[0]
+            h = min(max(heights.get(osm_id, default), LOWEST), HIGHEST)
+            zone = zone.model_copy(update={"height": round(h, 3)})
+        out.append(zone)
+    return tuple(out)

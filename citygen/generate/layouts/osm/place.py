@@ -20,6 +20,7 @@ import shapely
 from shapely.geometry import LineString, Polygon
 
 from citygen.errors import SpecError
+from citygen.generate.layouts.osm.buildings import LEVEL
 from citygen.generate.layouts.osm.ground import WALKWAYS, area_kind, crossing_at
 from citygen.generate.layouts.osm.objects import Mapped, category_of, direction_of
 from citygen.generate.layouts.osm.project import Projection
@@ -198,12 +199,13 @@ def _signals(streets, joints, nodes) -> set[int]:
 
 
 def _height(tags: dict) -> float | None:
-    """A building's height (m): ``height``, else 3 m a level of ``building:levels`` plus 1 m."""
+    """A building's height (m): ``height``, else :data:`~.buildings.LEVEL` m a level of
+    ``building:levels``; None when the map gives neither."""
     height = _float(tags.get("height"))
     if height is not None:
         return height
     levels = _float(tags.get("building:levels"))
-    return 3.0 * levels + 1.0 if levels is not None else None
+    return LEVEL * levels if levels is not None else None
 
 
 def _float(text: str | None) -> float | None:
