@@ -196,3 +196,47 @@ def test_a_general_junction_is_checked_and_bad_ones_are_one_line(fork):
     problems = [str(p) for p in citygen.validate(bad)]
     assert problems and problems[0].startswith(f"$.blocks[{i}].polygon: expected a valid polygon")
     assert '"kind":"junction"' in doc.replace(" ", "")
+
+
+def _ring_xml() -> str:
+    """A roundabout (a closed ``junction=roundabout`` way of eight nodes, counter-clockwise,
+    radius 15 m round (120, 80)) with four streets joining it."""
+    centre, r = (120.0, 80.0), 15.0
+    nodes = {
+        20 + k: (centre[0] + r * math.cos(k * math.pi / 4), centre[1] + r * math.sin(k * math.pi / 4))
+        for k in range(8)
+    }
+    ends = {30: (260.0, 80.0), 31: (120.0, 180.0), 32: (-20.0, 80.0), 33: (120.0, -20.0)}
+    ways = {40: ((*range(20, 28), 20), {"junction": "roundabout"})}
+    ways |= {41 + k: ((20 + 2 * k, 30 + k), {}) for k in range(4)}
+    lines = ["<?xml version='1.0' encoding='UTF-8'?>", '<osm version="0.6" generator="citygen test">']
+    for nid, (x, y) in {**nodes, **ends}.items():
+        lines.append(
+            f' <node id="{nid}" version="1" lat="{LAT0 + y * M_LAT:.8f}" lon="{LON0 + x * M_LON:.8f}"/>'
+        )
+    for wid, (refs, extra) in ways.items():
+        lines.append(f' <way id="{wid}" version="1">')
+        lines += [f'  <nd ref="{n}"/>' for n in refs]
+        lines += [f'  <tag k="{k}" v="{v}"/>' for k, v in {"highway": "residential", **extra}.items()]
+        lines.append(" </way>")
+    return "\n".join([*lines, "</osm>"]) + "\n"
+
+
+def test_a_roundabout_ring_is_one_way_counter_clockwise_with_a_junction_at_each_arm(tmp_path):
+    path = tmp_path / "ring.osm"
+    path.write_text(_ring_xml(), encoding="utf-8")
+    config = osm_config(str(path), BOX, agents=AgentsConfig(people=2, vehicles=6))
+    scene = generate(config, 0)
+    assert citygen.validate(scene) == []
+    by_id = {b.id: b for b in scene.blocks}
+    assert sorted(b for b in by_id if b.startswith("j-")) == ["j-n20", "j-n22", "j-n24", "j-n26"]
+    ring = [b for b in scene.blocks if b.id.startswith("s-w40-")]
+    assert ring and all(b.one_way for b in ring)
+    for b in ring:  # each laid counter-clockwise round the centre
+        x, y = np.subtract(b.pose.position, (120.0, 80.0))
+        assert x * math.sin(b.pose.yaw) - y * math.cos(b.pose.yaw) > 0, b.id
+    for car in (a for a in scene.agents if a.kind == "vehicle"):
+        for block, entry, exit_ in _route_sockets(car, scene.blocks, by_id):
+            if block.id.startswith("s-w40-"):
+                assert (entry, exit_) == ("in", "out"), (car.id, block.id)
+    assert any(r.startswith("s-w40-") for a in scene.agents if a.kind == "vehicle" for r in a.route)

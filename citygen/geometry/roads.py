@@ -45,6 +45,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import shapely
 from shapely.geometry import Point, Polygon
+from shapely.geometry.polygon import orient
 
 from citygen.spec.blocks import (
     Connection,
@@ -296,7 +297,7 @@ def general_junction(bid: str, centre, arms, corner_radius: float = 3.0) -> Junc
         w = arm.lanes * arm.lane_width
         parts.append(_rect(c - w * _dir(arm.yaw), arm.yaw, arm.length + w, w))
     shape = _clean(_close(shapely.union_all(parts), corner_radius)).simplify(0.01)
-    ring = shapely.geometry.polygon.orient(Polygon(shape.exterior), 1.0).exterior.coords[:-1]
+    ring = orient(Polygon(shape.exterior), 1.0).exterior.coords[:-1]
     widest = max(block.arms, key=lambda a: a.lanes * a.lane_width)
     first = block.arms[0]
     entry = c + first.length * _dir(first.yaw)
