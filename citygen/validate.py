@@ -29,6 +29,7 @@ from citygen.errors import Problem
 from citygen.geometry.features import feature_polygon
 from citygen.spec import limits
 from citygen.spec.agents import Person
+from citygen.spec.blocks import Junction
 from citygen.spec.placements import Placement
 from citygen.spec.scene import Scene
 from citygen.spec.surfaces import WALKABLE_ZONES
@@ -150,6 +151,38 @@ def _check_blocks(scene: Scene) -> list[Problem]:
                         "a one-way connection",
                     )
                 )
+        if isinstance(block, Junction):
+            problems += _check_junction(block, f"$.blocks[{i}]")
+    return problems
+
+
+def _check_junction(block: Junction, where: str) -> list[Problem]:
+    """A general junction's polygon is a valid polygon round its centre, and its pose is its
+    first arm's road end, heading in."""
+    problems = []
+    poly = Polygon(block.polygon)
+    if not poly.is_valid or poly.area <= 0:
+        why = explain_validity(poly) if not poly.is_valid else "no area"
+        problems.append(Problem(f"{where}.polygon", "a valid polygon (a simple ring with area)", why))
+    elif not poly.buffer(1e-3).covers(Point(block.centre)):
+        problems.append(
+            Problem(f"{where}.centre", "a point inside the junction's polygon", repr(list(block.centre)))
+        )
+    first = block.arms[0]
+    end = (
+        block.centre[0] + first.length * math.cos(first.yaw),
+        block.centre[1] + first.length * math.sin(first.yaw),
+    )
+    turn = abs(math.remainder(block.pose.yaw - first.yaw - math.pi, 2 * math.pi))
+    if math.dist(end, block.pose.position) > 0.01 or turn > 0.01:
+        problems.append(
+            Problem(
+                f"{where}.pose",
+                f"the first arm's road end [{end[0]:.4f}, {end[1]:.4f}] heading in "
+                f"(yaw {math.remainder(first.yaw + math.pi, 2 * math.pi):.4f})",
+                f"[{block.pose.position[0]:.4f}, {block.pose.position[1]:.4f}] yaw {block.pose.yaw:.4f}",
+            )
+        )
     return problems
 
 

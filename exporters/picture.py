@@ -398,6 +398,7 @@ def _draw_blocks(ax: Axes, scene: Scene, m_per_pt: float, legend: _Legend) -> No
         )
         legend.add(Line2D([], [], color=_ROAD_EDGE, linestyle="--", label="road block"))
     _draw_sockets(ax, scene, m_per_pt, legend)
+    _draw_one_way(ax, scene, m_per_pt, legend)
     if len(scene.blocks) <= MAX_BLOCK_LABELS:
         for block in scene.blocks:
             ax.annotate(
@@ -444,6 +445,32 @@ def _draw_sockets(ax: Axes, scene: Scene, m_per_pt: float, legend: _Legend) -> N
         legend.add(Line2D([], [], color=_ROAD_EDGE, marker=">", linestyle="-", label="open socket"))
     if (is_joined == 1).any():
         legend.add(Line2D([], [], color=_JOINED, marker=">", linestyle="-", label="joined socket"))
+
+
+def _draw_one_way(ax: Axes, scene: Scene, m_per_pt: float, legend: _Legend) -> None:
+    """A white arrowhead at the middle of each one-way road block, pointing the way its
+    traffic drives (from ``in`` to ``out``); as small as a socket's arrow."""
+    rows = [
+        (*b.pose.position, b.pose.yaw, b.length, 2 * b.lanes * b.lane_width)
+        for b in scene.blocks
+        if getattr(b, "one_way", None)
+    ]
+    if not rows:
+        return
+    x, y, yaw, length, road = np.array(rows, dtype=float).T
+    size = np.minimum(np.minimum(9 * m_per_pt, 0.6 * road), 0.8 * length)
+    if float(np.median(size)) < SOCKET_MIN_PT * m_per_pt:
+        return
+    d = np.stack([np.cos(yaw), np.sin(yaw)])
+    mid = np.stack([x, y]) + d * (length + size) / 2
+    ax.quiver(
+        mid[0], mid[1], size * d[0], size * d[1],
+        angles="xy", scale_units="xy", scale=1.0, pivot="tip", color="white", edgecolor="black",
+        linewidth=0.4, units="xy", width=0.12 * float(np.median(size)), headwidth=3, headlength=3.5,
+        zorder=6,
+    )  # fmt: skip
+    legend.add(Line2D([], [], color="white", marker=">", markeredgecolor="black", linestyle="-",
+                      label="one-way road"))  # fmt: skip
 
 
 def _draw_placements(ax: Axes, scene: Scene, file: str | None, legend: _Legend) -> None:

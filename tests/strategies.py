@@ -38,6 +38,7 @@ from citygen.spec import (
     Diverge,
     FlatTile,
     Intersection,
+    JunctionArm,
     Merge,
     NavTask,
     Person,
@@ -300,12 +301,27 @@ _BLOCK_FIELDS: dict[str, tuple[dict[str, Any], dict[str, Any]]] = {
         {**_numbers(TIntersection, "corner_radius"), "side": st.sampled_from(["left", "right"])},
     ),
 }
+_JUNCTION_ARM = st.fixed_dictionaries(
+    {"yaw": number(bound_of(JunctionArm, "yaw")), "length": number(bound_of(JunctionArm, "length"))},
+    optional={
+        "lanes": number(bound_of(JunctionArm, "lanes")),
+        "lane_width": number(bound_of(JunctionArm, "lane_width")),
+    },
+)
+_BLOCK_FIELDS["junction"] = (
+    {
+        "centre": vec2(),
+        "arms": st.lists(_JUNCTION_ARM, min_size=3, max_size=4),
+        "polygon": st.lists(vec2(), min_size=3, max_size=4),
+    },
+    {},
+)
 BLOCK_KINDS = tuple(_BLOCK_FIELDS)
 
 
 @cache
 def blocks(kind: str | None = None) -> st.SearchStrategy[dict[str, Any]]:
-    """A road block of ``kind`` (any of the seven when ``None``)."""
+    """A road block of ``kind`` (any kind when ``None``)."""
     if kind is None:
         return st.sampled_from(BLOCK_KINDS).flatmap(blocks)
     required, optional = _BLOCK_FIELDS[kind]

@@ -18,8 +18,10 @@ from shapely.geometry import Point, Polygon, box
 import citygen
 from citygen.exporters.solids import solids
 from citygen.generate.layouts.osm import osm_config
+from citygen.generate.layouts.osm.place import load_place
 from citygen.generate.pipeline import generate
 from citygen.generate.places import left_out
+from citygen.geometry.roads import block_geometry
 from tests.conftest import ROOT
 from tests.test_osm import building_of, mapped_heights
 
@@ -114,6 +116,25 @@ def test_mapped_benches_and_trees_stand_on_their_points_and_the_rest_is_named(pl
     assert found["bench"] >= 72 and found["tree"] >= 93
 
 
+def test_every_junction_node_in_the_box_is_a_junction_block_on_it(place):
+    # Before: 16 of the 24 got a block (an intersection or a T); the rest (five streets, arms
+    # off right angles, two close junctions of a dual carriageway) had none, and their streets'
+    # blocks ended there. Now those are general junctions, joined to their streets.
+    config, scene = place
+    frame = box(*scene.bounds.min, *scene.bounds.max)
+    joints = [j for j in load_place(config.osm).junctions if frame.contains(Point(j.position))]
+    centres = {b.id: block_geometry(b).centre for b in scene.blocks if block_geometry(b).centre}
+    assert len(joints) == 24
+    for j in joints:
+        assert [b for b, c in centres.items() if math.dist(c, j.position) <= 1.0] == [f"j-n{j.node}"]
+    kinds = Counter(b.kind for b in scene.blocks if b.id in {f"j-n{j.node}" for j in joints})
+    assert kinds["junction"] >= 8 and sum(kinds.values()) == 24
+    # a general junction's arms are all joined, to its streets or a close junction
+    for b in scene.blocks:
+        if b.kind == "junction" and frame.contains(Point(b.centre)):
+            assert len(b.connections) == len(b.sockets), b.id
+
+
 def test_signals_mapped_on_a_junction_or_its_approaches_signalise_it(place, mapped):
     _, scene = place
     nodes, _ = mapped
@@ -121,12 +142,8 @@ def test_signals_mapped_on_a_junction_or_its_approaches_signalise_it(place, mapp
     lights = [xy for xy, tags in nodes.values() if tags.get("highway") == "traffic_signals"]
     inside = [xy for xy in lights if frame.contains(Point(xy))]
     assert len(inside) == 23
-    junctions = {b.id: b for b in scene.blocks if b.kind in ("intersection", "t_intersection")}
-    centres = {}
-    for s in scene.signals:
-        b = junctions[s.junction]
-        (x, y), yaw = b.pose.position, b.pose.yaw
-        centres[s.junction] = (x + b.arm_length * math.cos(yaw), y + b.arm_length * math.sin(yaw))
+    junctions = {b.id: b for b in scene.blocks if b.kind in ("intersection", "t_intersection", "junction")}
+    centres = {s.junction: block_geometry(junctions[s.junction]).centre for s in scene.signals}
     assert len(centres) == len(scene.signals) >= 10
     # every signal plan's junction has a mapped light on it or within 30 m (SIGNAL_REACH)
     for jid, centre in centres.items():

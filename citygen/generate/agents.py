@@ -305,13 +305,18 @@ def _vehicles(zones, blocks, cfg, rng, count, seed) -> list[Vehicle]:
 
 def _route(graph, order, by_id, rng) -> list[tuple[str, str, str]]:
     """A random drive: ``(block id, entry socket, exit socket)`` per block, no block twice,
-    1 to 8 blocks."""
+    1 to 8 blocks; a one-way road (``one_way``) only from its ``in`` to its ``out``, and no
+    road end of a junction that leads against one."""
     here = order[int(rng.integers(len(order)))]
     arms = [a.socket for a in block_geometry(by_id[here]).arms]
-    entry = arms[int(rng.integers(len(arms)))]
+    if getattr(by_id[here], "one_way", None):
+        entry = "in"
+    else:
+        arms = [a for a in arms if _may(graph, by_id, here, a, "in")] or arms
+        entry = arms[int(rng.integers(len(arms)))]
     route, seen = [], {here}
     for _ in range(int(rng.integers(1, 9))):
-        exits = [a for a in (a.socket for a in block_geometry(by_id[here]).arms) if a != entry]
+        exits = _exits(graph, by_id, here, entry)
         if not exits:
             break
         onward = []
@@ -326,9 +331,29 @@ def _route(graph, order, by_id, rng) -> list[tuple[str, str, str]]:
         route.append((here, entry, e))
         entry, here = graph.edges[here, nb]["sockets"][nb], nb
         seen.add(nb)
-    exits = [a for a in (a.socket for a in block_geometry(by_id[here]).arms) if a != entry] or [entry]
+    exits = _exits(graph, by_id, here, entry) or [entry]
     route.append((here, entry, exits[int(rng.integers(len(exits)))]))
     return route
+
+
+def _exits(graph, by_id, here: str, entry: str) -> list[str]:
+    """The sockets a vehicle that came into block ``here`` by ``entry`` may leave it by: not
+    the one it came by, a one-way road's ``out``, none into a one-way road's ``out``."""
+    block = by_id[here]
+    arms = [a.socket for a in block_geometry(block).arms if a.socket != entry]
+    if getattr(block, "one_way", None):
+        return [a for a in arms if a == "out"]
+    return [a for a in arms if _may(graph, by_id, here, a, "out")]
+
+
+def _may(graph, by_id, here: str, socket: str, way: str) -> bool:
+    """Whether traffic may go ``way`` (``"out"`` of block ``here``, or ``"in"`` to it) at its
+    ``socket``: not where a one-way road joined there runs the other way."""
+    for nb in graph.neighbors(here):
+        sockets = graph.edges[here, nb]["sockets"]
+        if sockets[here] == socket and getattr(by_id[nb], "one_way", None):
+            return sockets[nb] == ("in" if way == "out" else "out")
+    return True
 
 
 def _lane_point(block, socket, length, road, *, inward: bool):

@@ -46,8 +46,8 @@ from citygen.spec.blocks import (
 from citygen.spec.config import BlocksConfig
 from citygen.spec.scene import Bounds
 
-#: The block kinds' names, in the registry's order (that of ``BlockWeights``).
-KINDS = tuple(kind.name for kind in BLOCK_KINDS.values())
+#: The sampled block kinds' names, in the registry's order (that of ``BlockWeights``).
+KINDS = tuple(kind.name for kind in BLOCK_KINDS.values() if kind.sampled)
 #: Candidates a socket may reject in a row before it is closed as a dead end.
 SOCKET_TRIES = 6
 #: Side of a cell of the grid hash of road outlines, in metres.
@@ -135,7 +135,7 @@ SAMPLERS: dict[type, Sampler] = {
     Intersection: _junction,
     TIntersection: _t_junction,
 }
-_MODELS = {kind.name: model for model, kind in BLOCK_KINDS.items()}
+_MODELS = {kind.name: model for model, kind in BLOCK_KINDS.items() if kind.sampled}
 
 
 class _Network:

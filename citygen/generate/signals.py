@@ -3,8 +3,10 @@ traffic lights that stand where they are (after stage 4).
 
 Every ``intersection`` and ``t_intersection`` block gets a two-phase plan: the arms along one
 axis (``in`` and ``out``; ``left`` and ``right`` or a T's ``side``) share a phase, so opposing
-traffic goes together. A phase serves all lanes of its arms and the crosswalks over the
-*other* arms (people walk beside the traffic that has green). Green is
+traffic goes together. A general ``junction`` gets a phase per axis too, two arms within
+:data:`GENERAL_AXIS` of opposite sharing one, and a phase of its own for every other arm (a
+five-way junction's fifth street, a Y's branches). A phase serves all lanes of its arms and
+the crosswalks over the *other* arms (people walk beside the traffic that has green). Green is
 :data:`BASE_GREEN` plus :data:`GREEN_PER_LANE` per lane of the street an arm leads to (arterials
 get longer greens), then :data:`AMBER` and :data:`ALL_RED`. Offsets make a green wave for
 traffic going east at :data:`WAVE_SPEED`. Roundabouts are left unsignalised (vehicles yield),
@@ -26,6 +28,7 @@ from shapely.geometry import Polygon
 from citygen.generate.placement import base_of
 from citygen.geometry.roads import block_geometry, block_kind
 from citygen.geometry.terrain import height_at
+from citygen.spec.blocks import Junction
 from citygen.spec.placements import Placement
 from citygen.spec.signals import Head, Phase, Signal
 from citygen.spec.terrain import Terrain
@@ -41,14 +44,18 @@ HEAD_SIDE = (1.0, 0.6, 1.5, 0.3)
 """Distances (m) beyond the road's edge tried for a light's pole, on the sidewalk or curb."""
 LIGHT_ASSET = "traffic_light/0000"
 """The catalog variant of the lights that stand at signalised junctions."""
+GENERAL_AXIS = math.radians(25.0)
+"""Two arms of a general junction this near (rad) one axis share a phase: a street going on
+across it, however the map bends it."""
 
 
-def _axis_groups(arms) -> list[list]:
-    """Arms grouped by their road's axis (opposite arms together), in arm order."""
+def _axis_groups(arms, tolerance: float = 0.1) -> list[list]:
+    """Arms grouped by their road's axis (opposite arms within ``tolerance`` rad together), in
+    arm order."""
     groups: list[list] = []
     for arm in arms:
         for g in groups:
-            if abs(math.remainder(arm.yaw - g[0].yaw, math.pi)) < 0.1:
+            if len(g) < 2 and abs(math.remainder(arm.yaw - g[0].yaw, math.pi)) < tolerance:
                 g.append(arm)
                 break
         else:
@@ -56,9 +63,16 @@ def _axis_groups(arms) -> list[list]:
     return groups
 
 
+def _arm_length(block, arm, centre: np.ndarray) -> float:
+    """How far an arm of a junction block reaches from its centre (m)."""
+    if not isinstance(block, Junction):
+        return block.arm_length
+    return float(np.hypot(*(np.asarray(arm.position) - centre)))
+
+
 def signalise(blocks: Sequence, zones: Sequence[Zone]) -> tuple[Signal, ...]:
-    """One :class:`~citygen.spec.signals.Signal` per intersection and T-intersection of
-    ``blocks``, its phases naming the crosswalk zones of ``zones`` at each arm.
+    """One :class:`~citygen.spec.signals.Signal` per intersection, T-intersection and general
+    junction of ``blocks``, its phases naming the crosswalk zones of ``zones`` at each arm.
 
     >>> from citygen.generate.pipeline import layout
     >>> from citygen.spec.config import GeneratorConfig
@@ -76,16 +90,17 @@ def signalise(blocks: Sequence, zones: Sequence[Zone]) -> tuple[Signal, ...]:
         if not block_kind(block).signalised:
             continue
         g = block_geometry(block)
-        centre = np.asarray(block.pose.position) + block.arm_length * np.array(
-            [math.cos(block.pose.yaw), math.sin(block.pose.yaw)]
-        )
+        centre = np.asarray(g.centre)
         neighbour = {c.socket: c.block for c in block.connections}
         crossing: dict[str, list[str]] = {}
         far: dict[str, float] = {}
         for arm, site in zip(g.arms, g.crossings, strict=True):
             d = np.array([math.cos(arm.yaw), math.sin(arm.yaw)])
             n = np.array([-d[1], d[0]])
-            a, b = centre + d * site.offset, centre + d * min(site.offset + 6.0, block.arm_length)
+            a, b = (
+                centre + d * site.offset,
+                centre + d * min(site.offset + 6.0, _arm_length(block, arm, centre)),
+            )
             span = site.half_width + 0.5
             band = Polygon([a - n * span, b - n * span, b + n * span, a + n * span])
             hits = sorted(int(k) for k in tree.query(band, predicate="intersects"))
@@ -94,7 +109,7 @@ def signalise(blocks: Sequence, zones: Sequence[Zone]) -> tuple[Signal, ...]:
             reach = [float(np.max(np.asarray(polys[k].exterior.coords) @ d - centre @ d)) for k in hits]
             far[arm.socket] = max(reach, default=site.offset + 3.0)
         phases = []
-        for group in _axis_groups(g.arms):
+        for group in _axis_groups(g.arms, GENERAL_AXIS if isinstance(block, Junction) else 0.1):
             names = [a.socket for a in group]
             widest = max(lanes_of.get(neighbour.get(s, ""), block.lanes) for s in names)
             phases.append(

@@ -17,10 +17,13 @@ Shapes, with ``w`` the half width of the road:
   ``branch_angle``, ``0.35`` (``0.65``) of the way along.
 - **intersection** / **t_intersection**: four (three) arms of ``arm_length`` from the
   centre, the corners rounded to ``corner_radius``.
+- **junction**: the general junction, its stored ``polygon``, with its ``arms`` (any number
+  from three to eight, at any angles) reaching from ``centre``; each arm's crosswalk site
+  starts where the arm's road leaves its neighbours' behind.
 
 Socket ids: ``in`` (the entry) and ``out`` for through roads; ``branch`` for diverge
 and merge; ``left`` and ``right`` for an intersection; ``side`` for a T; ``arm1`` ...
-for a roundabout.
+for a roundabout and a general junction.
 
 >>> from citygen.spec.blocks import Straight, Pose2
 >>> road = Straight(id="b0", kind="straight", pose=Pose2(position=(0, 0)), length=20, lanes=1,
@@ -42,12 +45,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import shapely
 from shapely.geometry import Point, Polygon
+from shapely.geometry.polygon import orient
 
 from citygen.spec.blocks import (
     Connection,
     Curve,
     Diverge,
     Intersection,
+    Junction,
     Merge,
     Pose2,
     Roundabout,
@@ -84,6 +89,9 @@ class Arm:
     """Pointing out of the block, radians."""
     half_width: float
     """Half the road's width at this end, in metres."""
+    lane_width: float = 0.0
+    """Width of one lane at this end, in metres, where it is not the block's (a general
+    junction's arm); 0: the block's."""
 
 
 @dataclass(frozen=True)
@@ -106,6 +114,8 @@ class BlockGeometry:
     crossings: tuple[CrossingSite, ...]
     island: Polygon | None = None
     """A roundabout's central island."""
+    centre: tuple[float, float] | None = None
+    """Where a junction's arms meet (intersections, T's and general junctions)."""
 
 
 def _dir(yaw: float) -> np.ndarray:
@@ -251,7 +261,75 @@ def _junction(block: Intersection | TIntersection) -> BlockGeometry:
         offset = w + block.corner_radius + 0.5
         crossings.append(CrossingSite(_pt(centre), out, w, offset, a - offset))
     outline = _clean(_close(shapely.union_all(parts), block.corner_radius))
-    return BlockGeometry(outline, tuple(arms), tuple(crossings))
+    return BlockGeometry(outline, tuple(arms), tuple(crossings), centre=_pt(centre))
+
+
+def junction_sockets(count: int) -> tuple[str, ...]:
+    """The socket ids of a general junction of ``count`` arms: ``in``, ``arm1``, ``arm2`` ..."""
+    return ("in", *(f"arm{i}" for i in range(1, count)))
+
+
+def general_junction(bid: str, centre, arms, corner_radius: float = 3.0) -> Junction:
+    """A general junction block ``bid`` whose ``arms`` (:class:`~citygen.spec.blocks.JunctionArm`
+    or their fields as dicts) meet at ``centre``: its pose on the first arm's road end heading
+    in, its ``lanes`` and ``lane_width`` its widest arm's, its polygon the arms' roads (each as
+    wide as its lanes, from behind the centre to its end) with the corners between them
+    rounded to ``corner_radius``; its sockets laid out.
+
+    >>> j = general_junction("j", (0.0, 0.0), [{"yaw": 0.0, "length": 10.0},
+    ...     {"yaw": 2.6, "length": 10.0}, {"yaw": -2.6, "length": 10.0}])
+    >>> j.kind, [s.id for s in j.sockets], j.pose.position, round(j.pose.yaw, 4)
+    ('junction', ['in', 'arm1', 'arm2'], (10.0, 0.0), 3.1416)
+    """
+    block = Junction.model_validate(
+        {
+            "id": bid,
+            "kind": "junction",
+            "pose": {"position": (0.0, 0.0)},
+            "centre": tuple(float(v) for v in centre),
+            "arms": [a if isinstance(a, dict) else a.model_dump() for a in arms],
+            "polygon": ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0)),
+        }
+    )
+    c = np.array(block.centre, dtype=float)
+    parts = []
+    for arm in block.arms:
+        w = arm.lanes * arm.lane_width
+        parts.append(_rect(c - w * _dir(arm.yaw), arm.yaw, arm.length + w, w))
+    shape = _clean(_close(shapely.union_all(parts), corner_radius)).simplify(0.01)
+    ring = orient(Polygon(shape.exterior), 1.0).exterior.coords[:-1]
+    widest = max(block.arms, key=lambda a: a.lanes * a.lane_width)
+    first = block.arms[0]
+    entry = c + first.length * _dir(first.yaw)
+    block = block.model_copy(
+        update={
+            "pose": Pose2(position=_pt(entry), yaw=wrap(first.yaw + math.pi)),
+            "lanes": widest.lanes,
+            "lane_width": widest.lane_width,
+        }
+    )
+    block = Junction.model_validate({**block.model_dump(), "polygon": [_pt(p) for p in ring]})
+    return block.model_copy(update={"sockets": block_sockets(block)})
+
+
+def _general(block: Junction) -> BlockGeometry:
+    """A general junction: its polygon, and its arms from the centre. An arm's crosswalk site
+    begins half a metre past the last point where its road (as wide as its lanes) meets
+    another arm's."""
+    c = np.array(block.centre, dtype=float)
+    roads = [_rect(c, arm.yaw, arm.length, arm.lanes * arm.lane_width) for arm in block.arms]
+    arms, crossings = [], []
+    for k, (name, arm) in enumerate(zip(junction_sockets(len(block.arms)), block.arms, strict=True)):
+        w = arm.lanes * arm.lane_width
+        d = _dir(arm.yaw)
+        others = shapely.union_all([r for j, r in enumerate(roads) if j != k])
+        shared = roads[k].intersection(others)
+        reach = float(np.max(shapely.get_coordinates(shared) @ d - c @ d)) if not shared.is_empty else w
+        offset = min(max(reach, 0.0) + 0.5, arm.length)
+        arms.append(Arm(name, _pt(c + arm.length * d), wrap(arm.yaw), w, arm.lane_width))
+        crossings.append(CrossingSite(_pt(c), wrap(arm.yaw), w, offset, arm.length - offset))
+    outline = _clean(Polygon(block.polygon))
+    return BlockGeometry(outline, tuple(arms), tuple(crossings), centre=_pt(c))
 
 
 @dataclass(frozen=True)
@@ -267,6 +345,9 @@ class BlockKind:
     midblock: bool = False
     """A road between junctions: its crosswalk site is a mid-block crossing, placed by chance
     and centred in the site's room (:func:`citygen.generate.ground.street_bands`)."""
+    sampled: bool = True
+    """Drawn by the blocks layout (a weight of ``BlockWeights``); a general junction is only
+    written from a map."""
 
     @property
     def name(self) -> str:
@@ -283,6 +364,7 @@ BLOCK_KINDS: dict[type, BlockKind] = {
     Merge: BlockKind(Merge, _branching),
     Intersection: BlockKind(Intersection, _junction, signalised=True),
     TIntersection: BlockKind(TIntersection, _junction, signalised=True),
+    Junction: BlockKind(Junction, _general, signalised=True, sampled=False),
 }
 
 

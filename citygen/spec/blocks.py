@@ -66,6 +66,9 @@ class Straight(_Block):
     kind: Literal["straight"]
     length: Length
     """Length along the road, in metres."""
+    one_way: bool | None = None
+    """``True``: a one-way road, driven only from its ``in`` socket to its ``out`` socket;
+    absent: vehicles drive both ways."""
 
 
 class Curve(_Block):
@@ -134,8 +137,35 @@ class TIntersection(_Block):
     """Which side of the through road the third arm leaves on."""
 
 
+class JunctionArm(SpecModel):
+    """One road leaving a general junction: its heading, its length and its cross-section."""
+
+    yaw: Yaw
+    """Heading of the arm out of the junction, in radians counter-clockwise from +x."""
+    length: Length
+    """Distance from the junction's centre to the arm's road end (its socket), in metres."""
+    lanes: Lanes = 1
+    """Lanes in each direction."""
+    lane_width: LaneWidth = 3.5
+    """Width of one lane, in metres."""
+
+
+class Junction(_Block):
+    """A junction of any shape (five streets, a sharp Y, arms at any angles): a roadway polygon
+    and three to eight arms from its centre. Its sockets are the arms' road ends, ``in`` (the
+    first arm, where ``pose`` stands heading in) then ``arm1``, ``arm2`` ...; ``lanes`` and
+    ``lane_width`` are those of its widest arm."""
+
+    kind: Literal["junction"]
+    centre: Vec2
+    """Where the arms meet, ``[x, y]`` in metres."""
+    arms: tuple[JunctionArm, ...] = Field(min_length=3, max_length=limits.MAX_SOCKETS)
+    polygon: tuple[Vec2, ...] = Field(min_length=3, max_length=limits.MAX_POLYGON_VERTICES)
+    """The junction's roadway: a simple polygon (counter-clockwise, not closed), in metres."""
+
+
 Block = Annotated[
-    Straight | Curve | Roundabout | Diverge | Merge | Intersection | TIntersection,
+    Straight | Curve | Roundabout | Diverge | Merge | Intersection | TIntersection | Junction,
     Field(discriminator="kind"),
 ]
-BLOCK_TYPES = (Straight, Curve, Roundabout, Diverge, Merge, Intersection, TIntersection)
+BLOCK_TYPES = (Straight, Curve, Roundabout, Diverge, Merge, Intersection, TIntersection, Junction)

@@ -25,7 +25,7 @@ from shapely.geometry import LineString, Polygon
 from citygen.geometry.roads import block_geometry, road_graph
 from citygen.runner.agents.vec2 import dot
 from citygen.spec.agents import Vehicle
-from citygen.spec.blocks import Intersection, Roundabout, TIntersection
+from citygen.spec.blocks import Intersection, Junction, Roundabout, TIntersection
 
 STEP = 0.5
 """Spacing (m) of the points of a drive path."""
@@ -36,14 +36,14 @@ ARTERIAL, LOCAL, JUNCTION, ROUNDABOUT = 13.9, 8.3, 8.3, 6.0
 junctions (30 km/h), roundabouts."""
 CLEARANCE = 0.15
 """Lateral room (m) kept between a vehicle and what it passes; less is a thing in its path."""
-JUNCTIONS = (Intersection, TIntersection, Roundabout)
+JUNCTIONS = (Intersection, TIntersection, Junction, Roundabout)
 
 
 def speed_limit(block) -> float:
     """The speed limit (m/s) on a block."""
     if isinstance(block, Roundabout):
         return ROUNDABOUT
-    if isinstance(block, Intersection | TIntersection):
+    if isinstance(block, Intersection | TIntersection | Junction):
         return JUNCTION
     return ARTERIAL if block.lanes >= 2 else LOCAL
 
@@ -139,9 +139,10 @@ def _lane_point(block, socket: str, lane: int, inward: bool) -> tuple[np.ndarray
     heading = arm.yaw + math.pi if inward else arm.yaw
     fwd = np.array([math.cos(heading), math.sin(heading)])
     right = np.array([fwd[1], -fwd[0]])
-    lanes = max(1, round(arm.half_width / block.lane_width))
+    width = arm.lane_width or block.lane_width
+    lanes = max(1, round(arm.half_width / width))
     lane = min(lane, lanes - 1)
-    return np.asarray(arm.position) + right * (lane + 0.5) * block.lane_width, fwd
+    return np.asarray(arm.position) + right * (lane + 0.5) * width, fwd
 
 
 def _centre(block) -> np.ndarray:
@@ -152,6 +153,8 @@ def _centre(block) -> np.ndarray:
             if g.island is not None
             else np.asarray(g.outline.centroid.coords[0])
         )
+    if g.centre is not None:
+        return np.asarray(g.centre)
     a = block.arm_length
     return np.asarray(block.pose.position) + a * np.array(
         [math.cos(block.pose.yaw), math.sin(block.pose.yaw)]
@@ -274,7 +277,8 @@ def drive_path(vehicle: Vehicle, blocks, walks=None) -> DrivePath:
     for k, (block, _, _) in enumerate(legs):
         nxt = legs[k + 1] if k + 1 < len(legs) else None
         lane = 0
-        if nxt is not None and isinstance(nxt[0], Intersection | TIntersection) and _turn(*nxt) > 0.5:
+        turning = nxt is not None and isinstance(nxt[0], Intersection | TIntersection | Junction)
+        if turning and _turn(*nxt) > 0.5:
             lane = min(block.lanes, nxt[0].lanes) - 1
         lanes_out.append(lane)
     pieces, marks, junctions = [], [], []

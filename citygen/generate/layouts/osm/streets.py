@@ -12,15 +12,20 @@ node where three or more street edges meet. Written in road blocks (:mod:`cityge
 
 - a junction of four streets meeting within :data:`FIT_DEG` of right angles is an
   ``intersection``, of three (two roughly opposite, one across) a ``t_intersection``, centred
-  on the mapped node and turned to its streets; any other junction (five ways, a sharp Y) has
-  no block of the vocabulary: its ground is drawn all the same (:mod:`.ground`), and the blocks
-  of its streets end there unconnected;
+  on the mapped node and turned to its streets; any other junction (five ways, a sharp Y,
+  arms off right angles, two close junctions of a dual carriageway) is a general ``junction``
+  on the node, an arm along each street, as far as the street needs to leave its neighbours
+  behind (:func:`_general`); so every junction node of the graph has a block (``j-n12``:
+  node 12);
 - every edge is cut where it leaves the box and at its junctions' arms, and each straight piece
   of its polyline is a ``straight`` (``s-w45-3``: way 45, piece 3), joined to the next, to the
-  junction at its end (``j-n12``: node 12), and to the edge it continues at a node of two edges.
+  junction at its end, and to the edge it continues at a node of two edges; an edge too short
+  for a piece between two junctions joins their blocks to each other.
 
-A block's ``lanes`` are per direction and its ``lane_width`` what makes the mapped width:
-one-way streets are written as two-way roads of their width (the spec has no one-way blocks).
+A block's ``lanes`` are per direction and its ``lane_width`` what makes the mapped width. A
+one-way street (:func:`one_way`: ``oneway=yes/true/1/-1/reverse``, a roundabout's ring) is
+written as ``one_way`` straights laid in its driving direction (``in`` where traffic comes
+from), each as wide as the mapped street.
 """
 
 from __future__ import annotations
@@ -35,8 +40,10 @@ import numpy as np
 from shapely.geometry import LineString, box
 from shapely.ops import substring
 
-from citygen.geometry.roads import with_connections
+from citygen.geometry.roads import block_geometry, block_sockets, general_junction, with_connections
+from citygen.spec import limits
 from citygen.spec.blocks import Intersection, Pose2, Straight, TIntersection
+from citygen.spec.blocks import Junction as JunctionBlock
 
 #: Street classes: (lanes both ways together, lane width m, sidewalks by default).
 CLASSES = {
@@ -83,6 +90,9 @@ class Street:
     sidewalks: tuple[bool, bool]
     """Sidewalk on the (left, right) of the way's direction."""
     sidewalk_width: float
+    oneway: int = 0
+    """1: a one-way street driven along the way's direction (``oneway=yes/true/1``,
+    ``junction=roundabout``); -1: against it (``oneway=-1/reverse``); 0: both ways."""
 
     @property
     def half(self) -> float:
@@ -126,7 +136,7 @@ def street(fid: str, tags: dict, points: np.ndarray, nodes: tuple[int, ...]) -> 
     """A street way's cross-section from its tags (see the module docstring)."""
     cls = tags["highway"]
     lanes_all, lane_width, walks = CLASSES[cls]
-    oneway = tags.get("oneway") in ("yes", "1", "-1") or tags.get("junction") == "roundabout"
+    oneway = one_way(tags)
     tagged = _metres(tags.get("lanes"))
     lanes = int(tagged) if tagged and tagged >= 1 else (1 if oneway and lanes_all <= 2 else lanes_all)
     width = _metres(tags.get("width")) or lanes * lane_width
@@ -135,7 +145,26 @@ def street(fid: str, tags: dict, points: np.ndarray, nodes: tuple[int, ...]) -> 
     walk_width = _metres(tags.get("sidewalk:width")) or SIDEWALK_WIDTH.get(
         cls.removesuffix("_link"), DEFAULT_SIDEWALK
     )
-    return Street(fid, tags, points, nodes, width, per_direction, _sidewalks(tags, walks), float(walk_width))
+    return Street(
+        fid, tags, points, nodes, width, per_direction, _sidewalks(tags, walks), float(walk_width), oneway
+    )
+
+
+def one_way(tags: dict) -> int:
+    """A way's driving direction: 1 along it (``oneway=yes/true/1``, or a roundabout's ring
+    without ``oneway=no``), -1 against it (``oneway=-1/reverse``), 0 both ways.
+
+    >>> one_way({"oneway": "yes"}), one_way({"oneway": "-1"}), one_way({"junction": "roundabout"})
+    (1, -1, 1)
+    """
+    value = tags.get("oneway", "").strip().lower()
+    if value in ("yes", "true", "1"):
+        return 1
+    if value in ("-1", "reverse"):
+        return -1
+    if value == "" and tags.get("junction") in ("roundabout", "circular"):
+        return 1
+    return 0
 
 
 @dataclass(frozen=True)
@@ -163,24 +192,26 @@ class Junction:
     node: int
     position: tuple[float, float]
     arms: tuple[Arm, ...]
-    block: Intersection | TIntersection | None
-    """The junction's block, or None where no block of the vocabulary fits."""
+    block: Intersection | TIntersection | JunctionBlock | None
+    """The junction's block: of the vocabulary where one fits, else a general junction; None
+    only for a node of more than eight streets."""
     sockets: tuple[str | None, ...]
     """Each arm's socket on the block."""
+    reaches: tuple[float, ...] = ()
+    """How far from the node each arm's block reaches along its street, in metres."""
 
     @property
     def half(self) -> float:
         """Half the width of the widest street meeting here, in metres."""
         return max(a.edge.street.half for a in self.arms)
 
-    @property
-    def reach(self) -> float:
-        """How far from the node the junction's ground reaches along each arm (its block's arms)."""
-        return (
-            self.block.arm_length
-            if self.block is not None
-            else min(self.half + CORNER + 1.0, _room(self.arms))
-        )
+    def reach(self, edge: Edge, outward: bool) -> float:
+        """How far from the node the junction's block reaches along the arm of ``edge`` (that
+        starts here when ``outward``): where the street's own blocks begin."""
+        for arm, r in zip(self.arms, self.reaches, strict=True):
+            if arm.edge is edge and arm.outward == outward:
+                return r
+        return 0.0
 
 
 def edges_of(streets: list[Street]) -> tuple[list[Edge], dict[int, int]]:
@@ -227,8 +258,11 @@ def junctions(edges: list[Edge], degree: dict[int, int], position: dict[int, np.
         if len(here) < 3:
             continue
         p = position[node]
-        block, sockets = _fit(node, (float(p[0]), float(p[1])), here)
-        out.append(Junction(node, (float(p[0]), float(p[1])), here, block, sockets))
+        centre = (float(p[0]), float(p[1]))
+        block, sockets, reaches = _fit(node, centre, here)
+        if block is None:
+            block, sockets, reaches = _general(node, centre, here)
+        out.append(Junction(node, centre, here, block, sockets, reaches))
     return out
 
 
@@ -237,8 +271,9 @@ def _near(a: float, b: float) -> bool:
 
 
 def _fit(node: int, centre: tuple[float, float], arms: tuple[Arm, ...]):
-    """The intersection or T block of a junction's arms, and each arm's socket; (None, Nones)."""
-    none = (None, (None,) * len(arms))
+    """The intersection or T block of a junction's arms, each arm's socket and reach; (None,
+    Nones, zeros) where neither fits."""
+    none = (None, (None,) * len(arms), (0.0,) * len(arms))
     half = max(a.edge.street.half for a in arms)
     lanes = max(a.edge.street.lanes for a in arms)
     common = {
@@ -262,7 +297,7 @@ def _fit(node: int, centre: tuple[float, float], arms: tuple[Arm, ...]):
         if None in sockets or len(set(sockets)) < 4:
             return none
         block = Intersection(**common, kind="intersection", pose=_pose(centre, base, a), arm_length=a)
-        return block, tuple(sockets)
+        return block, tuple(sockets), (a,) * 4
     if len(arms) == 3:
         for i in range(3):
             for j in range(3):
@@ -278,8 +313,38 @@ def _fit(node: int, centre: tuple[float, float], arms: tuple[Arm, ...]):
                 )
                 sockets = [None] * 3
                 sockets[i], sockets[j], sockets[k] = "in", "out", "side"
-                return block, tuple(sockets)
+                return block, tuple(sockets), (a,) * 3
     return none
+
+
+def _general(node: int, centre: tuple[float, float], arms: tuple[Arm, ...]):
+    """The general junction block of a junction no block of the vocabulary fits, each arm's
+    socket and reach: an arm reaches :data:`CORNER` and :data:`ARM_ROOM` past where its street
+    leaves its neighbours' (or past its own half width), at most 0.45 of its edge (the street's
+    blocks begin there; a close junction takes the rest), at least half a metre."""
+    if len(arms) > limits.MAX_SOCKETS:
+        return None, (None,) * len(arms), (0.0,) * len(arms)
+    spec = [
+        {
+            "yaw": arm.yaw,
+            "length": 100.0,
+            "lanes": arm.edge.street.lanes,
+            "lane_width": arm.edge.street.lane_width,
+        }
+        for arm in arms
+    ]
+    sites = block_geometry(general_junction("probe", centre, spec, CORNER)).crossings
+    reaches = []
+    for arm, site, a in zip(arms, sites, spec, strict=True):
+        leaves = max(site.offset - 0.5, a["lanes"] * a["lane_width"])
+        room = 0.45 * LineString(arm.edge.points).length
+        reaches.append(max(0.5, min(leaves + CORNER + ARM_ROOM, room)))
+    for a, r in zip(spec, reaches, strict=True):
+        a["length"] = r
+    block = general_junction(f"j-n{node}", centre, spec, CORNER)
+    sockets = block_sockets(block)
+    # the reach written: the block's arm length, as the spec rounds it
+    return block, tuple(s.id for s in sockets), tuple(a.length for a in block.arms)
 
 
 def _pose(centre, yaw: float, a: float) -> Pose2:
@@ -290,7 +355,6 @@ def _pose(centre, yaw: float, a: float) -> Pose2:
 
 def blocks(edges: list[Edge], joints: list[Junction], size: tuple[float, float]) -> tuple:
     """The road blocks of the street graph (see the module docstring), connected."""
-    reach = {j.node: j.reach for j in joints}
     by_node = {j.node: j for j in joints}
     frame = box(0.0, 0.0, *size)
     out: list = [j.block for j in joints if j.block is not None]
@@ -302,41 +366,52 @@ def blocks(edges: list[Edge], joints: list[Junction], size: tuple[float, float])
         links[a][sa] = (b, sb)
         links[b][sb] = (a, sa)
 
+    def reach(node: int, e: Edge, outward: bool) -> float:
+        joint = by_node.get(node)
+        return joint.reach(e, outward) if joint is not None else 0.0
+
     for e in edges:
         line = LineString(e.points)
-        start, stop = reach.get(e.nodes[0], 0.0), line.length - reach.get(e.nodes[1], 0.0)
+        start, stop = reach(e.nodes[0], e, True), line.length - reach(e.nodes[1], e, False)
         if stop - start < 0.5:
+            _touch(e, by_node, links, link)
             continue
         trimmed = substring(line, start, stop)
         inside = trimmed.intersection(frame)
         parts = [
             g for g in getattr(inside, "geoms", [inside]) if g.geom_type == "LineString" and g.length >= 0.5
         ]
+        # A one-way street's blocks run the way its traffic drives: against the way's
+        # direction (oneway=-1) each piece is laid from its far end, its "in" there.
+        back = e.street.oneway < 0
+        first, last = ("out", "in") if back else ("in", "out")
         for part in parts:
             pts = _thin(np.asarray(part.coords))
             ids = []
             for p, q in itertools.pairwise(pts):
                 counter[e.street.id] += 1
                 bid = f"s-{e.street.id}-{counter[e.street.id]}"
+                a, b = (q, p) if back else (p, q)
                 block = Straight(
                     id=bid,
                     kind="straight",
-                    pose=Pose2(position=(float(p[0]), float(p[1])), yaw=math.atan2(q[1] - p[1], q[0] - p[0])),
+                    pose=Pose2(position=(float(a[0]), float(a[1])), yaw=math.atan2(b[1] - a[1], b[0] - a[0])),
                     lanes=e.street.lanes,
                     lane_width=e.street.lane_width,
                     length=float(np.hypot(*(q - p))),
+                    one_way=True if e.street.oneway else None,
                 )
                 out.append(block)
                 links[bid] = {}
                 if ids:
-                    link(ids[-1], "out", bid, "in")
+                    link(ids[-1], last, bid, first)
                 ids.append(bid)
             if not ids:
                 continue
             if part.coords[0] == trimmed.coords[0]:
-                ends[e.nodes[0]].append((ids[0], "in", e))
+                ends[e.nodes[0]].append((ids[0], first, e))
             if part.coords[-1] == trimmed.coords[-1]:
-                ends[e.nodes[1]].append((ids[-1], "out", e))
+                ends[e.nodes[1]].append((ids[-1], last, e))
     for node, here in sorted(ends.items()):
         joint = by_node.get(node)
         if joint is None:
@@ -351,6 +426,21 @@ def blocks(edges: list[Edge], joints: list[Junction], size: tuple[float, float])
             if arm is not None and arm not in links[joint.block.id]:
                 link(joint.block.id, arm, bid, socket)
     return tuple(with_connections(block, links[block.id]) for block in out)
+
+
+def _touch(e: Edge, by_node: dict, links: dict, link) -> None:
+    """Join the two junction blocks at the ends of an edge too short for a block of its own
+    (two close junctions of a dual carriageway), socket to socket."""
+    a, b = by_node.get(e.nodes[0]), by_node.get(e.nodes[1])
+    if a is None or b is None or a is b or a.block is None or b.block is None:
+        return
+    sa = next((s for arm, s in zip(a.arms, a.sockets, strict=True) if arm.edge is e and arm.outward), None)
+    sb = next(
+        (s for arm, s in zip(b.arms, b.sockets, strict=True) if arm.edge is e and not arm.outward), None
+    )
+    if sa is None or sb is None or sa in links[a.block.id] or sb in links[b.block.id]:
+        return
+    link(a.block.id, sa, b.block.id, sb)
 
 
 def _thin(points: np.ndarray, least: float = 0.5) -> np.ndarray:
