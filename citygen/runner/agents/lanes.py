@@ -146,19 +146,13 @@ def _lane_point(block, socket: str, lane: int, inward: bool) -> tuple[np.ndarray
 
 
 def _centre(block) -> np.ndarray:
+    """Where a junction block's arms meet (its geometry's ``centre``); a roundabout's island's
+    centre (its outline's without one)."""
     g = block_geometry(block)
-    if isinstance(block, Roundabout):
-        return (
-            np.asarray(g.island.centroid.coords[0])
-            if g.island is not None
-            else np.asarray(g.outline.centroid.coords[0])
-        )
     if g.centre is not None:
         return np.asarray(g.centre)
-    a = block.arm_length
-    return np.asarray(block.pose.position) + a * np.array(
-        [math.cos(block.pose.yaw), math.sin(block.pose.yaw)]
-    )
+    shape = g.island if g.island is not None else g.outline
+    return np.asarray(shape.centroid.coords[0])
 
 
 def _ring(block, entry: str, exit_: str, lane_in: int) -> np.ndarray:
