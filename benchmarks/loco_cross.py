@@ -193,8 +193,12 @@ def markdown(doc: dict) -> str:
         for task in tasks:
             f = doc["cells"][f"{name}/{task}"]["figures"]
             (b, bs, _), (x, xs, _) = f["balance"], f["x_displacement"]
-            text = f"{b:.2f} ± {bs:.2f} / {x:.2f} ± {xs:.2f}"
-            cells.append(f"**{text}**" if _best(doc, task, name) else text)
+            balance, x_displacement = f"{b:.2f} ± {bs:.2f}", f"{x:.2f} ± {xs:.2f}"
+            if _best(doc, task, name, "balance"):
+                balance = f"**{balance}**"
+            if _best(doc, task, name, "x_displacement"):
+                x_displacement = f"**{x_displacement}**"
+            cells.append(f"{balance} / {x_displacement}")
         lines.append(f"| {head} | " + " | ".join(cells) + " |")
     paper = [
         f"{p['balance'][0]:.2f} ± {p['balance'][1]:.2f} / {p['x_displacement'][0]:.2f} ± "
@@ -204,17 +208,18 @@ def markdown(doc: dict) -> str:
     lines.append("| paper: each terrain model on its own terrain | " + " | ".join(paper) + " |")
     lines += [
         "",
-        "Bold: the best balance of a column (ties: the longer X-displacement). " + doc["paper_note"],
+        "Bold: a column's best balance and its longest X-displacement. " + doc["paper_note"],
     ]
     return "\n".join(lines)
 
 
-def _best(doc: dict, task: str, name: str) -> bool:
-    """Whether ``name`` has the best balance on ``task`` (ties broken by X-displacement)."""
+def _best(doc: dict, task: str, name: str, metric: str) -> bool:
+    """Whether ``name`` has the highest ``metric`` on ``task`` (of equal ones, the first row).
+    Each metric alone: a model that stands still keeps its balance and goes nowhere."""
     measured = {
         m: doc["cells"][f"{m}/{task}"]["figures"] for m in doc["models"] if f"{m}/{task}" in doc["cells"]
     }
-    top = max(measured, key=lambda m: (measured[m]["balance"][0], measured[m]["x_displacement"][0]))
+    top = max(measured, key=lambda m: measured[m][metric][0])
     return top == name
 
 
@@ -279,7 +284,7 @@ def heatmap(doc: dict, path: Path) -> None:
                     digits = 1 if metric == "balance" else 2
                     text += f"\npaper {p_mean:.{digits}f} ± {p_sem:.{digits}f}"
                 dark = shade[i, j] < 0.6
-                weight = "bold" if metric == "balance" and _best(doc, task, name) else "normal"
+                weight = "bold" if _best(doc, task, name, metric) else "normal"
                 ax.text(j, i, text, ha="center", va="center", fontsize=9, weight=weight,
                         color="white" if dark else "black")  # fmt: skip
         ax.set_xticks(range(len(tasks)), [f"{_column(t)}\n{DEFAULT_SPLIT[t]}" for t in tasks])
@@ -291,7 +296,7 @@ def heatmap(doc: dict, path: Path) -> None:
         ax.tick_params(which="minor", length=0)
     fig.suptitle(
         f"Cross-evaluation of {loco_table.NAMES[doc['robot']].lower()} locomotion models: "
-        f"{doc['episodes']} test episodes per cell, mean ± standard error (bold: a column's best balance)",
+        f"{doc['episodes']} test episodes per cell, mean ± standard error (bold: a column's best)",
         fontsize=11,
     )
     path.parent.mkdir(parents=True, exist_ok=True)
