@@ -17,10 +17,11 @@ locomotion table (its Table "Urban Locomotion benchmark", whose cells are the te
 their own terrain). The paper's finding, in words: the terrain models win on their own terrain
 (the diagonal), and the general model falls short except on slopes.
 
-Cells are kept in ``<out>.json`` keyed by the model file's digest (and cells that
+Cells are kept in ``<out>/<robot>.json`` keyed by the model file's digest (and cells that
 ``benchmarks/loco_table.py`` measured on the same file, physics and episodes are taken from
 its results: the same episodes and seeds), so a rerun measures only what changed; ``--tasks``
-picks the columns. Writes ``<out>.json``, ``<out>.md`` and ``<out>.png``.
+picks the columns. Writes ``<out>/<robot>.json``, ``.md`` and ``.png`` (one robot's run leaves
+another's files alone).
 
     python benchmarks/loco_cross.py --robot quadruped --episodes 64 --jobs 1 \\
         --out benchmarks/results/loco-cross
@@ -102,8 +103,8 @@ def run(
     robot: str, episodes: int, jobs: int, out: Path, tasks: tuple[str, ...] = TASKS, force: bool = False
 ) -> dict:
     """Measure (or reuse) every cell of ``robot``'s cross-evaluation on ``tasks`` and write
-    ``out``'s JSON, markdown and PNG; the JSON document."""
-    json_path = Path(f"{out}.json")
+    ``out/<robot>.json``, ``.md`` and ``.png``; the JSON document."""
+    json_path = out / f"{robot}.json"
     mine = json.loads(json_path.read_text()) if json_path.exists() and not force else {}
     old_cells = mine.get("cells", {}) if mine.get("robot") == robot else {}
     table_cells = {}
@@ -135,8 +136,8 @@ def run(
             _write(json_path, json.dumps(doc, indent=1) + "\n")
     doc = _document(robot, episodes, tasks, files, cells)
     _write(json_path, json.dumps(doc, indent=1) + "\n")
-    _write(Path(f"{out}.md"), markdown(doc) + "\n")
-    heatmap(doc, Path(f"{out}.png"))
+    _write(out / f"{robot}.md", markdown(doc) + "\n")
+    heatmap(doc, out / f"{robot}.png")
     return doc
 
 
@@ -324,14 +325,14 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--tasks", nargs="+", default=list(TASKS), choices=list(TASKS), help="the columns")
     ap.add_argument(
         "--out", type=Path, default=Path("benchmarks/results/loco-cross"),
-        help="path prefix of the results: <out>.json, <out>.md, <out>.png",
+        help="folder of the results: <out>/<robot>.json, .md, .png",
     )  # fmt: skip
     ap.add_argument("--force", action="store_true", help="measure again cells whose inputs did not change")
     args = ap.parse_args(argv)
     tasks = tuple(t for t in TASKS if t in args.tasks)
     doc = run(args.robot, args.episodes, args.jobs, args.out, tasks, force=args.force)
     print(markdown(doc))
-    print(f"wrote {args.out}.json, {args.out}.md, {args.out}.png")
+    print(f"wrote {args.out}/{args.robot}.json, .md and .png")
     last = {}
     for key, entry in sorted(doc["cells"].items()):
         name, task = key.split("/")

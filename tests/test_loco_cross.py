@@ -24,7 +24,7 @@ def test_quadruped_episodes_on_stairs(tmp_path, capsys):
     episodes early): each shipped model a row, the others marked, the files written."""
     out = tmp_path / "cross"
     loco_cross.main(["--episodes", "1", "--tasks", "loco-stair", "--out", str(out)])
-    doc = json.loads(out.with_suffix(".json").read_text())
+    doc = json.loads(out.joinpath("quadruped.json").read_text())
     assert doc["tasks"] == ["loco-stair"] and list(doc["models"]) == list(loco_cross.MODELS)
     measured = [m for m, row in doc["models"].items() if row["file"]]
     assert {"flat", "slope", "general"} <= set(measured)
@@ -32,10 +32,10 @@ def test_quadruped_episodes_on_stairs(tmp_path, capsys):
     assert sorted(doc["cells"]) == sorted(f"{m}/loco-stair" for m in measured)
     for cell in doc["cells"].values():
         assert cell["episodes"] == 1 and cell["figures"]["balance"][2] == 1
-    table = out.with_suffix(".md").read_text()
+    table = out.joinpath("quadruped.md").read_text()
     assert table.count("\n| ") == len(loco_cross.MODELS) + 2  # the head, the models, the paper
     assert "| LocoStair |" in table and "91.89 ± 2.07 / 9.20 ± 0.36" in table
-    width, height = _png_size(out.with_suffix(".png"))
+    width, height = _png_size(out.joinpath("quadruped.png"))
     assert width > height > 300
     last = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert set(last) == {
@@ -57,16 +57,16 @@ def test_table_shape_and_standard_errors(tmp_path, monkeypatch):
 
     monkeypatch.setattr(loco_cross.loco_table, "measure", fake)
     monkeypatch.setattr(loco_cross.loco_table, "RESULTS", tmp_path / "none.json")
-    doc = loco_cross.run("quadruped", 16, 1, tmp_path / "c")
+    doc = loco_cross.run("quadruped", 16, 1, tmp_path)
     measured = [m for m, row in doc["models"].items() if row["file"]]
     assert len(doc["cells"]) == 4 * len(measured)
     balance, sem, n = doc["cells"]["general/loco-slope"]["figures"]["balance"]
     assert (balance, n) == (75.0, 16) and sem == pytest.approx(100 * math.sqrt(0.75 * 0.25 / 16))
     assert doc["cells"]["general/loco-slope"]["figures"]["x_displacement"] == [2.0, 0.5, 16]
     assert doc["paper_diagonal"]["loco-slope"] == {"balance": [90.56, 3.13], "x_displacement": [4.63, 0.23]}
-    lines = [line for line in (tmp_path / "c.md").read_text().splitlines() if line.startswith("| ")]
+    lines = [line for line in (tmp_path / "quadruped.md").read_text().splitlines() if line.startswith("| ")]
     assert [line.count(" | ") for line in lines] == [4] * (len(loco_cross.MODELS) + 2)
-    assert (tmp_path / "c.png").stat().st_size > 10_000
+    assert (tmp_path / "quadruped.png").stat().st_size > 10_000
 
 
 @pytest.mark.parametrize(
