@@ -68,29 +68,32 @@ PHYSICS = {
 PROTOCOL = " with heading control (citygen.runner.envs.loco.HEADING_STIFFNESS)"
 
 
-def _digest(robot: str, task: str, policy: str) -> str:
-    """What a cell's figures depend on: the policy file's bytes, or the scripted gait's name,
-    the task's physics where it changed (:data:`PHYSICS`) and, for a learned policy, the
-    protocol (:data:`PROTOCOL`)."""
+def _digest(robot: str, task: str, policy: str, file: Path | None = None) -> str:
+    """What a cell's figures depend on: the policy file's bytes (``file``, else the shipped
+    model of the task), or the scripted gait's name, the task's physics where it changed
+    (:data:`PHYSICS`) and, for a learned policy, the protocol (:data:`PROTOCOL`)."""
     physics = f" on {PHYSICS[task]}" if task in PHYSICS else ""
     if policy != "ppo":
         return policy + physics
-    path = shipped().get((task, robot))
+    path = file or shipped().get((task, robot))
     return hashlib.sha256(path.read_bytes()).hexdigest()[:16] + physics + PROTOCOL if path else ""
 
 
-def measure(robot: str, task: str, policy: str, episodes: int, jobs: int) -> dict:
-    """One cell: the summary of ``episodes`` test episodes."""
+def measure(robot: str, task: str, policy: str, episodes: int, jobs: int, file: Path | None = None) -> dict:
+    """One cell: the summary of ``episodes`` test episodes of ``task``'s test split. ``file``
+    is the learned model to run (for ``policy == "ppo"``; default the task's shipped model):
+    benchmarks/loco_cross.py runs each terrain's model on every terrain with it."""
     start = time.perf_counter()
-    file = shipped().get((task, robot)) if policy == "ppo" else None
+    shown = (str(file.relative_to(ROOT)) if file.is_relative_to(ROOT) else str(file)) if file else policy
+    file = file or (shipped().get((task, robot)) if policy == "ppo" else None)
     name = str(file) if file else policy
     rows = run_bench(task, DEFAULT_SPLIT[task], robot=robot, policy=name, episodes=episodes, jobs=jobs)
     doc = summary_json(rows, task=task, robot=robot, policy=policy)
     summary = {k: doc["summary"][k] for k in METRICS}
     return {
         "summary": summary, "episodes": episodes, "seconds": round(time.perf_counter() - start, 1),
-        "digest": _digest(robot, task, policy), "file": file.name if file else None,
-        "command": f"citygen bench --task {task} --robot {robot} --policy {policy} --episodes {episodes}",
+        "digest": _digest(robot, task, policy, file), "file": file.name if file else None,
+        "command": f"citygen bench --task {task} --robot {robot} --policy {shown} --episodes {episodes}",
     }  # fmt: skip
 
 
