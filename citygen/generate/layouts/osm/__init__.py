@@ -33,10 +33,11 @@ from citygen.errors import SpecError
 from citygen.generate.layouts.base import BaseLayout, Plan
 from citygen.generate.layouts.city import City, _corridor
 from citygen.generate.layouts.city.furniture import street_furniture
+from citygen.generate.layouts.city.terrain import city_features
 from citygen.generate.layouts.osm.buildings import with_heights
 from citygen.generate.layouts.osm.ground import plan_ground, street_ground
 from citygen.generate.layouts.osm.objects import place_mapped
-from citygen.generate.layouts.osm.place import Place, check_area, load_place
+from citygen.generate.layouts.osm.place import Place, check_area, load_place, rooms
 from citygen.generate.layouts.osm.project import Projection
 from citygen.generate.layouts.osm.streets import blocks as street_blocks
 from citygen.generate.placement import base_of, place_objects
@@ -107,8 +108,12 @@ class Osm(City):
         place = place_of(config)
         size = place.projection.size
         blocks = street_blocks(list(place.edges), list(place.junctions), size)
-        layers, sidewalks = street_ground(list(place.streets), list(place.junctions), list(place.crossings))
-        zones = plan_ground(size, layers, sidewalks, list(place.walkways), list(place.areas))
+        spots = [(m.position, r) for m, r in rooms(place)]
+        layers, sidewalks = street_ground(
+            list(place.drawn), list(place.junctions), list(place.crossings), spots
+        )
+        room = shapely.union_all([Point(p).buffer(r, quad_segs=4) for p, r in spots])
+        zones = plan_ground(size, layers, sidewalks, list(place.walkways), list(place.areas), room)
         zones = with_heights(zones, place.heights)
         lit = {f"j-n{n}" for n in place.signalised}
         signals = signalise([b for b in blocks if b.id in lit], zones) or None
@@ -119,6 +124,15 @@ class Osm(City):
             bounds=Bounds(min=(0.0, 0.0), max=size),
             source=place.source,
         )
+
+    def terrain(
+        self, ends: Endpoints | None, walkable: BaseGeometry
+    ) -> tuple[Terrain | None, BaseGeometry | None]:
+        """The city's terrain and features; the curb ramps narrow beside the mapped objects."""
+        terrain, _ = BaseLayout.terrain(self, ends, walkable)
+        rng = child(stage_rng(self.seed, "terrain"), 3)
+        avoid = [(*m.position, r) for m, r in rooms(place_of(self.config))]
+        return city_features(self.scene.zones, terrain, rng, keep_clear=_corridor(ends), avoid=avoid), None
 
     def endpoints(self, walkable: BaseGeometry) -> Endpoints | None:
         """A traverse runs along the sidewalks and crosswalks, around the mapped objects."""

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from pathlib import Path
 
@@ -22,14 +22,16 @@ from shapely.geometry import LineString, Polygon
 from citygen.errors import SpecError
 from citygen.generate.layouts.osm.buildings import LEVEL
 from citygen.generate.layouts.osm.ground import WALKWAYS, area_kind, crossing_at
-from citygen.generate.layouts.osm.objects import Mapped, category_of, direction_of
+from citygen.generate.layouts.osm.objects import SLIM, Mapped, category_of, clearance, direction_of
 from citygen.generate.layouts.osm.project import Projection
 from citygen.generate.layouts.osm.read import Extract, read_extract
 from citygen.generate.layouts.osm.streets import (
+    GAP,
     Edge,
     Junction,
     Street,
     edges_of,
+    give_way,
     is_street,
     junctions,
     street,
@@ -43,6 +45,8 @@ MAX_SIDE_M = 3_000.0
 MIN_SIDE_M = 20.0
 #: A mapped traffic signal on a street this near a junction (m) signalises it.
 SIGNAL_REACH = 30.0
+#: The mapped objects streets give way to: all but bus shelters.
+GIVE_WAY = frozenset(SLIM) - {"bus_stop_shelter"}
 
 
 @dataclass(frozen=True)
@@ -52,6 +56,9 @@ class Place:
     source: OsmSource
     projection: Projection
     streets: tuple[Street, ...]
+    drawn: tuple[Street, ...]
+    """The streets as the ground draws them: a street narrowed somewhere (:func:`.streets.give_way`)
+    as its edges, each as wide as it is drawn; the others whole."""
     edges: tuple[Edge, ...]
     junctions: tuple[Junction, ...]
     walkways: tuple[tuple[str, Polygon], ...]
@@ -125,7 +132,18 @@ def _sort(data: Extract, projection: Projection, source: OsmSource, name: str) -
         raise SpecError(
             f"{name}: expected streets (highway=* ways vehicles drive on) inside the box, got none"
         )
+    mapped = []
+    for f in data.nodes:
+        category = category_of(f.tags)
+        if category is None:
+            continue
+        ((x, y),) = xy([f.coords])
+        if 0.0 <= x <= projection.size[0] and 0.0 <= y <= projection.size[1]:
+            mapped.append(Mapped(f.id, category, (float(x), float(y)), direction_of(f.tags)))
     edges, degree = edges_of(streets)
+    # The streets give way to the furniture and trees mapped beside them (a bus shelter, set
+    # back from the curb behind its stop's node, does not narrow its street).
+    edges = give_way(edges, [(m.position, clearance(m.category)) for m in mapped if m.category in GIVE_WAY])
     position = {n: s.points[k] for s in streets for k, n in enumerate(s.nodes)}
     joints = junctions(edges, degree, position)
     # Mapped crossings: nodes on a street, then crossing ways without such a node.
@@ -141,14 +159,6 @@ def _sort(data: Extract, projection: Projection, source: OsmSource, name: str) -
         if not crossing_nodes.intersection(way.nodes):
             crossings.append((way.id, line.buffer(width / 2, cap_style="flat")))
     signalised = _signals(streets, joints, nodes)
-    mapped = []
-    for f in data.nodes:
-        category = category_of(f.tags)
-        if category is None:
-            continue
-        ((x, y),) = xy([f.coords])
-        if 0.0 <= x <= projection.size[0] and 0.0 <= y <= projection.size[1]:
-            mapped.append(Mapped(f.id, category, (float(x), float(y)), direction_of(f.tags)))
     areas, heights = [], {}
     for f in data.areas:
         kind = area_kind(f.tags)
@@ -168,6 +178,7 @@ def _sort(data: Extract, projection: Projection, source: OsmSource, name: str) -
         source=source,
         projection=projection,
         streets=tuple(streets),
+        drawn=tuple(_drawn(streets, edges)),
         edges=tuple(edges),
         junctions=tuple(joints),
         walkways=tuple(walkways),
@@ -177,6 +188,28 @@ def _sort(data: Extract, projection: Projection, source: OsmSource, name: str) -
         signalised=frozenset(signalised),
         mapped=tuple(mapped),
     )
+
+
+def rooms(place: Place) -> list[tuple[Mapped, float]]:
+    """The mapped objects the ground gives way to (:data:`GIVE_WAY`), each with the radius (m)
+    kept clear around its point: its slimmest variant's (:func:`.objects.clearance`) and a
+    margin (:data:`.streets.GAP`)."""
+    return [(m, clearance(m.category) + GAP) for m in place.mapped if m.category in GIVE_WAY]
+
+
+def _drawn(streets: list[Street], edges: list[Edge]) -> list[Street]:
+    """The streets as drawn (see :attr:`Place.drawn`)."""
+    pieces: dict[str, list[Edge]] = {}
+    for e in edges:
+        pieces.setdefault(e.street.id, []).append(e)
+    out = []
+    for s in streets:
+        own = pieces.get(s.id, [])
+        if all(e.street is s for e in own):
+            out.append(s)
+        else:
+            out += [replace(e.street, points=e.points, nodes=e.nodes) for e in own]
+    return out
 
 
 def _signals(streets, joints, nodes) -> set[int]:
