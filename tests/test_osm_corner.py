@@ -1,13 +1,15 @@
 """Real places (issue 48): the corner (tests/data/osm/corner.osm, made by make_town.py's
 write_corner, CC0), a 160 m x 90 m extract of what a real map puts where a scene draws its
 streets: furniture and trees on the drawn roadway, in a rounded corner, on a curb ramp, in a
-cycleway and a parking lot. Checked against the extract as read here with pyosmium and the
-scene's own recorded projection."""
+cycleway and a parking lot; signals on a junction's approach, signalised crossings beside a
+junction and mid-block, a signal node mid-block. Checked against the extract as read here
+with pyosmium and the scene's own recorded projection."""
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
 import osmium
 import pytest
 import shapely
@@ -19,6 +21,9 @@ from citygen.generate.layouts.osm.objects import category_of
 from citygen.generate.placement import base_of
 from citygen.generate.places import generate_place
 from citygen.geometry.features import feature_polygon
+from citygen.geometry.roads import block_geometry
+from citygen.runner.agents.traffic import CityTraffic
+from citygen.spec.config import AgentsConfig
 from tests.conftest import ROOT
 
 CORNER = ROOT / "tests" / "data" / "osm" / "corner.osm"
@@ -28,7 +33,7 @@ BOX = (8.53920417, 47.36959576, 8.54132639, 47.37040424)
 
 @pytest.fixture(scope="module")
 def corner():
-    return generate_place(CORNER, BOX, seed=0)
+    return generate_place(CORNER, BOX, seed=0, agents=AgentsConfig(people=4, vehicles=8))
 
 
 @pytest.fixture(scope="module")
@@ -74,3 +79,70 @@ def test_the_ground_gives_way_where_the_map_puts_an_object(corner, nodes):
     beside = [f for f, r in ramps if min(r.distance(b) for b in bases) < 0.5]
     assert beside and all(f.width < 3.0 for f in beside)  # narrower than its crosswalk
     assert not any(r.intersects(b) for _, r in ramps for b in bases)
+
+
+def signal_nodes(nodes) -> dict:
+    """The mapped signal nodes: ``highway=traffic_signals``, and crossings with
+    ``crossing=traffic_signals``."""
+    return {
+        nid: (xy, tags)
+        for nid, (xy, tags) in nodes.items()
+        if tags.get("highway") == "traffic_signals"
+        or (tags.get("highway") == "crossing" and tags.get("crossing") == "traffic_signals")
+    }
+
+
+def signal_at(scene, xy) -> float:
+    """How far (m) a point is from the nearest place the scene's signals control: the
+    outline of a signalised junction block, a crosswalk a signal phase serves (walk), or a
+    signal's stop line (the line across the road from a light's foot, perpendicular to the
+    way it faces, 15 m long)."""
+    blocks = {b.id: b for b in scene.blocks}
+    served = {c for s in scene.signals for p in s.phases for c in p.crosswalks}
+    p = Point(xy)
+    near = [Polygon(z.polygon, z.holes).distance(p) for z in scene.zones if z.id in served]
+    for s in scene.signals:
+        if blocks[s.junction].kind != "straight":
+            near.append(block_geometry(blocks[s.junction]).outline.distance(p))
+        for h in s.heads:
+            across = (15 * math.sin(h.yaw), -15 * math.cos(h.yaw))  # towards the road's other side
+            near.append(shapely.LineString([h.position, np.add(h.position, across)]).distance(p))
+    return min(near, default=math.inf)
+
+
+def test_every_mapped_signal_is_a_signal_where_the_map_puts_it(corner, nodes):
+    # Before: only the junction the approach signal is 18 m from got a plan (a junction's
+    # node within 30 m); the crossings and the mid-block signal were plain crosswalks.
+    lights = signal_nodes(nodes)
+    assert len(lights) == 4
+    for nid, (xy, tags) in lights.items():
+        assert signal_at(corner, xy) <= 0.5, (nid, tags)
+    kinds = {s.id: {b.id: b.kind for b in corner.blocks}[s.junction] for s in corner.signals}
+    assert sorted(kinds.values()) == ["intersection", "straight", "straight"]
+    for s in corner.signals:
+        if kinds[s.id] == "straight":  # a mid-block crossing: traffic, then walk
+            assert [p.id for p in s.phases] == ["traffic", "walk"] and len(s.heads) == 2
+            assert s.phases[1].crosswalks and not s.phases[0].crosswalks
+    # the signalised crossing 12 m before the junction is served by the junction's plan
+    (junction,) = [s for s in corner.signals if kinds[s.id] == "intersection"]
+    near = [nid for nid, (xy, t) in lights.items() if t.get("crossing") and xy[0] > 100]
+    assert any(f"crosswalk-{nid}" in p.crosswalks for p in junction.phases for nid in near)
+
+
+def test_vehicles_stop_at_the_mapped_stop_lines_and_never_pass_one_at_red(corner):
+    traffic = CityTraffic(corner, dt=0.2)
+    signalled = {s.junction for s in corner.signals}
+    passages = [(k, p) for k, d in enumerate(traffic.drives) for p in d.passages if p.junction in signalled]
+    straights = {b.id for b in corner.blocks if b.kind == "straight"}
+    assert {p.junction for _, p in passages} & straights  # someone drives over a mid-block one
+    crossed = 0
+    for _ in range(900):
+        front = traffic.s + traffic.length / 2
+        t = traffic.t
+        traffic.step()
+        after = traffic.s + traffic.length / 2
+        for k, p in passages:
+            if front[k] <= p.s_stop < after[k]:
+                assert traffic.plan.lane(p.junction, p.lane, t) != "red", (k, p.junction, t)
+                crossed += 1
+    assert crossed > 0
