@@ -146,3 +146,16 @@ def test_vehicles_stop_at_the_mapped_stop_lines_and_never_pass_one_at_red(corner
                 assert traffic.plan.lane(p.junction, p.lane, t) != "red", (k, p.junction, t)
                 crossed += 1
     assert crossed > 0
+
+
+def test_the_mjcf_carries_every_signal_mid_block_ones_too(corner, tmp_path):
+    # (The town's small box exports to every format and runs a traverse in test_osm.py; a
+    # traverse env on the corner takes half a minute to build, so only MJCF here.)
+    import mujoco
+
+    from citygen.exporters import mjcf
+
+    model = mujoco.MjModel.from_xml_path(str(mjcf.export(corner, tmp_path)[0]))
+    sites = {model.site(i).name for i in range(model.nsite)}
+    for s in corner.signals:
+        assert {f"signal:{s.id}:{p.id}" for p in s.phases} <= sites, s.id
