@@ -205,6 +205,7 @@ def _signals(place: Place, blocks: tuple, zones: tuple[Zone, ...]) -> tuple[Sign
     shapes = [block_geometry(b).outline for b in blocks]
     tree = shapely.STRtree(shapes)
     on_straights: dict[str, tuple[list[Zone], list]] = {}
+    inside: dict[str, list[str]] = defaultdict(list)  # crossings inside a junction's block
     for fid, xy, lights in place.signal_crossings:
         p = Point(xy)
         hits = sorted(
@@ -220,12 +221,14 @@ def _signals(place: Place, blocks: tuple, zones: tuple[Zone, ...]) -> tuple[Sign
             here[1].extend(lights)
         elif block_kind(block).signalised:
             lit.add(block.id)
+            inside[block.id] += [z.id for z in walks[fid]]
     by_id = {b.id: b for b in blocks}
     plans = []
     for s in signalise([b for b in blocks if b.id in lit], zones):
         node = int(s.junction.removeprefix("j-n")) if s.junction.startswith("j-n") else None
         here = [xy for j, xy in place.approaches if j == node]
         served = [z.id for j, fid in place.junction_walks if j == node for z in walks.get(fid, ())]
+        served += inside[s.junction]
         plans.append(_mapped_lights(s, by_id[s.junction], here, served, zones))
     plans += [signalise_crossing(by_id[bid], here, lights) for bid, (here, lights) in on_straights.items()]
     return tuple(plans)
