@@ -39,8 +39,9 @@ def left_out(scene: Scene, config: GeneratorConfig) -> list[tuple[str, str]]:
     """The mapped objects of the place ``config`` names that its ``scene`` does not hold, as
     ``(OSM id, category)``:
     those whose mapped point lies, even 0.45 m around it, on ground the scene draws as roadway,
-    curb, a curb ramp, parking, water or a building (a street drawn wider than the real one), or on another
-    object. Their points are in the extract; the scene's objects are named by their ids."""
+    curb, a curb ramp, parking, water or a building (mapped inside a building, or beside a
+    street its lanes keep wider than the real one where the street gives way no more), or on
+    another object. Their points are in the extract; the scene's objects are named by their ids."""
     if config.osm is None:
         return []
     have = {p.id.rsplit("-", 1)[1] for p in scene.placements}

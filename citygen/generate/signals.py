@@ -10,7 +10,8 @@ the crosswalks over the *other* arms (people walk beside the traffic that has gr
 :data:`BASE_GREEN` plus :data:`GREEN_PER_LANE` per lane of the street an arm leads to (arterials
 get longer greens), then :data:`AMBER` and :data:`ALL_RED`. Offsets make a green wave for
 traffic going east at :data:`WAVE_SPEED`. Roundabouts are left unsignalised (vehicles yield),
-as are curves and mid-block crosswalks.
+as are curves. A mid-block crossing is signalised only where a real place maps it so
+(:func:`signalise_crossing`: a straight block's plan of a traffic phase and a walk phase).
 
 Nothing is drawn from a generator: the plan is a function of the blocks and zones, so it is
 the same for the same streets and costs no seeds.
@@ -28,7 +29,7 @@ from shapely.geometry import Polygon
 from citygen.generate.placement import base_of
 from citygen.geometry.roads import block_geometry, block_kind
 from citygen.geometry.terrain import height_at
-from citygen.spec.blocks import Junction
+from citygen.spec.blocks import Junction, Straight
 from citygen.spec.placements import Placement
 from citygen.spec.signals import Head, Phase, Signal
 from citygen.spec.terrain import Terrain
@@ -142,18 +143,98 @@ def signalise(blocks: Sequence, zones: Sequence[Zone]) -> tuple[Signal, ...]:
     return tuple(out)
 
 
+WALK_GREEN, WALK_SPEED = 6.0, 1.2
+"""Walk time (s) of a mid-block crossing's walk phase: this base plus the crossing at this
+speed (m/s)."""
+
+
+def signalise_crossing(block: Straight, crosswalks: Sequence[Zone], lights: Sequence = ()) -> Signal:
+    """The plan of a signalised mid-block crossing of ``crosswalks`` (zones) on a straight
+    ``block``: a traffic phase (every lane of the ``in`` socket and, both ways, of ``out``)
+    then a walk phase (the crosswalks), a light at the right of each approach, 1 m before the
+    crosswalks or beside the farthest of ``lights`` (points, m: where a map puts the signals)
+    on that side. Named after the first crosswalk (``signal-crosswalk-n12``).
+
+    >>> from citygen.spec.blocks import Straight
+    >>> from citygen.spec.zones import Zone
+    >>> road = Straight(id="s1", kind="straight", pose={"position": [0, 0], "yaw": 0}, lanes=1,
+    ...                 lane_width=3.0, length=40.0)
+    >>> walk = Zone(id="crosswalk-n7", kind="crosswalk",
+    ...             polygon=[[18, -3.2], [21, -3.2], [21, 3.2], [18, 3.2]])
+    >>> s = signalise_crossing(road, [walk])
+    >>> s.junction, [(p.id, p.lanes, p.crosswalks) for p in s.phases], [h.position for h in s.heads]
+    ('s1', [('traffic', ('in:0', 'out:0'), ()), ('walk', (), ('crosswalk-n7',))], [(17.0, -3.0), (22.0, 3.0)])
+    """
+    g = block_geometry(block)
+    p0 = np.asarray(block.pose.position, dtype=float)
+    d = np.array([math.cos(block.pose.yaw), math.sin(block.pose.yaw)])
+    n = np.array([-d[1], d[0]])
+    along = np.concatenate([np.asarray(Polygon(z.polygon, z.holes).exterior.coords) for z in crosswalks])
+    u = (along - p0) @ d
+    near, far = float(u.min()), float(u.max())
+    stop_in, stop_out = near - 1.0, far + 1.0
+    for q in lights:
+        v = float((np.asarray(q, dtype=float) - p0) @ d)
+        stop_in, stop_out = (min(stop_in, v), stop_out) if v < near else (stop_in, max(stop_out, v))
+    half = g.arms[0].half_width
+    lanes = [f"in:{k}" for k in range(block.lanes)]
+    heads = [
+        Head(
+            position=_xy(p0 + d * stop_in - n * half),
+            yaw=math.remainder(block.pose.yaw + math.pi, 2 * math.pi),
+        )
+    ]
+    if not block.one_way:
+        lanes += [f"out:{k}" for k in range(block.lanes)]
+        heads.append(
+            Head(position=_xy(p0 + d * stop_out + n * half), yaw=math.remainder(block.pose.yaw, 2 * math.pi))
+        )
+    walk = round(WALK_GREEN + 2 * half / WALK_SPEED, 1)
+    phases = (
+        Phase(
+            id="traffic",
+            lanes=tuple(lanes),
+            green=BASE_GREEN + GREEN_PER_LANE * block.lanes,
+            amber=AMBER,
+            red=ALL_RED,
+        ),
+        Phase(id="walk", crosswalks=tuple(z.id for z in crosswalks), green=walk, amber=AMBER, red=ALL_RED),
+    )
+    cycle = sum(p.green + p.amber + p.red for p in phases)
+    centre = p0 + d * (near + far) / 2
+    return Signal(
+        id=f"signal-{crosswalks[0].id}",
+        junction=block.id,
+        phases=phases,
+        cycle=cycle,
+        offset=round((centre[0] / WAVE_SPEED) % cycle, 1),
+        heads=tuple(heads),
+    )
+
+
+def _xy(p: np.ndarray) -> tuple[float, float]:
+    return (round(float(p[0]), 4) + 0.0, round(float(p[1]), 4) + 0.0)
+
+
 def place_lights(
-    signals: Sequence[Signal], zones: Sequence[Zone], placements: Sequence[Placement], terrain: Terrain | None
+    signals: Sequence[Signal],
+    zones: Sequence[Zone],
+    placements: Sequence[Placement],
+    terrain: Terrain | None,
+    keep: frozenset[str] = frozenset(),
 ) -> tuple[Placement, ...]:
     """``placements`` with a traffic light at each signal head: its pole moved out from the
     road's edge (:data:`HEAD_SIDE`) to the first spot on sidewalk or curb; objects its base
-    would touch (not buildings) make way. Heads are moved onto the spot found."""
+    would touch (not buildings) make way, but for those named in ``keep`` (a real place's
+    mapped objects), which no light's spot may touch (no spot: no light there)."""
 
     def base_at(x: float, y: float, yaw: float) -> Polygon:
         return base_of(Placement(id="light", asset=LIGHT_ASSET, position=(x, y, 0.0), yaw=yaw))
 
     ground = [Polygon(z.polygon, z.holes) for z in zones if z.kind in ("sidewalk", "curb")]
     tree = shapely.STRtree(ground)
+    kept = [base_of(p) for p in placements if p.id in keep]
+    fixed = shapely.STRtree(kept) if kept else None
     lights: list[Placement] = []
     bases: list[Polygon] = []
     for s in signals:
@@ -166,7 +247,8 @@ def place_lights(
                 base = base_at(float(x), float(y), yaw)
                 hits = tree.query(base, predicate="intersects")
                 on_ground = len(hits) and shapely.union_all([ground[i] for i in hits]).covers(base)
-                if on_ground and not any(base.intersects(b) for b in bases):
+                clear = fixed is None or not len(fixed.query(base.buffer(0.1), predicate="intersects"))
+                if on_ground and clear and not any(base.intersects(b) for b in bases):
                     break
             else:
                 continue

@@ -1,6 +1,8 @@
 """Signalised junctions: which approach lanes and crosswalks each phase of a traffic light serves.
 
-A :class:`Signal` belongs to one junction block (``junction``, a block id). Its phases run in
+A :class:`Signal` belongs to one junction block (``junction``, a block id), or to the
+``straight`` block a signalised mid-block crossing crosses (its approach lanes ``in:<k>`` and,
+both ways, ``out:<k>``; a real place's). Its phases run in
 order, each for ``green``, then ``amber``, then ``red`` seconds (the all-red clearance before
 the next phase); ``cycle`` is their sum and ``offset`` shifts the whole plan in time (phase 0
 turns green at ``t = offset`` and every ``cycle`` seconds after). A lane not served by the
@@ -10,7 +12,9 @@ An approach lane is named ``"<socket>:<k>"``: the junction block's socket the ro
 by and the lane, ``0`` the rightmost of those driving into the junction. Crosswalks are named
 by the ids of their ``crosswalk`` zones (a crosswalk cut into several zones is named by all).
 ``heads`` are where the lights stand (one per approach), for exporters and for the
-``traffic_light`` placements that stand there.
+``traffic_light`` placements that stand there; traffic stops before the crosswalks of its
+approach and not past the light facing it, whichever is further out (a real place's light
+stands where its map puts the signal).
 
 >>> s = Signal(id="signal-b0", junction="b0", phases=[
 ...     {"id": "ew", "lanes": ["in:0", "out:0"], "crosswalks": ["zone-7"], "green": 20},
@@ -72,7 +76,7 @@ class Signal(SpecModel):
 
     id: Identifier
     junction: Identifier
-    """The junction's block id."""
+    """The junction's block id (a straight's, for a mid-block crossing)."""
     phases: tuple[Phase, ...] = Field(min_length=1, max_length=MAX_PHASES)
     cycle: bounded_float(1.0, 3600.0)
     """Length of the plan, in seconds: the sum of the phases' green, amber and red."""

@@ -130,8 +130,13 @@ class BaseLayout:
         """:meth:`scatter`, then a traffic light at every signal's corners."""
         placements = self.scatter(terrain, ends, passable, level)
         if self.scene.signals:
-            placements = place_lights(self.scene.signals, self.scene.zones, placements, terrain)
+            keep = self.fixed(placements)
+            placements = place_lights(self.scene.signals, self.scene.zones, placements, terrain, keep)
         return placements
+
+    def fixed(self, placements: tuple[Placement, ...]) -> frozenset[str]:
+        """Ids of the objects no traffic light moves (none: the lights' spots come first)."""
+        return frozenset()
 
     def scatter(
         self, terrain: Terrain | None, ends: Endpoints | None, passable: BaseGeometry, level: float

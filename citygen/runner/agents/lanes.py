@@ -10,7 +10,11 @@ for a left turn, the rightmost otherwise), round a roundabout's ring counter-clo
 point every :data:`STEP` metres with the speed limit of its block (:func:`speed_limit`).
 Each junction block on the route is a *passage* (:class:`Passage`): from the stop line
 (:data:`STOP_MARGIN` before the crosswalks of the arm it comes in by) to where it leaves the
-junction's crosswalks on the way out.
+junction's crosswalks on the way out. A signal (:func:`signal_stops`) may set the stop line
+further out: before the farthest crosswalk it serves on that arm, and at its light there
+(a real place's signals mapped on a junction's approaches). A straight block with a signal
+(a signalised mid-block crossing) is a passage too, from :data:`STOP_MARGIN` before its
+crosswalks to where the path leaves them.
 """
 
 from __future__ import annotations
@@ -20,7 +24,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from shapely.geometry import LineString, Polygon
+from shapely.geometry import LineString, Point, Polygon
 
 from citygen.geometry.roads import block_geometry, road_graph
 from citygen.runner.agents.vec2 import dot
@@ -37,6 +41,11 @@ junctions (30 km/h), roundabouts."""
 CLEARANCE = 0.15
 """Lateral room (m) kept between a vehicle and what it passes; less is a thing in its path."""
 JUNCTIONS = (Intersection, TIntersection, Junction, Roundabout)
+ALONG = 0.5
+"""A crosswalk or a light is on a junction's arm when it lies (and a light faces) within this
+angle (rad) of the arm's heading from the junction's centre."""
+APPROACH = 3
+"""Blocks before a junction searched for a stop line its signal sets out on the approach."""
 
 
 def speed_limit(block) -> float:
@@ -257,9 +266,53 @@ def _stop_radius(block, socket: str, walks) -> float:
     return far + STOP_MARGIN
 
 
-def drive_path(vehicle: Vehicle, blocks, walks=None) -> DrivePath:
+@dataclass
+class Stops:
+    """Where a signal stops traffic: its lights (position, yaw) and the crosswalks it serves."""
+
+    heads: list[tuple[np.ndarray, float]]
+    walks: list[Polygon]
+
+
+def signal_stops(signals, zones) -> dict[str, Stops]:
+    """The :class:`Stops` of each signalised block of a scene, by block id."""
+    polys = {z.id: Polygon(z.polygon, z.holes) for z in zones if z.kind == "crosswalk"}
+    out: dict[str, Stops] = {}
+    for s in signals or ():
+        here = out.setdefault(s.junction, Stops([], []))
+        here.heads += [(np.asarray(h.position, dtype=float), float(h.yaw)) for h in s.heads]
+        here.walks += [polys[c] for p in s.phases for c in p.crosswalks if c in polys]
+    return out
+
+
+def _signal_radius(block, socket: str, stops: Stops | None) -> float:
+    """Distance (m) from a junction's centre of the stop line its signal sets on the arm
+    ``socket``: :data:`STOP_MARGIN` before the farthest crosswalk it serves along the arm (within
+    :data:`ALONG` of its heading) and at its light facing that way; 0 without a signal."""
+    if stops is None:
+        return 0.0
+    arm = next(a for a in block_geometry(block).arms if a.socket == socket)
+    c = _centre(block)
+    d = np.array([math.cos(arm.yaw), math.sin(arm.yaw)])
+    n = np.array([-d[1], d[0]])
+    r = 0.0
+    for poly in stops.walks:
+        rel = np.asarray(poly.centroid.coords[0]) - c
+        if abs(math.atan2(rel @ n, rel @ d)) < ALONG:
+            r = max(r, float(np.max(np.asarray(poly.exterior.coords) @ d - c @ d)) + STOP_MARGIN)
+    for xy, yaw in stops.heads:
+        rel = xy - c
+        facing = abs(math.remainder(yaw - arm.yaw, 2 * math.pi)) < ALONG
+        if facing and abs(math.atan2(rel @ n, rel @ d)) < ALONG:
+            r = max(r, float(rel @ d))
+    return r
+
+
+def drive_path(vehicle: Vehicle, blocks, walks=None, stops: dict[str, Stops] | None = None) -> DrivePath:
     """The path a vehicle drives (see the module docstring); ``walks`` an
-    ``(STRtree, polygons)`` of the crosswalks, where stop lines stand before them."""
+    ``(STRtree, polygons)`` of the crosswalks, where stop lines stand before them; ``stops``
+    the signals' (:func:`signal_stops`), which may set them further out."""
+    stops = stops or {}
     by_id = {b.id: b for b in blocks}
     legs = _route_sockets(vehicle, blocks, by_id)
     start, goal = np.asarray(vehicle.start, float), np.asarray(vehicle.goal, float)
@@ -275,9 +328,11 @@ def drive_path(vehicle: Vehicle, blocks, walks=None) -> DrivePath:
         if turning and _turn(*nxt) > 0.5:
             lane = min(block.lanes, nxt[0].lanes) - 1
         lanes_out.append(lane)
-    pieces, marks, junctions = [], [], []
+    pieces, marks, junctions, crossings = [], [], [], []
     lane_in = 0
     for k, (block, entry, exit_) in enumerate(legs):
+        if block.id in stops and not isinstance(block, JUNCTIONS):
+            crossings.append((k, block, entry, lane_in))
         if isinstance(block, Roundabout):
             seg = _ring(block, entry, exit_, lane_in)
         else:
@@ -311,12 +366,43 @@ def drive_path(vehicle: Vehicle, blocks, walks=None) -> DrivePath:
         sub, a = pts[owner == k], arc[owner == k]
         c = _centre(block)
         arms = {arm.socket: arm for arm in block_geometry(block).arms}
-        s_in = _crossing(sub, a, c, arms[entry].yaw, _stop_radius(block, entry, walks), first=True)
+        r_in = _stop_radius(block, entry, walks)
+        far = _signal_radius(block, entry, stops.get(block.id))
+        approach, along = sub, a
+        if far > r_in + 1e-3:  # a stop line out on the approach: looked for on the blocks before
+            r_in, ahead = far, (owner >= k - APPROACH) & (owner <= k)
+            approach, along = pts[ahead], arc[ahead]
+        s_in = _crossing(approach, along, c, arms[entry].yaw, r_in, first=True)
         s_out = _crossing(sub, a, c, arms[exit_].yaw, _stop_radius(block, exit_, walks), first=False)
         if s_in is None or s_out is None:
             continue
         passages.append((block.id, f"{entry}:{lane}", s_in + shift, s_out + shift, sub))
+    for k, block, entry, lane in crossings:
+        near = (owner >= k - APPROACH) & (owner <= k + 1)
+        line = LineString(pts[near])
+        cut = [line.intersection(poly) for poly in stops[block.id].walks]
+        ss = [line.project(Point(q)) for g in cut for part in _parts(g) for q in part.coords]
+        if not ss:
+            continue
+        # the stop line: before the crosswalks, or at the light facing this way further back
+        stop = min(ss) - STOP_MARGIN
+        facing = block.pose.yaw + (math.pi if entry == "in" else 0.0)
+        for xy, yaw in stops[block.id].heads:
+            if abs(math.remainder(yaw - facing, 2 * math.pi)) < ALONG:
+                stop = min(stop, line.project(Point(xy)))
+        a0 = float(arc[near][0]) + shift
+        passages.append((block.id, f"{entry}:{lane}", a0 + stop, a0 + max(ss), None))
+    passages.sort(key=lambda p: p[2])
     return _resample(path, limits, passages, [vehicle.width])
+
+
+def _parts(g) -> list:
+    """The lines of a line intersection (none when empty)."""
+    if g.is_empty:
+        return []
+    return [p for p in getattr(g, "geoms", [g]) if p.geom_type == "LineString"] or (
+        [g] if g.geom_type == "Point" else []
+    )
 
 
 def _crossing(pts: np.ndarray, arc: np.ndarray, c: np.ndarray, yaw: float, r: float, *, first: bool):

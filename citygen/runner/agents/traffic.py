@@ -37,7 +37,15 @@ import shapely
 from shapely.geometry import Polygon
 
 from citygen.runner.agents.footprints import Footprints, depth, rectangles
-from citygen.runner.agents.lanes import CLEARANCE, STEP, DrivePath, Passage, drive_path, lane_path
+from citygen.runner.agents.lanes import (
+    CLEARANCE,
+    STEP,
+    DrivePath,
+    Passage,
+    drive_path,
+    lane_path,
+    signal_stops,
+)
 from citygen.runner.agents.signals import Crossings, SignalCrowd, SignalPlan, crossings_of
 from citygen.runner.agents.vec2 import det, dot
 from citygen.spec.agents import Vehicle
@@ -229,7 +237,8 @@ class CityTraffic(Traffic):
         if drives is None:
             walks = [Polygon(z.polygon, z.holes) for z in scene.zones if z.kind == "crosswalk"]
             tree = (shapely.STRtree(walks), walks) if walks else None
-            drives = [drive_path(c, scene.blocks, tree) for c in cars]
+            stops = signal_stops(scene.signals, scene.zones)
+            drives = [drive_path(c, scene.blocks, tree, stops) for c in cars]
             if crossings is not None:
                 crossings.drives = drives  # kept with the scene's cached data
         # Trips start clear of junctions and end before one they would stand in; the paths

@@ -245,6 +245,49 @@ def _tag_node(m: _Map, at: tuple[float, float], tags: dict) -> None:
             m.nodes[k] = line.replace("></node>", f">{body}</node>")
 
 
+#: The corner's box (m east and north of the origin): west, south, east, north.
+CORNER_BOX = (-60.0, -45.0, 100.0, 45.0)
+
+
+def write_corner(path: str | Path) -> Path:
+    """Write the corner: what a real map puts where a scene's streets are drawn, and signals
+    away from junction nodes. Two junctions on Main Street (y = 0, a
+    residential street drawn 6 m wide): A with Cross Street (x = 0), B with Signal Street
+    (x = 80).
+
+    - a tree 2.9 m and a bench 3.2 m from Main Street's centre line (on its drawn roadway and
+      curb), a tree in the rounded corner of A, a tree where A's crosswalk lands (its curb
+      ramp), a tree 0.35 m off a cycleway's centre line and a tree in a parking lot;
+    - B signalised by a signal node on Main Street 18 m before it, with a signalised
+      crossing 12 m before it; a signalised crossing mid-block on Cross Street; a signal node
+      mid-block on Signal Street 35 m from B, with no crossing mapped.
+    """
+    m = _Map()
+    main = {"highway": "residential", "name": "Main Street", "sidewalk:width": "3.5"}
+    m.way([(-70, 0), (0, 0), (62, 0), (68, 0), (80, 0), (110, 0)], main)
+    m.way([(0, -55), (0, 0), (0, 30), (0, 55)], {"highway": "residential", "name": "Cross Street"})
+    m.way([(80, -55), (80, -35), (80, 0), (80, 55)], {"highway": "residential", "name": "Signal Street"})
+    _tag_node(m, (62, 0), {"highway": "traffic_signals"})
+    _tag_node(m, (68, 0), {"highway": "crossing", "crossing": "traffic_signals"})
+    _tag_node(m, (0, 30), {"highway": "crossing", "crossing": "traffic_signals"})
+    _tag_node(m, (80, -35), {"highway": "traffic_signals"})
+    m.way([(20, 20), (50, 20)], {"highway": "cycleway"})
+    m.way(_rect(20, -40, 50, -20), {"amenity": "parking"}, closed=True)
+    for x, y, tags in (
+        (25.0, 2.9, {"natural": "tree"}),
+        (-30.0, -3.2, {"amenity": "bench"}),
+        (3.6, 3.6, {"natural": "tree"}),
+        (7.2, 4.2, {"natural": "tree"}),
+        (35.0, 20.35, {"natural": "tree"}),
+        (35.0, -30.0, {"natural": "tree"}),
+    ):
+        m.node(x, y, tags)
+    w, s_, e, n = CORNER_BOX
+    path = Path(path)
+    path.write_text(m.xml((w - 20, s_ - 20, e + 20, n + 20)))
+    return path
+
+
 def to_pbf(xml: str | Path, pbf: str | Path) -> Path:
     """The same data as ``xml`` written as ``.osm.pbf`` by pyosmium's writer."""
     import osmium
@@ -260,3 +303,4 @@ def to_pbf(xml: str | Path, pbf: str | Path) -> Path:
 if __name__ == "__main__":
     here = Path(__file__).parent
     to_pbf(write_town(here / "town.osm"), here / "town.osm.pbf")
+    write_corner(here / "corner.osm")

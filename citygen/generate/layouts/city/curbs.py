@@ -13,7 +13,9 @@ above them (``CURB``: 12-15 cm, one height per city). Both are terrain features
   :class:`~citygen.spec.terrain.RampFeature` as wide as the crosswalk, rising at 1:12 from the
   crosswalk into the sidewalk; the slabs leave room for it, so the robot on wheels gets from
   the sidewalk onto the crosswalk down the ramp (a crosswalk end where the sidewalk has no
-  room for a ramp and :data:`TOP` of sidewalk beyond it keeps its curb).
+  room for a ramp and :data:`TOP` of sidewalk beyond it keeps its curb). Where something
+  must stand beside the crosswalk (a real place's mapped tree, ``avoid``), the ramp narrows
+  to the side away from it, down to :data:`NARROWEST`; narrower, the end keeps its curb.
 
 The streets of a city run along x and y, so the slabs are few (a straight sidewalk is one slab
 per 100 m); a street at another angle would be covered in a staircase of thin slabs.
@@ -42,6 +44,8 @@ CURB = (0.12, 0.15)
 RAMP_GRADE = 1.0 / 12.0
 #: ... to a landing at least this deep (m) on the sidewalk.
 TOP = 0.9
+#: Narrowest curb ramp (m) left where it gives way to something standing beside it.
+NARROWEST = 1.0
 #: Deepest sliver (m) a slab leaves along a slanting or curved part of the outline.
 SLAB = 0.5
 #: Closest (m) two slab boundaries are (a feature is at least 5 cm deep).
@@ -54,9 +58,12 @@ LONGEST = 100.0
 THINNEST = 0.05
 
 
-def curb_features(zones: Sequence[Zone], rng: np.random.Generator) -> tuple[list, list[Polygon]]:
+def curb_features(
+    zones: Sequence[Zone], rng: np.random.Generator, avoid: Sequence[tuple[float, float, float]] = ()
+) -> tuple[list, list[Polygon]]:
     """The city's curb ramps, then its sidewalk slabs (see the module docstring), and the
-    ramps' rectangles. Each feature stands at street level (``height`` 0)."""
+    ramps' rectangles. Each feature stands at street level (``height`` 0). ``avoid`` are
+    discs ``(x, y, radius)`` (m) no ramp or its landing may reach."""
     polys = [Polygon(z.polygon, z.holes) for z in zones]
     side = _union([p for p, z in zip(polys, zones, strict=True) if z.kind in ("sidewalk", "curb")])
     walks = _union([p for p, z in zip(polys, zones, strict=True) if z.kind == "crosswalk"])
@@ -73,6 +80,10 @@ def curb_features(zones: Sequence[Zone], rng: np.random.Generator) -> tuple[list
     for walk in shapely.get_parts(walks):
         for centre, yaw, width in _ends(walk, side):
             c, s = math.cos(yaw), math.sin(yaw)
+            if len(avoid):
+                centre, width = _beside(centre, yaw, width, length + TOP, avoid)
+                if width < NARROWEST:
+                    continue
             ramp = RampFeature(
                 id=f"curb-ramp-{len(ramps) + 1}", kind="ramp",
                 center=(quantize(centre[0] + c * length / 2), quantize(centre[1] + s * length / 2)),
@@ -129,6 +140,28 @@ def curb_features(zones: Sequence[Zone], rng: np.random.Generator) -> tuple[list
         )  # fmt: skip
         slabs.append(slab)
     return [*ramps, *slabs], shapes
+
+
+def _beside(centre, yaw: float, width: float, depth: float, avoid) -> tuple[tuple[float, float], float]:
+    """The end of a crosswalk (``centre``, ``width``, m) narrowed so that a ramp and landing
+    ``depth`` deep into the sidewalk (heading ``yaw``) reach none of the discs ``avoid``: the
+    widest span of the end clear of them, its middle and width (0 when none is)."""
+    d = np.array([math.cos(yaw), math.sin(yaw)])
+    n = np.array([-d[1], d[0]])
+    lo, hi = -width / 2, width / 2
+    for x, y, r in avoid:
+        rel = np.array([x, y]) - np.asarray(centre)
+        u, v = float(rel @ d), float(rel @ n)
+        if u < -r or u > depth + r or v < lo - r or v > hi + r:
+            continue
+        if hi - (v + r) >= (v - r) - lo:
+            lo = max(lo, v + r)
+        else:
+            hi = min(hi, v - r)
+        if hi <= lo:
+            return centre, 0.0
+    mid = np.asarray(centre) + n * (lo + hi) / 2
+    return (float(mid[0]), float(mid[1])), hi - lo
 
 
 def _union(polys: list[Polygon]) -> BaseGeometry:

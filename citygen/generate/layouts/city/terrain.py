@@ -65,9 +65,12 @@ def city_features(
     rng: np.random.Generator,
     *,
     keep_clear: BaseGeometry | None = None,
+    avoid: Sequence[tuple[float, float, float]] = (),
 ) -> Terrain:
     """``terrain`` with the city's features (see the module docstring) added; ``keep_clear``
-    (an area, m) is ground no feature may reach (the traverse route's corridor)."""
+    (an area, m) is ground no feature may reach (the traverse route's corridor); ``avoid``
+    discs ``(x, y, radius)`` (m) the curb ramps narrow to keep clear of (a real place's
+    mapped trees, :func:`~.curbs.curb_features`)."""
     polys = [Polygon(z.polygon, z.holes) for z in zones]
     hard = [p for p, z in zip(polys, zones, strict=True) if z.kind not in SOFT]
     hard_tree = shapely.STRtree(hard)
@@ -102,7 +105,7 @@ def city_features(
 
     features: list = []
     r = np.random.default_rng(rng.integers(2**63))
-    curbs, ramps = curb_features(zones, np.random.default_rng(rng.integers(2**63)))
+    curbs, ramps = curb_features(zones, np.random.default_rng(rng.integers(2**63)), avoid)
     take(ramps)
     for building in buildings:
         if r.random() >= FRONT_STEPS:

@@ -7,8 +7,9 @@ box (:class:`~citygen.spec.osm.OsmArea`); nothing is fetched from the network.
 - stage 1, :mod:`.streets`: the street graph, junctions and road blocks of the mapped streets;
 - stage 2, :mod:`.ground`: buildings (solids as tall as mapped, :mod:`.buildings`),
   crosswalks, roadway, curbs, sidewalks, walkways, plazas, parking, water and vegetation as
-  mapped, tiling the box; a signal plan (:func:`~citygen.generate.signals.signalise`) at every
-  junction block the map gives traffic signals;
+  mapped, tiling the box, giving way to the mapped furniture and trees (:mod:`.objects`); a
+  signal plan at every junction the map gives traffic signals, its lights where the map puts
+  them, and at every signalised crossing of its own (:func:`_signals`);
 - stage 3: the terrain flat (the config's terrain mix; no height source is read), with the
   city's curbs, curb ramps and front steps (:func:`~citygen.generate.layouts.city.terrain.city_features`);
 - stage 4: the mapped furniture and trees where the map puts them (:mod:`.objects`), then
@@ -22,8 +23,11 @@ from the map keeps its OSM id in its own id (``building-w45``, ``bench-n123``, `
 
 from __future__ import annotations
 
+import math
+from collections import defaultdict
 from typing import ClassVar
 
+import numpy as np
 import shapely
 from shapely.geometry import LineString, Point, Polygon
 from shapely.geometry.base import BaseGeometry
@@ -33,17 +37,19 @@ from citygen.errors import SpecError
 from citygen.generate.layouts.base import BaseLayout, Plan
 from citygen.generate.layouts.city import City, _corridor
 from citygen.generate.layouts.city.furniture import street_furniture
+from citygen.generate.layouts.city.terrain import city_features
 from citygen.generate.layouts.osm.buildings import with_heights
 from citygen.generate.layouts.osm.ground import plan_ground, street_ground
 from citygen.generate.layouts.osm.objects import place_mapped
-from citygen.generate.layouts.osm.place import Place, check_area, load_place
+from citygen.generate.layouts.osm.place import Place, check_area, load_place, rooms
 from citygen.generate.layouts.osm.project import Projection
 from citygen.generate.layouts.osm.streets import blocks as street_blocks
 from citygen.generate.placement import base_of, place_objects
-from citygen.generate.signals import signalise
+from citygen.generate.signals import signalise, signalise_crossing
 from citygen.generate.task import Endpoints, street_route
 from citygen.generate.zoning import polygons
 from citygen.geometry.features import feature_polygon
+from citygen.geometry.roads import block_geometry, block_kind
 from citygen.seeding import child, stage_rng
 from citygen.spec.config import (
     AgentsConfig,
@@ -56,11 +62,15 @@ from citygen.spec.config import (
 from citygen.spec.osm import OsmArea
 from citygen.spec.placements import Placement
 from citygen.spec.scene import Bounds
+from citygen.spec.signals import Signal
 from citygen.spec.terrain import Terrain
 from citygen.spec.zones import Zone
 
 #: Room (m) kept around a mapped object when the traverse route is chosen.
 AROUND = 1.0
+#: A light or a crosswalk is on the junction arm within this angle (rad) of the heading from
+#: the junction's centre to it.
+ARM_ANGLE = 0.5
 
 
 def place_of(config: GeneratorConfig) -> Place:
@@ -107,11 +117,14 @@ class Osm(City):
         place = place_of(config)
         size = place.projection.size
         blocks = street_blocks(list(place.edges), list(place.junctions), size)
-        layers, sidewalks = street_ground(list(place.streets), list(place.junctions), list(place.crossings))
-        zones = plan_ground(size, layers, sidewalks, list(place.walkways), list(place.areas))
+        spots = [(m.position, r) for m, r in rooms(place)]
+        layers, sidewalks = street_ground(
+            list(place.drawn), list(place.junctions), list(place.crossings), spots
+        )
+        room = shapely.union_all([Point(p).buffer(r, quad_segs=4) for p, r in spots])
+        zones = plan_ground(size, layers, sidewalks, list(place.walkways), list(place.areas), room)
         zones = with_heights(zones, place.heights)
-        lit = {f"j-n{n}" for n in place.signalised}
-        signals = signalise([b for b in blocks if b.id in lit], zones) or None
+        signals = _signals(place, blocks, zones) or None
         return Plan(
             zones=zones,
             blocks=blocks,
@@ -119,6 +132,15 @@ class Osm(City):
             bounds=Bounds(min=(0.0, 0.0), max=size),
             source=place.source,
         )
+
+    def terrain(
+        self, ends: Endpoints | None, walkable: BaseGeometry
+    ) -> tuple[Terrain | None, BaseGeometry | None]:
+        """The city's terrain and features; the curb ramps narrow beside the mapped objects."""
+        terrain, _ = BaseLayout.terrain(self, ends, walkable)
+        rng = child(stage_rng(self.seed, "terrain"), 3)
+        avoid = [(*m.position, r) for m, r in rooms(place_of(self.config))]
+        return city_features(self.scene.zones, terrain, rng, keep_clear=_corridor(ends), avoid=avoid), None
 
     def endpoints(self, walkable: BaseGeometry) -> Endpoints | None:
         """A traverse runs along the sidewalks and crosswalks, around the mapped objects."""
@@ -128,6 +150,11 @@ class Osm(City):
         spots = [Point(m.position).buffer(AROUND, quad_segs=4) for m in place_of(self.config).mapped]
         zones = _without(scene.zones, shapely.union_all(spots)) if spots else scene.zones
         return street_route(scene.bounds, zones, self.config.task, stage_rng(seed, "task"), seed=seed)
+
+    def fixed(self, placements: tuple[Placement, ...]) -> frozenset[str]:
+        """The mapped objects: a traffic light stands beside them, never moves them."""
+        ids = {f"{m.category.replace('_', '-')}-{m.id}" for m in place_of(self.config).mapped}
+        return frozenset(p.id for p in placements if p.id in ids)
 
     def scatter(
         self, terrain: Terrain | None, ends: Endpoints | None, passable: BaseGeometry, level: float
@@ -157,6 +184,97 @@ class Osm(City):
         return street_furniture(
             self.scene.zones, terrain, (*sampled, *mapped), rows, keep_clear=_corridor(ends)
         )
+
+
+def _signals(place: Place, blocks: tuple, zones: tuple[Zone, ...]) -> tuple[Signal, ...]:
+    """The place's signal plans (:func:`.place._lights` says what its signals signalise):
+
+    - at each signalised junction's block (:func:`~citygen.generate.signals.signalise`), its
+      plan also serving the signalised crossings mapped on its approaches (each with the
+      phases its arm has red), the light of an arm standing where the map puts that
+      approach's signal (at the road's edge beside it: the stop line is there);
+    - at each signalised crossing of its own, on the straight block it lies on
+      (:func:`~citygen.generate.signals.signalise_crossing`), or the junction block's, which
+      is then signalised.
+    """
+    walks: dict[str, list[Zone]] = defaultdict(list)
+    for z in zones:
+        if z.kind == "crosswalk" and z.id.startswith("crosswalk-"):
+            walks[z.id.removeprefix("crosswalk-").split("-")[0]].append(z)
+    lit = {f"j-n{n}" for n in place.signalised}
+    shapes = [block_geometry(b).outline for b in blocks]
+    tree = shapely.STRtree(shapes)
+    on_straights: dict[str, tuple[list[Zone], list]] = {}
+    inside: dict[str, list[str]] = defaultdict(list)  # crossings inside a junction's block
+    for fid, xy, lights in place.signal_crossings:
+        p = Point(xy)
+        hits = sorted(
+            tree.query(p, predicate="dwithin", distance=0.5).tolist(),
+            key=lambda i: (shapes[i].distance(p), i),
+        )
+        if not walks.get(fid) or not hits:
+            continue
+        block = blocks[hits[0]]
+        if block.kind == "straight":
+            here = on_straights.setdefault(block.id, ([], []))
+            here[0].extend(walks[fid])
+            here[1].extend(lights)
+        elif block_kind(block).signalised:
+            lit.add(block.id)
+            inside[block.id] += [z.id for z in walks[fid]]
+    by_id = {b.id: b for b in blocks}
+    plans = []
+    for s in signalise([b for b in blocks if b.id in lit], zones):
+        node = int(s.junction.removeprefix("j-n")) if s.junction.startswith("j-n") else None
+        here = [xy for j, xy in place.approaches if j == node]
+        served = [z.id for j, fid in place.junction_walks if j == node for z in walks.get(fid, ())]
+        served += inside[s.junction]
+        plans.append(_mapped_lights(s, by_id[s.junction], here, served, zones))
+    plans += [signalise_crossing(by_id[bid], here, lights) for bid, (here, lights) in on_straights.items()]
+    return tuple(plans)
+
+
+def _mapped_lights(signal: Signal, block, approaches: list, served: list[str], zones) -> Signal:
+    """A junction's ``signal`` with the light of each arm where a signal is mapped on it (the
+    farthest out), and serving the crosswalks ``served`` (ids) with the phases whose arms do
+    not include the one each lies on. An arm is the one within :data:`ARM_ANGLE` of the
+    heading from the junction's centre to the light or crosswalk."""
+    g = block_geometry(block)
+    c = np.asarray(g.centre)
+
+    def arm_of(xy) -> int | None:
+        rel = np.asarray(xy) - c
+        off = [abs(math.remainder(math.atan2(rel[1], rel[0]) - a.yaw, 2 * math.pi)) for a in g.arms]
+        k = int(np.argmin(off))
+        return k if off[k] < ARM_ANGLE else None
+
+    heads, moved = list(signal.heads), set()
+    for xy in approaches:
+        k = arm_of(xy)
+        if k is None or k >= len(heads):
+            continue
+        arm = g.arms[k]
+        d = np.array([math.cos(arm.yaw), math.sin(arm.yaw)])
+        n = np.array([-d[1], d[0]])
+        p = np.asarray(xy) + n * arm.half_width
+        if k not in moved or (p - c) @ d > (np.asarray(heads[k].position) - c) @ d:
+            heads[k] = heads[k].model_copy(update={"position": _xy(p)})
+            moved.add(k)
+    polys = {z.id: Polygon(z.polygon, z.holes) for z in zones if z.id in set(served)}
+    phases = list(signal.phases)
+    for zid in served:
+        k = arm_of(polys[zid].centroid.coords[0])
+        if k is None:
+            continue
+        socket = g.arms[k].socket
+        for i, p in enumerate(phases):
+            if zid not in p.crosswalks and socket not in {lane.split(":")[0] for lane in p.lanes}:
+                phases[i] = p.model_copy(update={"crosswalks": (*p.crosswalks, zid)})
+    return signal.model_copy(update={"heads": tuple(heads), "phases": tuple(phases)})
+
+
+def _xy(p) -> tuple[float, float]:
+    return (round(float(p[0]), 4) + 0.0, round(float(p[1]), 4) + 0.0)
 
 
 def _without(zones: tuple[Zone, ...], holes: BaseGeometry) -> list[Zone]:

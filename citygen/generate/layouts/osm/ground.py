@@ -28,7 +28,7 @@ from collections import defaultdict
 
 import numpy as np
 import shapely
-from shapely.geometry import LineString, Polygon, box
+from shapely.geometry import LineString, Point, Polygon, box
 from shapely.geometry.base import BaseGeometry
 
 from citygen.generate.layouts.osm.streets import CORNER, CURB, Junction, Street
@@ -41,6 +41,9 @@ LOT = 100.0
 CROSSWALK = 3.0
 #: A mapped crossing this near a junction's arm (m past its crosswalk's site) stands for it.
 CROSSING_NEAR = 8.0
+#: Layers that leave room to a mapped object standing on them (a tree beside a cycleway, in a
+#: parking lot): not the roadway, whose streets are drawn narrower instead.
+GIVES_ROOM = ("bike_lane", "parking")
 #: Marks a layer that is one mapped feature (kept whole and named by its OSM id).
 MAPPED = "osm:"
 
@@ -86,12 +89,25 @@ def area_kind(tags: dict) -> str | None:
     return None
 
 
-def street_ground(streets: list[Street], joints: list[Junction], crossings: list[tuple[str, Polygon]]):
-    """The streets' layers: crosswalks (mapped ones named), roadway, curbs, sidewalk strips."""
-    roads = shapely.union_all(
+def street_ground(
+    streets: list[Street],
+    joints: list[Junction],
+    crossings: list[tuple[str, Polygon]],
+    rooms: list[tuple[tuple[float, float], float]] = (),
+):
+    """The streets' layers: crosswalks (mapped ones named), roadway, curbs, sidewalk strips.
+    ``rooms`` are mapped objects' points and the radius (m) they need: the corners where
+    streets meet are not rounded over them (their streets are drawn narrower beside them,
+    :func:`.streets.give_way`)."""
+    lines = shapely.union_all(
         [LineString(s.points).buffer(s.half, quad_segs=QUAD_SEGS) for s in streets], grid_size=GRID
     )
-    roads = roads.buffer(CORNER_FILL, quad_segs=QUAD_SEGS).buffer(-CORNER_FILL, quad_segs=QUAD_SEGS)
+    roads = lines.buffer(CORNER_FILL, quad_segs=QUAD_SEGS).buffer(-CORNER_FILL, quad_segs=QUAD_SEGS)
+    if len(rooms):
+        keep = shapely.union_all([Point(p).buffer(r + CURB, quad_segs=4) for p, r in rooms])
+        keep = keep.difference(lines.buffer(CURB, quad_segs=QUAD_SEGS))
+        if not keep.is_empty and keep.intersects(roads):
+            roads = roads.difference(keep)
     curbs = roads.buffer(CURB, quad_segs=QUAD_SEGS)
     mapped = [(f"{MAPPED}{fid}", shapely.intersection(poly, curbs)) for fid, poly in crossings]
     near = shapely.union_all([p for _, p in crossings]).buffer(CROSSING_NEAR) if crossings else Polygon()
@@ -162,11 +178,13 @@ def plan_ground(
     sidewalks: dict,
     walkways: list[tuple[str, BaseGeometry]],
     areas: list[tuple[str, str, Polygon]],
+    room: BaseGeometry | None = None,
 ) -> tuple[Zone, ...]:
     """Zones tiling the box of ``size`` from the layers (see the module docstring).
 
     ``walkways`` are ``(kind, shape)`` of mapped footways, paths and cycleways; ``areas``
-    ``(kind, osm id, polygon)`` of mapped areas."""
+    ``(kind, osm id, polygon)`` of mapped areas; ``room`` is ground the cycleways and parking
+    leave to the mapped objects standing there (the ground under it is the next layer's)."""
     frame = box(0.0, 0.0, *size)
     buildings = [(f"{MAPPED}{fid}", poly) for kind, fid, poly in areas if kind == "building"]
     layers = [("building", key, poly) for key, poly in buildings] + street_layers
@@ -184,6 +202,11 @@ def plan_ground(
     for kind in ("plaza", "parking", "water", "vegetation"):
         shapes = [poly for k, _, poly in areas if k == kind]
         layers.append((kind, None, shapely.union_all(shapes) if shapes else None))
+    if room is not None and not room.is_empty:
+        layers = [
+            (k, s, g.difference(room) if k in GIVES_ROOM and g is not None and g.intersects(room) else g)
+            for k, s, g in layers
+        ]
     layers = [(k, s, g) for k, s, g in layers if g is not None and not g.is_empty and g.intersects(frame)]
     xs = _cuts(size[0])
     ys = _cuts(size[1])

@@ -8,13 +8,21 @@ gives (degrees clockwise from north), else the nearest street.
 
 An object stands only where its category belongs or on open ground (:data:`OPEN_GROUND`: a
 bench on a park's lawn; never on the roadway, a curb, parking, water or in a building) and
-clear of the objects placed before it: where the mapped point is not such a place (the map's
-street is drawn wider than the real one), it moves up to :data:`NUDGE` metres to the nearest
-spot that is, else it is left out (and counted).
+clear of the objects placed before it. The ground gives way to it where it can: a street is
+drawn narrower where the map puts an object beside it, a cycleway, a parking lot or a curb
+ramp leaves room around it (:func:`clearance`; :mod:`.streets`, :mod:`.ground`). Where the
+mapped point is still not such a place, it moves up to :data:`NUDGE` metres to the nearest spot
+that is, else it is left out (and counted).
+
+Its variant is its palette's, else a slimmer one of the palette, else the category's slimmest
+(:data:`SLIM`), so a tree mapped in a narrow pit is a thin tree on its point; and while
+another mapped object's point is not yet taken, none covers it (a broad tree does not take
+the bench mapped under its crown), unless nothing else fits.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -56,6 +64,25 @@ OPEN_GROUND = frozenset({"sidewalk", "plaza", "trail", "vegetation"})
 PALETTE = 4
 #: Farthest (m) a mapped object moves to stand where it belongs.
 NUDGE = 0.45
+#: Each category's slimmest variant of 0000-0063 (the smallest base about its origin), the
+#: last variant a mapped object tries; its base's radius is the room the ground leaves it.
+SLIM = {
+    "advertising_board": "advertising_board/0056",
+    "bench": "bench/0009",
+    "bike_rack": "bike_rack/0020",
+    "bollard": "bollard/0026",
+    "bus_stop_shelter": "bus_stop_shelter/0014",
+    "bush": "bush/0039",
+    "fire_hydrant": "fire_hydrant/0010",
+    "lamp_post": "lamp_post/0057",
+    "mailbox": "mailbox/0044",
+    "parking_meter": "parking_meter/0040",
+    "recycling_bin": "recycling_bin/0063",
+    "street_sign": "street_sign/0007",
+    "telephone_booth": "telephone_booth/0001",
+    "trash_bin": "trash_bin/0027",
+    "tree": "tree/0056",
+}
 
 
 @dataclass(frozen=True)
@@ -66,6 +93,18 @@ class Mapped:
     category: str
     position: tuple[float, float]
     direction: float | None
+
+
+@functools.cache
+def clearance(category: str) -> float:
+    """Radius (m) of the base of a category's slimmest variant (:data:`SLIM`) about its
+    point: the least room a mapped object of it needs.
+
+    >>> round(clearance("tree"), 3), round(clearance("bench"), 3)
+    (0.139, 0.657)
+    """
+    ring = _base_ring(resolve(SLIM[category]))
+    return float(np.max(np.hypot(ring[:, 0], ring[:, 1])))
 
 
 def category_of(tags: dict) -> str | None:
@@ -105,42 +144,57 @@ def place_mapped(
     slimmest = {name: sorted(variants, key=_base_area) for name, variants in palette.items()}
     placed: list[Placement] = []
     bases: list[Polygon] = list(taken)
+    # Each mapped point, kept for its own object while that is not placed.
+    points = [Point(m.position).buffer(clearance(m.category), quad_segs=4) for m in mapped]
+    reserved = shapely.STRtree(points)
+    waiting = np.ones(len(mapped), dtype=bool)
     left_out = 0
     for k, m in enumerate(mapped):
         # Its own variant first, then the category's others, slimmest first: a street tree
         # mapped on a narrow sidewalk is a slimmer tree on its point, not left out.
         own = palette[m.category][k % PALETTE]
         assets = [own, *(a for a in slimmest[m.category] if a != own)]
+        assets += [SLIM[m.category]] if SLIM[m.category] not in assets else []
         yaw = m.direction if m.direction is not None else _facing(m.position, streets)
         yaw = round(math.remainder(yaw, 2 * math.pi), 6) + 0.0
         suits = CATEGORIES[m.category].zones | OPEN_GROUND
-        for (dx, dy), asset in ((d, a) for d in _nudges() for a in assets):
-            x, y = round(m.position[0] + dx, 3) + 0.0, round(m.position[1] + dy, 3) + 0.0
-            probe = Placement(id="probe", asset=asset, position=(x, y, 0.0), yaw=yaw)
-            base = base_of(probe)
-            hits = tree.query(base, predicate="intersects")
-            if not len(hits) or not all(
-                kinds[i] in suits for i in hits if polys[i].intersection(base).area > 1e-6
-            ):
-                continue
-            if not shapely.union_all([polys[i] for i in hits]).buffer(1e-4).covers(base):
-                continue
-            if any(base.intersects(b) for b in bases):
-                continue
-            ring = np.asarray(base.exterior.coords)
-            z = float(np.min(height_at(terrain, np.append(ring[:, 0], x), np.append(ring[:, 1], y))))
-            placed.append(
-                probe.model_copy(
-                    update={
-                        "id": f"{m.category.replace('_', '-')}-{m.id}",
-                        "position": (x, y, round(z, 3) + 0.0),
-                    }
-                )
-            )
-            bases.append(base)
-            break
-        else:
+        waiting[k] = False
+        found = None
+        for spare in (True, False):  # others' points kept free, then (nothing fits) not
+            for (dx, dy), asset in ((d, a) for d in _nudges() for a in assets):
+                x, y = round(m.position[0] + dx, 3) + 0.0, round(m.position[1] + dy, 3) + 0.0
+                probe = Placement(id="probe", asset=asset, position=(x, y, 0.0), yaw=yaw)
+                base = base_of(probe)
+                if spare and waiting[reserved.query(base, predicate="intersects")].any():
+                    continue
+                hits = tree.query(base, predicate="intersects")
+                if not len(hits) or not all(
+                    kinds[i] in suits for i in hits if polys[i].intersection(base).area > 1e-6
+                ):
+                    continue
+                if not shapely.union_all([polys[i] for i in hits]).buffer(1e-4).covers(base):
+                    continue
+                if any(base.intersects(b) for b in bases):
+                    continue
+                found = (probe, base, x, y)
+                break
+            if found is not None:
+                break
+        if found is None:
             left_out += 1
+            continue
+        probe, base, x, y = found
+        ring = np.asarray(base.exterior.coords)
+        z = float(np.min(height_at(terrain, np.append(ring[:, 0], x), np.append(ring[:, 1], y))))
+        placed.append(
+            probe.model_copy(
+                update={
+                    "id": f"{m.category.replace('_', '-')}-{m.id}",
+                    "position": (x, y, round(z, 3) + 0.0),
+                }
+            )
+        )
+        bases.append(base)
     return placed, left_out
 
 

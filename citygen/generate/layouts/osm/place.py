@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
+from collections import defaultdict
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from pathlib import Path
 
@@ -22,14 +23,16 @@ from shapely.geometry import LineString, Polygon
 from citygen.errors import SpecError
 from citygen.generate.layouts.osm.buildings import LEVEL
 from citygen.generate.layouts.osm.ground import WALKWAYS, area_kind, crossing_at
-from citygen.generate.layouts.osm.objects import Mapped, category_of, direction_of
+from citygen.generate.layouts.osm.objects import SLIM, Mapped, category_of, clearance, direction_of
 from citygen.generate.layouts.osm.project import Projection
 from citygen.generate.layouts.osm.read import Extract, read_extract
 from citygen.generate.layouts.osm.streets import (
+    GAP,
     Edge,
     Junction,
     Street,
     edges_of,
+    give_way,
     is_street,
     junctions,
     street,
@@ -43,6 +46,11 @@ MAX_SIDE_M = 3_000.0
 MIN_SIDE_M = 20.0
 #: A mapped traffic signal on a street this near a junction (m) signalises it.
 SIGNAL_REACH = 30.0
+#: A signal mapped away from junctions signalises the mapped crossing this near it (m along
+#: its street), else it is a signalised crossing of its own.
+CROSSING_REACH = 15.0
+#: The mapped objects streets give way to: all but bus shelters.
+GIVE_WAY = frozenset(SLIM) - {"bus_stop_shelter"}
 
 
 @dataclass(frozen=True)
@@ -52,6 +60,9 @@ class Place:
     source: OsmSource
     projection: Projection
     streets: tuple[Street, ...]
+    drawn: tuple[Street, ...]
+    """The streets as the ground draws them: a street narrowed somewhere (:func:`.streets.give_way`)
+    as its edges, each as wide as it is drawn; the others whole."""
     edges: tuple[Edge, ...]
     junctions: tuple[Junction, ...]
     walkways: tuple[tuple[str, Polygon], ...]
@@ -63,7 +74,15 @@ class Place:
     crossings: tuple[tuple[str, Polygon], ...]
     """``(OSM id, crosswalk)`` of mapped crossings."""
     signalised: frozenset[int]
-    """Junction nodes with traffic signals."""
+    """Junction nodes with traffic signals (:func:`_lights`)."""
+    approaches: tuple[tuple[int, tuple[float, float]], ...]
+    """``(junction node, position)`` of the signals mapped on signalised junctions' approaches."""
+    junction_walks: tuple[tuple[int, str], ...]
+    """``(junction node, OSM id)`` of the signalised crossings a signalised junction serves."""
+    signal_crossings: tuple[tuple[str, tuple[float, float], tuple], ...]
+    """``(OSM id, position, signals)`` of the crossings signalised on their own, each named by
+    its crosswalk's id (``crosswalk-<OSM id>``), with the positions of the signals mapped for
+    it on its street (where its lights stand)."""
     mapped: tuple[Mapped, ...]
 
 
@@ -125,11 +144,24 @@ def _sort(data: Extract, projection: Projection, source: OsmSource, name: str) -
         raise SpecError(
             f"{name}: expected streets (highway=* ways vehicles drive on) inside the box, got none"
         )
+    mapped = []
+    for f in data.nodes:
+        category = category_of(f.tags)
+        if category is None:
+            continue
+        ((x, y),) = xy([f.coords])
+        if 0.0 <= x <= projection.size[0] and 0.0 <= y <= projection.size[1]:
+            mapped.append(Mapped(f.id, category, (float(x), float(y)), direction_of(f.tags)))
     edges, degree = edges_of(streets)
+    # The streets give way to the furniture and trees mapped beside them (a bus shelter, set
+    # back from the curb behind its stop's node, does not narrow its street).
+    edges = give_way(edges, [(m.position, clearance(m.category)) for m in mapped if m.category in GIVE_WAY])
     position = {n: s.points[k] for s in streets for k, n in enumerate(s.nodes)}
     joints = junctions(edges, degree, position)
-    # Mapped crossings: nodes on a street, then crossing ways without such a node.
     nodes = {int(f.id[1:]): f for f in data.nodes}
+    lights = _lights(streets, {j.node for j in joints}, nodes)
+    # Mapped crossings: nodes on a street, then crossing ways without such a node, then a
+    # crossing at each signal mapped away from junctions and crossings.
     crossings, crossing_nodes = [], set()
     for s in streets:
         for k, n in enumerate(s.nodes):
@@ -140,15 +172,8 @@ def _sort(data: Extract, projection: Projection, source: OsmSource, name: str) -
     for way, line, width in crossing_ways:
         if not crossing_nodes.intersection(way.nodes):
             crossings.append((way.id, line.buffer(width / 2, cap_style="flat")))
-    signalised = _signals(streets, joints, nodes)
-    mapped = []
-    for f in data.nodes:
-        category = category_of(f.tags)
-        if category is None:
-            continue
-        ((x, y),) = xy([f.coords])
-        if 0.0 <= x <= projection.size[0] and 0.0 <= y <= projection.size[1]:
-            mapped.append(Mapped(f.id, category, (float(x), float(y)), direction_of(f.tags)))
+    for s, k in lights.made:
+        crossings.append((f"n{s.nodes[k]}", crossing_at(s.points[k], s, k)))
     areas, heights = [], {}
     for f in data.areas:
         kind = area_kind(f.tags)
@@ -168,34 +193,160 @@ def _sort(data: Extract, projection: Projection, source: OsmSource, name: str) -
         source=source,
         projection=projection,
         streets=tuple(streets),
+        drawn=tuple(_drawn(streets, edges)),
         edges=tuple(edges),
         junctions=tuple(joints),
         walkways=tuple(walkways),
         areas=tuple(areas),
         heights=heights,
         crossings=tuple(crossings),
-        signalised=frozenset(signalised),
+        signalised=lights.junctions,
+        approaches=lights.approaches,
+        junction_walks=lights.walks,
+        signal_crossings=lights.crossings,
         mapped=tuple(mapped),
     )
 
 
-def _signals(streets, joints, nodes) -> set[int]:
-    """Junctions with traffic signals: mapped on the junction's node, or on a street within
-    :data:`SIGNAL_REACH` of it."""
-    out = set()
-    where = {j.node: np.asarray(j.position) for j in joints}
+def rooms(place: Place) -> list[tuple[Mapped, float]]:
+    """The mapped objects the ground gives way to (:data:`GIVE_WAY`), each with the radius (m)
+    kept clear around its point: its slimmest variant's (:func:`.objects.clearance`) and a
+    margin (:data:`.streets.GAP`)."""
+    return [(m, clearance(m.category) + GAP) for m in place.mapped if m.category in GIVE_WAY]
+
+
+def _drawn(streets: list[Street], edges: list[Edge]) -> list[Street]:
+    """The streets as drawn (see :attr:`Place.drawn`)."""
+    pieces: dict[str, list[Edge]] = {}
+    for e in edges:
+        pieces.setdefault(e.street.id, []).append(e)
+    out = []
+    for s in streets:
+        own = pieces.get(s.id, [])
+        if all(e.street is s for e in own):
+            out.append(s)
+        else:
+            out += [replace(e.street, points=e.points, nodes=e.nodes) for e in own]
+    return out
+
+
+@dataclass(frozen=True)
+class Lights:
+    """What a place's mapped traffic signals signalise (:func:`_lights`)."""
+
+    junctions: frozenset[int]
+    """Junction nodes with traffic signals."""
+    approaches: tuple[tuple[int, tuple[float, float]], ...]
+    """``(junction node, position)`` of the signals mapped on a signalised junction's approaches."""
+    walks: tuple[tuple[int, str], ...]
+    """``(junction node, OSM id)`` of the signalised crossings a signalised junction's plan serves."""
+    crossings: tuple[tuple[str, tuple[float, float], tuple], ...]
+    """``(OSM id, position, signals)`` of the crossings signalised on their own, with the
+    positions of the signals mapped for them on their street."""
+    made: tuple[tuple[Street, int], ...]
+    """``(street, vertex)`` of the signals that are signalised crossings of their own."""
+
+
+def _lights(streets: list[Street], joints: set[int], nodes: dict) -> Lights:
+    """What the map's signals signalise, in three rounds:
+
+    1. a ``highway=traffic_signals`` node on a junction's node, or on a street within
+       :data:`SIGNAL_REACH` of one (along it), signalises that junction: the light of the
+       approach it is on stands there;
+    2. a signalised crossing (``highway=crossing`` with ``crossing=traffic_signals`` or
+       ``crossing:signals=yes``) within :data:`SIGNAL_REACH` of a signalised junction is served by
+       that junction's plan; any other is signalised on its own;
+    3. a signal node further from every junction signalises the mapped crossing on its
+       street within :data:`CROSSING_REACH` of it on its own (the light of its approach
+       stands there), else it is a signalised crossing itself.
+    """
+    arcs = {s.id: np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(s.points, axis=0).T))]) for s in streets}
+
+    ends: dict[int, list[Street]] = defaultdict(list)
+    for s in streets:
+        ends[s.nodes[0]].append(s)
+        ends[s.nodes[-1]].append(s)
+
+    def nearest(s: Street, k: int, among) -> int | None:
+        """The node of ``among`` nearest along the streets to ``s``'s vertex ``k`` (on ``s``, or
+        on a street going on from an end of ``s``), within reach."""
+        arc = arcs[s.id]
+        near = [(abs(arc[k] - arc[j]), n) for j, n in enumerate(s.nodes) if n in among and j != k]
+        for at in (0, len(s.nodes) - 1):
+            base = abs(arc[k] - arc[at])
+            for t in ends[s.nodes[at]] if s.nodes[at] not in among else ():
+                if t is not s:
+                    i = 0 if t.nodes[0] == s.nodes[at] else len(t.nodes) - 1
+                    near += [
+                        (base + abs(arcs[t.id][i] - arcs[t.id][j]), n)
+                        for j, n in enumerate(t.nodes)
+                        if n in among
+                    ]
+        near = [x for x in near if x[0] <= SIGNAL_REACH]
+        return min(near)[1] if near else None
+
+    def tagged(n: int, test) -> bool:
+        f = nodes.get(n)
+        return f is not None and test(f.tags)
+
+    def xy(s: Street, k: int) -> tuple[float, float]:
+        return (float(s.points[k][0]), float(s.points[k][1]))
+
+    lit, approaches, walks, own, made = set(), {}, {}, {}, []
     for s in streets:
         for k, n in enumerate(s.nodes):
-            f = nodes.get(n)
-            if f is None or f.tags.get("highway") != "traffic_signals":
+            if not tagged(n, is_signal):
                 continue
-            if n in where:
-                out.add(n)
+            if n in joints:
+                lit.add(n)
+            elif (j := nearest(s, k, joints)) is not None:
+                lit.add(j)
+                approaches[n] = (j, xy(s, k))
+    for s in streets:
+        for k, n in enumerate(s.nodes):
+            if n in joints or not tagged(n, is_signal_crossing):
                 continue
-            near = [(float(np.hypot(*(p - s.points[k]))), j) for j, p in where.items() if j in s.nodes]
-            if near and min(near)[0] <= SIGNAL_REACH:
-                out.add(min(near)[1])
-    return out
+            if (j := nearest(s, k, lit)) is not None:
+                walks[n] = (j, f"n{n}")
+            else:
+                own.setdefault(f"n{n}", (xy(s, k), []))
+    for s in streets:
+        arc = arcs[s.id]
+        for k, n in enumerate(s.nodes):
+            if n in joints or not tagged(n, is_signal) or nearest(s, k, joints) is not None:
+                continue
+            near = [
+                (abs(arc[k] - arc[j]), j)
+                for j, m in enumerate(s.nodes)
+                if m not in joints and tagged(m, lambda t: t.get("highway") == "crossing")
+            ]
+            near = [w for w in near if w[0] <= CROSSING_REACH]
+            j = min(near)[1] if near else k
+            if f"n{s.nodes[j]}" not in own:
+                own[f"n{s.nodes[j]}"] = (xy(s, j), [])
+                if j == k:
+                    made.append((s, k))
+            if j != k and xy(s, k) not in own[f"n{s.nodes[j]}"][1]:
+                own[f"n{s.nodes[j]}"][1].append(xy(s, k))
+    return Lights(
+        frozenset(lit),
+        tuple(v for _, v in sorted(approaches.items())),
+        tuple(v for _, v in sorted(walks.items())),
+        tuple((fid, at, tuple(sorted(lights))) for fid, (at, lights) in sorted(own.items())),
+        tuple(made),
+    )
+
+
+def is_signal(tags: dict) -> bool:
+    """A ``highway=traffic_signals`` node."""
+    return tags.get("highway") == "traffic_signals"
+
+
+def is_signal_crossing(tags: dict) -> bool:
+    """A signalised crossing node (``crossing=traffic_signals`` or ``crossing:signals=yes``)."""
+    return tags.get("highway") == "crossing" and (
+        tags.get("crossing") == "traffic_signals" or tags.get("crossing:signals") == "yes"
+    )
 
 
 def _height(tags: dict) -> float | None:

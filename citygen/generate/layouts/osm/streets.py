@@ -22,6 +22,12 @@ node where three or more street edges meet. Written in road blocks (:mod:`cityge
   junction at its end, and to the edge it continues at a node of two edges; an edge too short
   for a piece between two junctions joins their blocks to each other.
 
+A street gives way to the furniture and trees the map puts beside it (:func:`give_way`): an
+edge whose drawn roadway or curb would reach a mapped object's point (and the room its slimmest
+variant needs) is drawn narrower, down to :data:`MIN_LANE` a lane, so the object stands on the
+sidewalk on its point; an object the floor cannot clear (mapped in the middle of the road)
+does not narrow it.
+
 A block's ``lanes`` are per direction and its ``lane_width`` what makes the mapped width. A
 one-way street (:func:`one_way`: ``oneway=yes/true/1/-1/reverse``, a roundabout's ring) is
 written as ``one_way`` straights laid in its driving direction (``in`` where traffic comes
@@ -34,9 +40,10 @@ import itertools
 import math
 import re
 from collections import defaultdict
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
+import shapely
 from shapely.geometry import LineString, box
 from shapely.ops import substring
 
@@ -70,6 +77,13 @@ CURB = 0.15
 FIT_DEG = 20.0
 #: Curb radius at a junction block's corners, in metres.
 CORNER = 3.0
+#: Narrowest lane (m) a street is drawn with where it gives way to a mapped object.
+MIN_LANE = 2.5
+#: Room (m) kept between a mapped object's slimmest base and the curb.
+GAP = 0.05
+#: A street is narrowed for an object it can bring this near (m) to clearing: the object's
+#: own nudge (:data:`~.objects.NUDGE`) does the rest.
+REACH = 0.4
 #: A junction block's arms reach this far past the widest street's edge and corner, in metres
 #: (room for a crosswalk), unless a neighbouring junction is nearer.
 ARM_ROOM = 6.0
@@ -232,6 +246,45 @@ def edges_of(streets: list[Street]) -> tuple[list[Edge], dict[int, int]]:
             if b > a:
                 edges.append(Edge(s, (s.nodes[a], s.nodes[b]), s.points[a : b + 1]))
     return edges, dict(uses)
+
+
+def give_way(edges: list[Edge], objects: list[tuple[tuple[float, float], float]]) -> list[Edge]:
+    """``edges`` with each street drawn narrower where a mapped object stands beside it.
+
+    ``objects`` are ``(position, room)``: a mapped object's point (m) and the radius its
+    slimmest variant needs. An edge's half width becomes at most the object's distance from
+    its centre line less the room, the curb and :data:`GAP`, at least :data:`MIN_LANE` a lane;
+    an edge that even at that floor would keep the object more than :data:`REACH` off clear
+    ground is left as it is. Edges not narrowed are the same objects.
+
+    >>> street_ = street("w1", {"highway": "residential"}, np.array([[0.0, 0.0], [50.0, 0.0]]), (1, 2))
+    >>> (e,) = give_way(edges_of([street_])[0], [((20.0, 2.9), 0.14)])
+    >>> e.street.width, street_.width
+    (5.12, 6.0)
+    """
+    if not objects:
+        return edges
+    points = shapely.points([p for p, _ in objects])
+    rooms = np.array([r for _, r in objects])
+    tree = shapely.STRtree(points)
+    out = []
+    for e in edges:
+        s = e.street
+        line = LineString(e.points)
+        near = tree.query(line, predicate="dwithin", distance=s.half + CURB + float(rooms.max()))
+        half = s.half
+        floor = min(s.half, s.lanes * MIN_LANE)
+        for i in sorted(near.tolist()):
+            d = float(line.distance(points[i]))
+            want = d - rooms[i] - CURB - GAP
+            if want >= half or want < floor - REACH:
+                continue
+            half = max(floor, want)
+        if half < s.half:
+            s = replace(s, width=round(float(2 * half), 3))
+            e = Edge(s, e.nodes, e.points)
+        out.append(e)
+    return out
 
 
 def _heading(points: np.ndarray, reach: float = 5.0) -> float:
