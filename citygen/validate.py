@@ -191,7 +191,8 @@ def _check_junction(block: Junction, where: str) -> list[Problem]:
 
 def _check_signals(scene: Scene) -> list[Problem]:
     """Each signal's junction is a block, its phases name that block's approach lanes and
-    crosswalk zones, and its cycle is the sum of the phases' times."""
+    crosswalk zones (or a crosswalk zone its phases serve, and no lanes), and its cycle is the
+    sum of the phases' times."""
     problems: list[Problem] = []
     blocks = {b.id: b for b in scene.blocks}
     crosswalks = {z.id for z in scene.zones if z.kind == "crosswalk"}
@@ -208,9 +209,25 @@ def _check_signals(scene: Scene) -> list[Problem]:
             )
         seen.setdefault(signal.id, i)
         block = blocks.get(signal.junction)
-        if block is None:
+        served = {c for p in signal.phases for c in p.crosswalks}
+        if block is None and signal.junction in crosswalks and signal.junction in served:
+            # a pedestrian signal on no street (a crossing of tram tracks): no lanes to name
+            for j, phase in enumerate(signal.phases):
+                for k, lane in enumerate(phase.lanes):
+                    problems.append(
+                        Problem(
+                            f"{where}.phases[{j}].lanes[{k}]",
+                            f"no lanes on the signal of crosswalk {signal.junction!r} (on no street)",
+                            repr(lane),
+                        )
+                    )
+        elif block is None:
             problems.append(
-                Problem(f"{where}.junction", "the id of a block in $.blocks", repr(signal.junction))
+                Problem(
+                    f"{where}.junction",
+                    "the id of a block in $.blocks (or of a crosswalk zone its phases serve)",
+                    repr(signal.junction),
+                )
             )
         else:
             sockets = [s.id for s in block.sockets]

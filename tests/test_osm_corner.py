@@ -102,8 +102,9 @@ def signal_at(scene, xy) -> float:
     p = Point(xy)
     near = [Polygon(z.polygon, z.holes).distance(p) for z in scene.zones if z.id in served]
     for s in scene.signals:
-        if blocks[s.junction].kind != "straight":
-            near.append(block_geometry(blocks[s.junction]).outline.distance(p))
+        block = blocks.get(s.junction)  # none: a pedestrian signal's crosswalk (tram tracks)
+        if block is not None and block.kind != "straight":
+            near.append(block_geometry(block).outline.distance(p))
         for h in s.heads:
             across = (15 * math.sin(h.yaw), -15 * math.cos(h.yaw))  # towards the road's other side
             near.append(shapely.LineString([h.position, np.add(h.position, across)]).distance(p))

@@ -22,6 +22,7 @@ from citygen.generate.layouts.osm.place import load_place
 from citygen.generate.pipeline import generate
 from citygen.generate.places import left_out
 from citygen.geometry.roads import block_geometry
+from citygen.runner.agents.signals import SignalPlan
 from tests.conftest import ROOT
 from tests.test_osm import building_of, mapped_heights
 from tests.test_osm_corner import signal_at, signal_nodes
@@ -137,7 +138,7 @@ def test_every_junction_node_in_the_box_is_a_junction_block_on_it(place):
 
 
 #: Signalised crossings of tram tracks (railway=tram ways and footway=crossing ways), on no
-#: street: the scene draws no tram tracks, so they have nothing to signalise.
+#: street: the scene draws no tram tracks, so each is a pedestrian signal of its own.
 TRAM_CROSSINGS = {
     "n292727224",
     "n298274868",
@@ -149,20 +150,46 @@ TRAM_CROSSINGS = {
 }
 
 
-def test_every_mapped_signal_on_a_street_is_a_signal_where_the_map_puts_it(place, mapped):
+def test_every_mapped_signal_is_a_signal_where_the_map_puts_it(place, mapped):
     # Before: a junction with a signal on its node or within 30 m along its street got a plan
     # and nothing else did: 35 of the 56 signal nodes were more than 0.5 m from any signalised
     # junction block, served crosswalk or light's stop line (signalised crossings beside
-    # junctions and mid-block, signals on approaches past the junction block).
+    # junctions and mid-block, signals on approaches past the junction block); then the 7
+    # signalised crossings of tram tracks, on no street, were still none.
     _, scene = place
     nodes, _ = mapped
     frame = box(*scene.bounds.min, *scene.bounds.max)
     lights = {nid: v for nid, v in signal_nodes(nodes).items() if frame.contains(Point(v[0]))}
     assert len(lights) == 56
     assert sum(t.get("highway") == "traffic_signals" for _, t in lights.values()) == 23
-    assert {nid for nid, (xy, _) in lights.items() if signal_at(scene, xy) > 0.5} == TRAM_CROSSINGS
-    kinds = Counter({b.id: b.kind for b in scene.blocks}[s.junction] for s in scene.signals)
-    assert kinds["straight"] >= 2 and sum(kinds.values()) - kinds["straight"] >= 20
+    assert {nid for nid, (xy, _) in lights.items() if signal_at(scene, xy) > 0.5} == set()
+    kinds = Counter({b.id: b.kind for b in scene.blocks}.get(s.junction, "walk") for s in scene.signals)
+    assert kinds["straight"] >= 2 and sum(kinds.values()) - kinds["straight"] - kinds["walk"] >= 20
+
+
+def test_a_crossing_of_tram_tracks_is_a_pedestrian_signal_with_its_lights(place, mapped):
+    # The tram crossings: a crosswalk where the footway crosses the tracks, walk only after
+    # the trams' phase (no lanes: no vehicle the scene drives waits for it), a light beside it.
+    _, scene = place
+    nodes, _ = mapped
+    zones = {z.id: Polygon(z.polygon, z.holes) for z in scene.zones}
+    walks = [s for s in scene.signals if s.junction in zones]
+    assert len(walks) >= 3  # the three footways of the 7 nodes (and one beside a street)
+    plan = SignalPlan(scene.signals)
+    for s in walks:
+        assert [(p.id, p.lanes) for p in s.phases] == [("tracks", ()), ("walk", ())]
+        assert s.phases[1].crosswalks == (s.junction,)
+        tracks = s.phases[0].green + s.phases[0].amber + s.phases[0].red
+        assert plan.walk(s.junction, s.offset + 1.0) is False
+        assert plan.walk(s.junction, s.offset + tracks + 1.0) is True
+    served = {s.junction: s for s in walks}
+    for nid in TRAM_CROSSINGS:
+        (zid,) = [z for z in served if zones[z].distance(Point(nodes[nid][0])) <= 0.5]
+        assert zid.startswith("crosswalk-w"), nid
+    # a light stands beside each crosswalk (7 of the 8 ends: one beside a street finds no spot)
+    for s in walks:
+        near = [p for p in scene.placements if p.id.startswith(f"{s.id}-light-")]
+        assert near and all(zones[s.junction].distance(Point(p.position[:2])) < 3.0 for p in near), s.id
 
 
 def test_the_generate_command_names_what_it_left_out(tmp_path, cli):

@@ -11,7 +11,8 @@ the crosswalks over the *other* arms (people walk beside the traffic that has gr
 get longer greens), then :data:`AMBER` and :data:`ALL_RED`. Offsets make a green wave for
 traffic going east at :data:`WAVE_SPEED`. Roundabouts are left unsignalised (vehicles yield),
 as are curves. A mid-block crossing is signalised only where a real place maps it so
-(:func:`signalise_crossing`: a straight block's plan of a traffic phase and a walk phase).
+(:func:`signalise_crossing`: a straight block's plan of a traffic phase and a walk phase),
+and a crossing of no street where it maps signals over tram tracks (:func:`signalise_walk`).
 
 Nothing is drawn from a generator: the plan is a function of the blocks and zones, so it is
 the same for the same streets and costs no seeds.
@@ -45,6 +46,8 @@ HEAD_SIDE = (1.0, 0.6, 1.5, 0.3)
 """Distances (m) beyond the road's edge tried for a light's pole, on the sidewalk or curb."""
 LIGHT_ASSET = "traffic_light/0000"
 """The catalog variant of the lights that stand at signalised junctions."""
+BESIDE_PATHS = ("sidewalk", "curb", "bike_lane", "trail", "plaza", "vegetation")
+"""Ground a pedestrian signal's light (of a plan with no lanes) may stand on."""
 GENERAL_AXIS = math.radians(25.0)
 """Two arms of a general junction this near (rad) one axis share a phase: a street going on
 across it, however the map bends it."""
@@ -212,6 +215,43 @@ def signalise_crossing(block: Straight, crosswalks: Sequence[Zone], lights: Sequ
     )
 
 
+def signalise_walk(crosswalks: Sequence[Zone], ends: Sequence) -> Signal:
+    """The plan of a pedestrian signal on no street (a real place's footway crossing tram
+    tracks, which the scene does not draw): a ``tracks`` phase serving nothing (the trams'
+    turn; no vehicle the scene drives waits for it), then a walk phase (the ``crosswalks``,
+    zones). It belongs to its first crosswalk (``junction`` names that zone), its lights stand
+    at ``ends`` (``((x, y), yaw)``: each end of the crossing, facing out along it).
+
+    >>> from citygen.spec.zones import Zone
+    >>> walk = Zone(id="crosswalk-w9", kind="crosswalk", polygon=[[0, 0], [4, 0], [4, 2], [0, 2]])
+    >>> s = signalise_walk([walk], [((0.0, 0.0), math.pi), ((4.0, 2.0), 0.0)])
+    >>> s.id, s.junction, [(p.id, p.lanes, p.crosswalks) for p in s.phases], s.cycle
+    ('signal-crosswalk-w9', 'crosswalk-w9', [('tracks', (), ()), ('walk', (), ('crosswalk-w9',))], 41.7)
+    """
+    (p, _), (q, _) = ends[0], ends[-1]
+    phases = (
+        Phase(id="tracks", green=BASE_GREEN + GREEN_PER_LANE, amber=AMBER, red=ALL_RED),
+        Phase(
+            id="walk",
+            crosswalks=tuple(z.id for z in crosswalks),
+            green=round(WALK_GREEN + math.dist(p, q) / WALK_SPEED, 1),
+            amber=AMBER,
+            red=ALL_RED,
+        ),
+    )
+    cycle = sum(ph.green + ph.amber + ph.red for ph in phases)
+    return Signal(
+        id=f"signal-{crosswalks[0].id}",
+        junction=crosswalks[0].id,
+        phases=phases,
+        cycle=cycle,
+        offset=round(((p[0] + q[0]) / 2 / WAVE_SPEED) % cycle, 1),
+        heads=tuple(
+            Head(position=_xy(np.asarray(xy)), yaw=math.remainder(yaw, 2 * math.pi)) for xy, yaw in ends
+        ),
+    )
+
+
 def _xy(p: np.ndarray) -> tuple[float, float]:
     return (round(float(p[0]), 4) + 0.0, round(float(p[1]), 4) + 0.0)
 
@@ -224,20 +264,27 @@ def place_lights(
     keep: frozenset[str] = frozenset(),
 ) -> tuple[Placement, ...]:
     """``placements`` with a traffic light at each signal head: its pole moved out from the
-    road's edge (:data:`HEAD_SIDE`) to the first spot on sidewalk or curb; objects its base
-    would touch (not buildings) make way, but for those named in ``keep`` (a real place's
-    mapped objects), which no light's spot may touch (no spot: no light there)."""
+    road's edge (:data:`HEAD_SIDE`) to the first spot on sidewalk or curb (a pedestrian
+    signal's, with no lanes, on any ground of :data:`BESIDE_PATHS`: beside a footway in a
+    park); objects its base would touch (not buildings) make way, but for those named in
+    ``keep`` (a real place's mapped objects), which no light's spot may touch (no spot: no
+    light there)."""
 
     def base_at(x: float, y: float, yaw: float) -> Polygon:
         return base_of(Placement(id="light", asset=LIGHT_ASSET, position=(x, y, 0.0), yaw=yaw))
 
-    ground = [Polygon(z.polygon, z.holes) for z in zones if z.kind in ("sidewalk", "curb")]
-    tree = shapely.STRtree(ground)
+    def ground_of(kinds) -> tuple[list[Polygon], shapely.STRtree]:
+        polys = [Polygon(z.polygon, z.holes) for z in zones if z.kind in kinds]
+        return polys, shapely.STRtree(polys)
+
+    by_road = ground_of(("sidewalk", "curb"))
+    by_path = ground_of(BESIDE_PATHS) if any(not _has_lanes(s) for s in signals) else by_road
     kept = [base_of(p) for p in placements if p.id in keep]
     fixed = shapely.STRtree(kept) if kept else None
     lights: list[Placement] = []
     bases: list[Polygon] = []
     for s in signals:
+        ground, tree = by_road if _has_lanes(s) else by_path
         for k, head in enumerate(s.heads):
             yaw = head.yaw
             d = np.array([math.cos(yaw), math.sin(yaw)])
@@ -273,3 +320,7 @@ def place_lights(
         if len(tree_l.query(base_of(p).buffer(0.1), predicate="intersects")) == 0:
             kept.append(p)
     return (*kept, *lights)
+
+
+def _has_lanes(signal: Signal) -> bool:
+    return any(p.lanes for p in signal.phases)

@@ -2,7 +2,9 @@
 
 A :class:`Signal` belongs to one junction block (``junction``, a block id), or to the
 ``straight`` block a signalised mid-block crossing crosses (its approach lanes ``in:<k>`` and,
-both ways, ``out:<k>``; a real place's). Its phases run in
+both ways, ``out:<k>``; a real place's), or to the crosswalk zone of a pedestrian signal on
+no street (a real place's footway crossing tram tracks, which no scene draws: ``junction``
+names that zone, served by a phase, and no phase names a lane). Its phases run in
 order, each for ``green``, then ``amber``, then ``red`` seconds (the all-red clearance before
 the next phase); ``cycle`` is their sum and ``offset`` shifts the whole plan in time (phase 0
 turns green at ``t = offset`` and every ``cycle`` seconds after). A lane not served by the
@@ -76,7 +78,8 @@ class Signal(SpecModel):
 
     id: Identifier
     junction: Identifier
-    """The junction's block id (a straight's, for a mid-block crossing)."""
+    """The junction's block id (a straight's, for a mid-block crossing; a crosswalk zone's,
+    for a pedestrian signal on no street)."""
     phases: tuple[Phase, ...] = Field(min_length=1, max_length=MAX_PHASES)
     cycle: bounded_float(1.0, 3600.0)
     """Length of the plan, in seconds: the sum of the phases' green, amber and red."""

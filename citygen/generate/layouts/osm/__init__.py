@@ -9,7 +9,8 @@ box (:class:`~citygen.spec.osm.OsmArea`); nothing is fetched from the network.
   crosswalks, roadway, curbs, sidewalks, walkways, plazas, parking, water and vegetation as
   mapped, tiling the box, giving way to the mapped furniture and trees (:mod:`.objects`); a
   signal plan at every junction the map gives traffic signals, its lights where the map puts
-  them, and at every signalised crossing of its own (:func:`_signals`);
+  them, at every signalised crossing of its own, and at every signalised crossing of
+  tram tracks (a pedestrian signal on no street; :func:`_signals`);
 - stage 3: the terrain flat (the config's terrain mix; no height source is read), with the
   city's curbs, curb ramps and front steps (:func:`~citygen.generate.layouts.city.terrain.city_features`);
 - stage 4: the mapped furniture and trees where the map puts them (:mod:`.objects`), then
@@ -45,7 +46,7 @@ from citygen.generate.layouts.osm.place import Place, check_area, load_place, ro
 from citygen.generate.layouts.osm.project import Projection
 from citygen.generate.layouts.osm.streets import blocks as street_blocks
 from citygen.generate.placement import base_of, place_objects
-from citygen.generate.signals import signalise, signalise_crossing
+from citygen.generate.signals import signalise, signalise_crossing, signalise_walk
 from citygen.generate.task import Endpoints, street_route
 from citygen.generate.zoning import polygons
 from citygen.geometry.features import feature_polygon
@@ -119,7 +120,11 @@ class Osm(City):
         blocks = street_blocks(list(place.edges), list(place.junctions), size)
         spots = [(m.position, r) for m, r in rooms(place)]
         layers, sidewalks = street_ground(
-            list(place.drawn), list(place.junctions), list(place.crossings), spots
+            list(place.drawn),
+            list(place.junctions),
+            list(place.crossings),
+            spots,
+            [(fid, walk) for fid, walk, _ in place.track_crossings],
         )
         room = shapely.union_all([Point(p).buffer(r, quad_segs=4) for p, r in spots])
         zones = plan_ground(size, layers, sidewalks, list(place.walkways), list(place.areas), room)
@@ -195,7 +200,9 @@ def _signals(place: Place, blocks: tuple, zones: tuple[Zone, ...]) -> tuple[Sign
       approach's signal (at the road's edge beside it: the stop line is there);
     - at each signalised crossing of its own, on the straight block it lies on
       (:func:`~citygen.generate.signals.signalise_crossing`), or the junction block's, which
-      is then signalised.
+      is then signalised;
+    - at each signalised crossing of no street (a footway's over tram tracks), a plan of its
+      own crosswalk (:func:`~citygen.generate.signals.signalise_walk`).
     """
     walks: dict[str, list[Zone]] = defaultdict(list)
     for z in zones:
@@ -231,6 +238,7 @@ def _signals(place: Place, blocks: tuple, zones: tuple[Zone, ...]) -> tuple[Sign
         served += inside[s.junction]
         plans.append(_mapped_lights(s, by_id[s.junction], here, served, zones))
     plans += [signalise_crossing(by_id[bid], here, lights) for bid, (here, lights) in on_straights.items()]
+    plans += [signalise_walk(walks[fid], ends) for fid, _, ends in place.track_crossings if walks.get(fid)]
     return tuple(plans)
 
 

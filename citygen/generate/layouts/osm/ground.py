@@ -6,8 +6,9 @@ first layer covering it, so the zones tile the box exactly):
 1. **building** footprints as mapped (closed ways and multipolygons with their courtyards),
    each its own zone named by its OSM id (``building-w45``), never merged with its neighbour;
 2. **crosswalks** at mapped crossings (``highway=crossing`` nodes on a street,
-   ``footway=crossing`` ways), each named by its OSM id, then across every arm of every
-   junction (:mod:`.streets`) where no crossing is mapped near it;
+   ``footway=crossing`` ways, a footway's signalised crossing of tram tracks), each named by
+   its OSM id, then across every arm of every junction (:mod:`.streets`) where no crossing
+   is mapped near it;
 3. **roadway**: each street's centre line widened to its width, the corners where streets
    meet rounded to the curb radius; **curb** around it;
 4. **bike_lane**: mapped cycleways;
@@ -94,11 +95,13 @@ def street_ground(
     joints: list[Junction],
     crossings: list[tuple[str, Polygon]],
     rooms: list[tuple[tuple[float, float], float]] = (),
+    tracks: list[tuple[str, Polygon]] = (),
 ):
     """The streets' layers: crosswalks (mapped ones named), roadway, curbs, sidewalk strips.
     ``rooms`` are mapped objects' points and the radius (m) they need: the corners where
     streets meet are not rounded over them (their streets are drawn narrower beside them,
-    :func:`.streets.give_way`)."""
+    :func:`.streets.give_way`). ``tracks`` are ``(OSM id, crosswalk)`` of mapped crossings
+    of no street (a footway's over tram tracks), crosswalks as mapped."""
     lines = shapely.union_all(
         [LineString(s.points).buffer(s.half, quad_segs=QUAD_SEGS) for s in streets], grid_size=GRID
     )
@@ -110,6 +113,7 @@ def street_ground(
             roads = roads.difference(keep)
     curbs = roads.buffer(CURB, quad_segs=QUAD_SEGS)
     mapped = [(f"{MAPPED}{fid}", shapely.intersection(poly, curbs)) for fid, poly in crossings]
+    mapped += [(f"{MAPPED}{fid}", poly) for fid, poly in tracks]
     near = shapely.union_all([p for _, p in crossings]).buffer(CROSSING_NEAR) if crossings else Polygon()
     walks = []
     for j in joints:

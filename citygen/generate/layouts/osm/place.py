@@ -18,11 +18,12 @@ from pathlib import Path
 
 import numpy as np
 import shapely
+import shapely.ops
 from shapely.geometry import LineString, Polygon
 
 from citygen.errors import SpecError
 from citygen.generate.layouts.osm.buildings import LEVEL
-from citygen.generate.layouts.osm.ground import WALKWAYS, area_kind, crossing_at
+from citygen.generate.layouts.osm.ground import CROSSWALK, WALKWAYS, area_kind, crossing_at
 from citygen.generate.layouts.osm.objects import SLIM, Mapped, category_of, clearance, direction_of
 from citygen.generate.layouts.osm.project import Projection
 from citygen.generate.layouts.osm.read import Extract, read_extract
@@ -83,6 +84,10 @@ class Place:
     """``(OSM id, position, signals)`` of the crossings signalised on their own, each named by
     its crosswalk's id (``crosswalk-<OSM id>``), with the positions of the signals mapped for
     it on its street (where its lights stand)."""
+    track_crossings: tuple[tuple[str, Polygon, tuple], ...]
+    """``(OSM id, crosswalk, ends)`` of the footways and cycleways with signalised crossings
+    on no street (of tram or rail tracks, which the scene does not draw), by
+    :func:`_track_crossings`."""
     mapped: tuple[Mapped, ...]
 
 
@@ -128,7 +133,7 @@ def _sort(data: Extract, projection: Projection, source: OsmSource, name: str) -
         return projection.xy(arr[:, 0], arr[:, 1])
 
     frame = shapely.box(0.0, 0.0, *projection.size)
-    streets, walkways, crossing_ways = [], [], []
+    streets, walkways, crossing_ways, paths = [], [], [], []
     for way in data.ways:
         points = xy(way.coords)
         if is_street(way.tags):
@@ -138,6 +143,7 @@ def _sort(data: Extract, projection: Projection, source: OsmSource, name: str) -
             width = _float(way.tags.get("width")) or width
             line = LineString(points)
             walkways.append((kind, line.buffer(width / 2, quad_segs=4)))
+            paths.append((way, line, width))
             if way.tags.get("footway") == "crossing":
                 crossing_ways.append((way, line, width))
     if not any(LineString(s.points).intersects(frame) for s in streets):
@@ -204,8 +210,43 @@ def _sort(data: Extract, projection: Projection, source: OsmSource, name: str) -
         approaches=lights.approaches,
         junction_walks=lights.walks,
         signal_crossings=lights.crossings,
+        track_crossings=_track_crossings(paths, streets, nodes, frame),
         mapped=tuple(mapped),
     )
+
+
+def _track_crossings(paths: list, streets: list[Street], nodes: dict, frame: Polygon) -> tuple:
+    """The signalised crossings (:func:`is_signal_crossing`) mapped in ``frame`` on a footway
+    or cycleway of ``paths`` (``(way, line, width)``) and on no street: where it crosses tram
+    or rail tracks, which the scene does not draw. Per way, its OSM id, its crosswalk (the
+    way as wide as mapped, from :data:`~.ground.CROSSWALK` / 2 before its first such node to
+    as far past its last: the tracks it crosses) and its two ends (``((x, y), yaw)``: facing
+    out along the way, on the way's edge to the left of that heading), where its lights
+    stand."""
+    on_streets = {n for s in streets for n in s.nodes}
+    out = []
+    for way, line, width in paths:
+        at = [
+            line.project(shapely.Point(line.coords[k]))
+            for k, n in enumerate(way.nodes)
+            if n not in on_streets
+            and n in nodes
+            and is_signal_crossing(nodes[n].tags)
+            and frame.contains(shapely.Point(line.coords[k]))
+        ]
+        if not at:
+            continue
+        a, b = max(min(at) - CROSSWALK / 2, 0.0), min(max(at) + CROSSWALK / 2, line.length)
+        walk = shapely.ops.substring(line, a, b)
+        p, q = np.asarray(walk.coords[0]), np.asarray(walk.coords[-1])
+        d = (q - p) / max(float(np.hypot(*(q - p))), 1e-9)
+        left = np.array([-d[1], d[0]]) * width / 2
+        ends = (
+            ((float(p[0] - left[0]), float(p[1] - left[1])), math.atan2(-d[1], -d[0])),
+            ((float(q[0] + left[0]), float(q[1] + left[1])), math.atan2(d[1], d[0])),
+        )
+        out.append((way.id, walk.buffer(width / 2, cap_style="flat"), ends))
+    return tuple(out)
 
 
 def rooms(place: Place) -> list[tuple[Mapped, float]]:
