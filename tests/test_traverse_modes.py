@@ -150,7 +150,7 @@ def test_the_cli_runs_the_traverse_on_learned_legs_and_refuses_legs_it_cannot_ha
     scene = save_scene(_tiny_traverse(time_limit=1.0), tmp_path / "tiny.json")
     result = cli("run", scene, "--locomotion", "learned", "--policy", "human-ai-mode-1")
     assert result.code == 0, result
-    assert "quadruped robot on learned legs, human-ai-mode-1 policy" in result.out and "falls" in result.out
+    assert "quadruped robot on learned legs, human-ai-mode-1 policy" in result.out and "Falls" in result.out
     for robot, word in (("humanoid", "shipped for: quadruped"), ("wheeled", "no legs")):
         result = cli("bench", "--task", "traverse", "-n", "1", "--robot", robot, "--locomotion", "learned")
         lines = result.err.strip().splitlines()
