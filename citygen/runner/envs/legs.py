@@ -1,8 +1,9 @@
-"""Navigation on learned legs: a legged robot that walks where navigation sends it on its
-general locomotion model instead of the ideal servo on its base.
+"""Navigation and the traverse on learned legs: a legged robot that walks where navigation
+sends it on its general locomotion model instead of the ideal servo on its base.
 
 ``make_env("nav-static", robot="quadruped", locomotion="learned")`` (``--locomotion
-learned`` on ``citygen bench``, ``run`` and ``train``; :data:`LOCOMOTION`) gives the
+learned`` on ``citygen bench``, ``run`` and ``train``; :data:`LOCOMOTION`; the same for
+``"traverse"`` on ``bench`` and ``run``) gives the
 :class:`~citygen.runner.envs.nav.NavEnv` a :class:`LearnedLegs`: each navigation step's
 action, the velocity ``(v, w)`` the servo would track, becomes the velocity command
 ``(vx, vy, wz) = (v, 0, w)`` of the robot's general locomotion model, clipped into the
@@ -17,7 +18,9 @@ locomotion. A fall (LocoEnv's rule: the body, not the legs, pressing on the grou
 more than :data:`~citygen.runner.envs.loco.FALL_FORCE` N, checked after every 50 Hz step)
 ends the navigation episode as leaving the scene does: a failure (success 0, SPL 0, the
 route completed up to the fall, reward -100), counted by the episode's ``fall_rate``
-metric (100 when it ended in a fall, else 0).
+metric (100 when it ended in a fall, else 0); on the traverse it is a failed trial instead
+(:mod:`~citygen.runner.envs.traverse`). :meth:`LearnedLegs.use` swaps in one of the robot's
+shipped terrain models between two navigation steps (the traverse's Human-AI-Mode-1).
 """
 
 from __future__ import annotations
