@@ -61,6 +61,8 @@ def test_the_traverse_walks_on_learned_legs_and_a_fall_is_a_failed_trial():
     assert not env.legs.fell and not env.legs.last_action.any() and not env.legs.command.any()
     x, y, _, _ = env.handle.pose(env.data)
     assert math.dist((x, y), (0.8, 5.0)) < 0.05 and env.data.xmat[env.handle.base_id][8] > 0.95
+    # The reset step records where the robot was put, so Speed leaves the jump back out.
+    assert math.dist(env.recorder.positions[-1], (x, y)) < 1e-9 and env.recorder.reset[-1]
     while not (terminated or truncated):
         _, _, terminated, truncated, info = env.step(np.zeros(2))
     m = info["metrics"]

@@ -138,6 +138,9 @@ class TraverseEnv(NavEnv):
                 self.legs.reset()
             self.attempts += 1
             self.falls += fell
+            # The step ends where the robot was put: its recorded position is the anchor, and
+            # the reset step, not the next one, carries the jump that Speed leaves out.
+            x, y = self.handle.pose(self.data)[:2]
             self._best, self._since_progress = math.inf, 0.0
             reset = True
         if done:
