@@ -27,13 +27,15 @@ MAX_JOBS = 256
 MAX_FRAMES = 2_000
 
 
-#: ``--locomotion``: how a legged robot moves in navigation (citygen.runner.envs.legs.LOCOMOTION).
+#: ``--locomotion``: how a legged robot moves in navigation and the traverse
+#: (citygen.runner.envs.legs.LOCOMOTION).
 Locomotion = Annotated[
     str,
     typer.Option(
         "--locomotion",
-        help="Navigation with a legged robot: servo (the ideal locomotion servo on its base) or learned "
-        "(its legs walked by its general locomotion model at 50 Hz).",
+        help="Navigation and the traverse with a legged robot: servo (the ideal locomotion servo on its "
+        "base) or learned (its legs walked by its general locomotion model at 50 Hz; human-ai-mode-1 "
+        "swaps in its terrain models by the ground ahead).",
     ),
 ]
 
@@ -98,8 +100,8 @@ def bench(
             "--policy",
             "-p",
             help="random, planner (navigation, traverse), stand, trot (legged locomotion), human, ai, "
-            "shared-cautious, shared-efficient (traverse); ppo (the shipped learned baseline) or a model "
-            "file of `citygen train` (.npz, .zip).  "
+            "human-ai-mode-1, human-ai-mode-2, shared-cautious, shared-efficient (traverse); ppo "
+            "(the shipped learned baseline) or a model file of `citygen train` (.npz, .zip).  "
             "[default: planner; trot for locomotion; ai for the traverse]",
         ),
     ] = None,

@@ -30,10 +30,10 @@ def env_class(task: str) -> type:
 
 def make_env(task: str, scene: Scene | str | Path | None = None, **kwargs: Any):
     """The environment of a task kind (``"nav-static"``) on a scene or a split.
-    ``locomotion="learned"`` walks a legged robot through a navigation task on its general
-    locomotion model (:mod:`citygen.runner.envs.legs`) instead of the ideal servo
-    (``"servo"``, the default); a locomotion task always runs its legs and takes only the
-    default."""
+    ``locomotion="learned"`` walks a legged robot through a navigation task or the traverse
+    on its general locomotion model (:mod:`citygen.runner.envs.legs`) instead of the ideal
+    servo (``"servo"``, the default); a locomotion task always runs its legs and takes only
+    the default."""
     if family(task) == "loco" and (walk := kwargs.pop("locomotion", "servo")) != "servo":
         raise SpecError(f"--locomotion {walk}: a navigation option; {task} always runs its legs")
     return env_class(task)(task, scene, **kwargs)

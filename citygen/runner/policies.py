@@ -11,10 +11,14 @@ so a baseline may read privileged state such as the occupancy map and the agents
 - ``stand``, ``trot`` (locomotion): the PD stand and trot controllers of
   :mod:`citygen.runner.control.gaits`; for a biped (the ``humanoid``) the stand and the scripted
   walk of :mod:`citygen.runner.control.gaits_biped`;
-- traverse control modes ``human``, ``ai``, ``shared-cautious``, ``shared-efficient``:
-  who drives is decided at *decision points* (every :data:`DECISION_INTERVAL` m along the
-  route) from the risk ahead (:func:`risk`); a person is a pluggable :class:`Driver`, with
-  :class:`ScriptedOracle` standing in for one in tests and benchmarks;
+- traverse control modes ``human``, ``ai``, ``human-ai-mode-1``, ``human-ai-mode-2`` (the
+  paper's four) and ``shared-cautious``, ``shared-efficient``: who drives is decided at
+  *decision points* (every :data:`DECISION_INTERVAL` m along the route) from the risk ahead
+  (:func:`risk`); a person is a pluggable :class:`Driver`, with :class:`ScriptedOracle`
+  standing in for one in tests and benchmarks. The paper's two shared modes drive with the
+  robot's foundational navigation models dispatched by the situation (:func:`situation`,
+  :class:`DispatchingNavigator`); Mode-1 also walks, on learned legs, on the terrain
+  locomotion model of the ground ahead (:func:`ground_ahead`);
 - a learned model's file (``FILE.npz``, ``FILE.zip``; :mod:`citygen.runner.learn`), which on a
   traverse is the ``ai`` mode's navigator (:class:`LearnedNavigator`).
 """
@@ -326,6 +330,110 @@ def traverse_ai(robot: str) -> Policy:
     return PlannerPolicy()
 
 
+#: The foundational navigation tasks, one shipped model each per robot (Urban-Nav 1-3).
+FOUNDATIONAL_NAV = ("nav-clear", "nav-static", "nav-dynamic")
+#: Situation -> the foundational models to drive it with, best first, when a robot lacks some.
+NAV_FALLBACK = {
+    "nav-dynamic": ("nav-dynamic", "nav-static", "nav-clear"),
+    "nav-static": ("nav-static", "nav-dynamic", "nav-clear"),
+    "nav-clear": ("nav-clear", "nav-static", "nav-dynamic"),
+}
+#: Metres around the robot within which an object (an obstacle or building cell of the
+#: occupancy map) makes the situation NavStatic's: the half width of the local map a
+#: navigation model sees (6.4 m).
+OBSTACLE_RADIUS = 3.2
+#: Metres along the heading, from behind the base (its hind feet) to ahead of it, whose
+#: terrain chooses Human-AI-Mode-1's locomotion model (:func:`ground_ahead`); the height map
+#: a locomotion model sees reaches 0.8 m ahead of the base.
+GROUND_AHEAD = (-0.3, 1.0)
+
+
+def situation(env: Any) -> str:
+    """The foundational navigation task of the robot's situation, the paper's "scene
+    conditions" by which Human-AI-Mode-1 and -2 dispatch navigation models: ``"nav-dynamic"``
+    with a person or vehicle within :data:`RISK_RADIUS` m, else ``"nav-static"`` with an
+    object within :data:`OBSTACLE_RADIUS` m, else ``"nav-clear"``."""
+    x, y, _, _ = env.handle.pose(env.data)
+    xy, _, _ = env.others()
+    if len(xy) and bool(np.any(np.hypot(xy[:, 0] - x, xy[:, 1] - y) < RISK_RADIUS)):
+        return "nav-dynamic"
+    occ = env.prepared.occupancy
+    g = occ.grid
+    r = OBSTACLE_RADIUS
+    rows, cols = g.window((x - r, y - r, x + r, y + r))
+    objects = [occ.classes.index("obstacle"), occ.classes.index("building")]
+    near = np.isin(occ.labels[rows, cols], objects)
+    if near.any():
+        dx = g.xs()[cols][None, :] - x
+        dy = g.ys()[rows][:, None] - y
+        if bool(np.any(near & (np.hypot(dx, dy) <= r))):
+            return "nav-static"
+    return "nav-clear"
+
+
+def ground_ahead(env: Any) -> str:
+    """The terrain Human-AI-Mode-1 walks on a terrain model for: the first kind that is not
+    ``"flat"`` on the occupancy map's terrain layer along the heading from
+    ``GROUND_AHEAD[0]`` to ``GROUND_AHEAD[1]`` m (every 0.1 m, from behind forwards), else
+    ``"flat"``: on a slope until the hind feet leave it, on the next one from a metre before it."""
+    x, y, _, yaw = env.handle.pose(env.data)
+    occ = env.prepared.occupancy
+    along = np.arange(GROUND_AHEAD[0], GROUND_AHEAD[1] + 1e-9, 0.1)
+    px, py = x + along * math.cos(yaw), y + along * math.sin(yaw)
+    flat = occ.terrain_classes.index("flat")
+    for a, b in zip(px, py, strict=True):
+        kind = int(occ.terrain[occ.cell(a, b)])
+        if kind != flat:
+            return occ.terrain_classes[kind]
+    return "flat"
+
+
+def locomotion_for(terrain: str) -> str:
+    """The locomotion model Human-AI-Mode-1 dispatches for ``terrain`` (of :func:`ground_ahead`):
+    the terrain's own model on ``slope``, ``stair`` and ``rough`` (the general one where the
+    robot has none, :meth:`~citygen.runner.envs.legs.LearnedLegs.use`), the general model on
+    flat ground: it was taught to follow navigation's commands (turn in place, back up), the
+    flat model only straight-ahead commands held to a heading."""
+    return "general" if terrain == "flat" else terrain
+
+
+class DispatchingNavigator(LearnedNavigator):
+    """The paper's "dispatch of foundational navigation models" (Human-AI-Mode-1 and -2): the
+    robot's shipped NavClear, NavStatic and NavDynamic models (``paths``: task -> file), the
+    one for the situation (:func:`situation`; :data:`NAV_FALLBACK` where a robot lacks it)
+    chosen at every decision point by :meth:`dispatch`; between them it drives as
+    :class:`LearnedNavigator` does (the same sub-goal, back-up, sampling and handover)."""
+
+    def __init__(self, paths: dict[str, str], guide: str = "map"):
+        from citygen.runner.learn.policy import load_policy
+
+        if not paths:
+            raise ValueError("DispatchingNavigator: expected at least one navigation model, got none")
+        first = next(t for t in (*NAV_FALLBACK["nav-static"], *paths) if t in paths)
+        super().__init__(paths[first], guide)
+        self.paths = dict(paths)
+        self.policies = {t: self.policy if t == first else load_policy(p) for t, p in self.paths.items()}
+        #: The task whose model drives now.
+        self.task = first
+
+    def dispatch(self, env: Any) -> str:
+        """Drive with the model of ``env``'s situation from now on; returns its task."""
+        want = situation(env)
+        self.task = next((t for t in NAV_FALLBACK[want] if t in self.policies), self.task)
+        self.policy, self.path = self.policies[self.task], self.paths[self.task]
+        return self.task
+
+
+def foundational_navigator(robot: str) -> Policy:
+    """The foundational navigation of ``robot``: :class:`DispatchingNavigator` over its
+    shipped models of :data:`FOUNDATIONAL_NAV`, else (none shipped) the planner."""
+    from citygen.runner.learn.policy import shipped
+
+    found = shipped()
+    paths = {t: str(found[(t, robot)]) for t in FOUNDATIONAL_NAV if (t, robot) in found}
+    return DispatchingNavigator(paths) if paths else PlannerPolicy()
+
+
 def risk(env: Any) -> float:
     """Risk of the stretch ahead, in [0, 1]: agents within :data:`RISK_RADIUS` m (vehicles
     count double), uneven terrain under the next metres and non-walkable ground there."""
@@ -348,15 +456,27 @@ class ControlMode:
     """A traverse control mode: at each decision point the mode chooses who drives until the
     next one. ``threshold`` is the risk at or above which a person takes over (0: always a
     person, above 1: never). ``ai`` drives when no person does; by default the robot's
-    (:func:`traverse_ai`)."""
+    general navigation model (:func:`traverse_ai`), or with ``navigation="foundational"`` its
+    foundational models (:func:`foundational_navigator`), the one for the situation
+    dispatched at each decision point the AI drives from. With ``terrain_legs`` (on learned
+    legs) the locomotion model is the one of the ground ahead (:func:`ground_ahead`,
+    :meth:`~citygen.runner.envs.legs.LearnedLegs.use`), chosen every step whoever drives:
+    the person at a decision point looks at the stretch to the next one, which on the track
+    crosses several terrains, and sets the model for each; elsewhere the general one."""
 
     def __init__(
         self, threshold: float, driver: Driver | None = None, interval: float = DECISION_INTERVAL,
-        ai: Policy | None = None,
+        ai: Policy | None = None, *, navigation: str = "general", terrain_legs: bool = False,
     ):  # fmt: skip
+        if navigation not in ("general", "foundational"):
+            raise ValueError(
+                f"ControlMode: navigation must be 'general' or 'foundational', got {navigation!r}"
+            )
         self.threshold = threshold
         self.driver = driver or ScriptedOracle()
         self.interval = interval
+        self.navigation = navigation
+        self.terrain_legs = terrain_legs
         self.ai = ai
         self._given = ai is not None
         self._robot: str | None = None  # whose AI self.ai is
@@ -365,7 +485,8 @@ class ControlMode:
     def reset(self, env: Any) -> None:
         self.env = env
         if not self._given and self._robot != env.robot.name:
-            self.ai, self._robot = traverse_ai(env.robot.name), env.robot.name
+            make_ai = traverse_ai if self.navigation == "general" else foundational_navigator
+            self.ai, self._robot = make_ai(env.robot.name), env.robot.name
         self.ai.reset(env)
         self.driver.reset(env)
         self._last = None
@@ -381,13 +502,35 @@ class ControlMode:
         if self._travelled >= self.interval:
             self._travelled = 0.0
             self.human = risk(env) >= self.threshold
+            if not self.human and isinstance(self.ai, DispatchingNavigator):
+                self.ai.dispatch(env)
+        if self.terrain_legs and getattr(env, "legs", None) is not None:
+            env.legs.use(locomotion_for(ground_ahead(env)))
         if hasattr(env, "set_operator"):
             env.set_operator(self.human)
         return self.driver.act(env, obs) if self.human else self.ai.act(obs)
 
 
-#: Traverse control modes: risk threshold for a person to take over.
-MODES = {"human": 0.0, "shared-cautious": 0.25, "shared-efficient": 0.55, "ai": math.inf}
+#: Traverse control modes: risk threshold for a person to take over. The paper's four:
+#: ``human`` (the person drives all the way on the general locomotion model), ``ai`` (the
+#: general navigation and locomotion models), ``human-ai-mode-1`` and ``human-ai-mode-2``
+#: (:data:`PAPER_SHARED`); and citygen's two earlier shared modes, the general navigation
+#: model with a person taking over at a lower (``shared-cautious``) or higher
+#: (``shared-efficient``) risk. The paper's shared modes take over at shared-efficient's
+#: threshold: the paper's shared modes cost a person 16 % of the human mode's time, of
+#: citygen's shared-efficient 21 % and shared-cautious 62 % (docs/training.md).
+MODES = {
+    "human": 0.0,
+    "shared-cautious": 0.25,
+    "shared-efficient": 0.55,
+    "ai": math.inf,
+    "human-ai-mode-1": 0.55,
+    "human-ai-mode-2": 0.55,
+}
+#: The paper's shared modes: the foundational navigation models dispatched by the situation,
+#: a person taking over at the risk of :data:`MODES`, and (True) the terrain locomotion
+#: models dispatched by the ground ahead (Mode-1) or (False) the general one (Mode-2).
+PAPER_SHARED = {"human-ai-mode-1": True, "human-ai-mode-2": False}
 
 POLICIES = ("random", "planner", "stand", "trot", *MODES)
 
@@ -401,6 +544,8 @@ def make_policy(name: str, *, seed: int = 0, driver: Driver | None = None, task:
         return PlannerPolicy()
     if name in ("stand", "trot"):
         return GaitPolicy(name)
+    if name in PAPER_SHARED:
+        return ControlMode(MODES[name], driver, navigation="foundational", terrain_legs=PAPER_SHARED[name])
     if name in MODES:
         return ControlMode(MODES[name], driver)
     if name.lower().endswith((".npz", ".zip")):  # a learned model (citygen.runner.learn)

@@ -31,7 +31,7 @@ DEFAULT_POLICY = {"nav": "planner", "loco": "trot", "traverse": "ai"}
 #: the robot both Urban-Tra scenes are set for: the wheeled robot cannot climb the track's stairs).
 DEFAULT_ROBOT = {"nav": "wheeled", "loco": "quadruped", "traverse": "quadruped"}
 #: The traverse control modes (see :mod:`citygen.runner.policies`).
-TRAVERSE_MODES = ("human", "ai", "shared-cautious", "shared-efficient")
+TRAVERSE_MODES = ("human", "ai", "human-ai-mode-1", "human-ai-mode-2", "shared-cautious", "shared-efficient")
 
 
 def family(task: str) -> str:

@@ -1,8 +1,9 @@
-"""Navigation on learned legs: a legged robot that walks where navigation sends it on its
-general locomotion model instead of the ideal servo on its base.
+"""Navigation and the traverse on learned legs: a legged robot that walks where navigation
+sends it on its general locomotion model instead of the ideal servo on its base.
 
 ``make_env("nav-static", robot="quadruped", locomotion="learned")`` (``--locomotion
-learned`` on ``citygen bench``, ``run`` and ``train``; :data:`LOCOMOTION`) gives the
+learned`` on ``citygen bench``, ``run`` and ``train``; :data:`LOCOMOTION`; the same for
+``"traverse"`` on ``bench`` and ``run``) gives the
 :class:`~citygen.runner.envs.nav.NavEnv` a :class:`LearnedLegs`: each navigation step's
 action, the velocity ``(v, w)`` the servo would track, becomes the velocity command
 ``(vx, vy, wz) = (v, 0, w)`` of the robot's general locomotion model, clipped into the
@@ -17,7 +18,9 @@ locomotion. A fall (LocoEnv's rule: the body, not the legs, pressing on the grou
 more than :data:`~citygen.runner.envs.loco.FALL_FORCE` N, checked after every 50 Hz step)
 ends the navigation episode as leaving the scene does: a failure (success 0, SPL 0, the
 route completed up to the fall, reward -100), counted by the episode's ``fall_rate``
-metric (100 when it ended in a fall, else 0).
+metric (100 when it ended in a fall, else 0); on the traverse it is a failed trial instead
+(:mod:`~citygen.runner.envs.traverse`). :meth:`LearnedLegs.use` swaps in one of the robot's
+shipped terrain models between two navigation steps (the traverse's Human-AI-Mode-1).
 """
 
 from __future__ import annotations
@@ -31,6 +34,9 @@ from citygen.errors import Problem, SpecError
 from citygen.runner.envs import legged
 from citygen.runner.envs.loco import FALL_FORCE, LOCO_DT
 from citygen.runner.learn.loco import COMMANDS
+
+#: The name of the robot's general locomotion model among :attr:`LearnedLegs.files`.
+GENERAL = "general"
 
 #: Values of the ``locomotion`` option: the ideal servo on the base (the default, with which
 #: the shipped navigation results were measured) or the robot's learned general model.
@@ -54,9 +60,11 @@ def general_model(task: str, robot: Any) -> Path:
     navigation, a robot without legs or without a shipped general locomotion model."""
     from citygen.runner.learn.shipped_models import PolicyError, general_locomotion
 
-    if not task.startswith("nav"):
-        tasks = "nav-clear, nav-static, nav-dynamic"
-        raise SpecError(f"--locomotion learned: expected a navigation task ({tasks}), got {task}")
+    if not task.startswith("nav") and task != "traverse":
+        tasks = "nav-clear, nav-static, nav-dynamic, traverse"
+        raise SpecError(
+            f"--locomotion learned: expected a navigation task or the traverse ({tasks}), got {task}"
+        )
     if not robot.leg_joints:
         raise SpecError(
             f"--locomotion learned: the {robot.name} robot has no legs to walk on; "
@@ -86,32 +94,20 @@ class LearnedLegs:
     control step, :attr:`fell` for the environment's end of episode."""
 
     def __init__(self, env: Any):
-        from citygen.runner.learn.export import read_policy
-        from citygen.runner.learn.shipped_models import PolicyError
+        from citygen.runner.learn.shipped_models import terrain_locomotion
 
         robot = env.robot
         path = general_model(env.task_kind, robot)
-        try:
-            self.policy = read_policy(path)
-        except ValueError as exc:
-            raise PolicyError(f"{path}: expected a policy exported by `citygen train`, got {exc}") from None
-        n, n_actions = len(robot.leg_joints), len(robot.leg_joints) + len(robot.loco_wheels)
-        want = legged.leg_spaces(n, n_actions, env._height_space())
-        for key, shape in self.policy.shapes.items():
-            if key not in want or tuple(want[key].shape) != shape:
-                found = "no such key" if key not in want else f"shape {tuple(want[key].shape)}"
-                raise PolicyError(
-                    f"{path}: observation {key!r} of shape {shape}: the {robot.name} robot's "
-                    f"locomotion observation has {found}"
-                )
-        if tuple(self.policy.meta["action_shape"]) != (n_actions,):
-            raise PolicyError(
-                f"{path}: action: expected shape ({n_actions},) for the {robot.name} robot, "
-                f"the policy gives {tuple(self.policy.meta['action_shape'])}"
-            )
         self.env = env
-        self.path = path
-        self.keys = self.policy.keys
+        n, n_actions = len(robot.leg_joints), len(robot.leg_joints) + len(robot.loco_wheels)
+        self._spaces = legged.leg_spaces(n, n_actions, env._height_space())
+        self._n_actions = n_actions
+        #: Model name -> file: ``"general"`` and the robot's shipped terrain models by terrain
+        #: (:func:`~citygen.runner.learn.shipped_models.terrain_locomotion`), which :meth:`use`
+        #: swaps in; each read (and checked against the robot) on its first use.
+        self.files: dict[str, Path] = {GENERAL: path, **terrain_locomotion(robot.name)}
+        self._loaded: dict[str, Any] = {}
+        self.use(GENERAL)
         #: 50 Hz steps per navigation step.
         self.repeats = max(1, round(env.dt / LOCO_DT))
         self.command = np.zeros(3)
@@ -120,6 +116,46 @@ class LearnedLegs:
         self._free_damping = free_damping(robot)
         self._force = np.zeros(6)  # mj_contactForce's output
         self._handle = None  # the robot handle the ids below are of
+
+    def _read(self, path: Path) -> Any:
+        """The policy in ``path``, or a one-line error when it does not fit this robot's
+        locomotion observation and action."""
+        from citygen.runner.learn.export import read_policy
+        from citygen.runner.learn.shipped_models import PolicyError
+
+        robot, want, n_actions = self.env.robot, self._spaces, self._n_actions
+        try:
+            policy = read_policy(path)
+        except ValueError as exc:
+            raise PolicyError(f"{path}: expected a policy exported by `citygen train`, got {exc}") from None
+        for key, shape in policy.shapes.items():
+            if key not in want or tuple(want[key].shape) != shape:
+                found = "no such key" if key not in want else f"shape {tuple(want[key].shape)}"
+                raise PolicyError(
+                    f"{path}: observation {key!r} of shape {shape}: the {robot.name} robot's "
+                    f"locomotion observation has {found}"
+                )
+        if tuple(policy.meta["action_shape"]) != (n_actions,):
+            raise PolicyError(
+                f"{path}: action: expected shape ({n_actions},) for the {robot.name} robot, "
+                f"the policy gives {tuple(policy.meta['action_shape'])}"
+            )
+        return policy
+
+    def use(self, name: str) -> str:
+        """Walk on model ``name`` from the next 50 Hz step on: ``"general"`` or a terrain
+        (``"slope"``) whose model ships for this robot, else the general model; returns the
+        name of the model that now acts (:attr:`model`). The command, the last action and
+        the robot's state carry over: the new model reads the same observation the old one
+        would have (its ``last_action`` the old model's last joint targets), as every model
+        here is a feed-forward policy of the same observation without a memory of its own."""
+        name = name if name in self.files else GENERAL
+        if name not in self._loaded:
+            self._loaded[name] = self._read(self.files[name])
+        #: The model walking the robot: its name (:attr:`files`), file and policy.
+        self.model, self.path, self.policy = name, self.files[name], self._loaded[name]
+        self.keys = self.policy.keys
+        return name
 
     def _bind(self) -> None:
         """The ids of the current scene's robot: the geoms whose pressing on the ground is a
@@ -135,8 +171,9 @@ class LearnedLegs:
         self._handle = env.handle
 
     def reset(self) -> None:
-        """A new episode: the robot standing with its feet on the ground under each where the
-        environment put it (as LocoEnv starts), no command, no last action, not fallen."""
+        """A new episode, or the robot put back after a fall (a traverse's reset): standing
+        with its feet on the ground under each where the environment put it (as LocoEnv
+        starts), no command, no last action, not fallen, on the general model."""
         env = self.env
         x, y, _, yaw = env.handle.pose(env.data)
         env._spawn(x, y, yaw)
@@ -144,6 +181,7 @@ class LearnedLegs:
         self.command[:] = 0.0
         self.last_action[:] = 0.0
         self.fell = False
+        self.use(GENERAL)
 
     def observation(self) -> dict[str, np.ndarray]:
         """What the locomotion model reads now (LocoEnv's observation in this state)."""

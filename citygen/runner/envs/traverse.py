@@ -1,7 +1,15 @@
 """Traverse (:class:`TraverseEnv`, the quadruped by default): navigation along the task's
 route, waypoint by waypoint; a fall, leaving the bounds or :data:`STUCK_SECONDS` without
 progress puts the robot back at the last waypoint reached (an *attempt*) instead of ending
-the episode; it ends at the route's last point or the task's time limit. Who is driving is told by
+the episode; it ends at the route's last point or the task's time limit.
+
+On learned legs (``locomotion="learned"``, :mod:`citygen.runner.envs.legs`) a fall is
+LocoEnv's (the body on the ground) and is what the paper makes of every failed trial: the
+robot is put back standing at the last waypoint reached, the legs' command and last action
+cleared, and one attempt (the paper's "Attempts to Success", resets of the task) is
+counted; it is not Labor Cost (the time a person drives). ``info["metrics"]`` then adds
+``falls`` (the attempts that followed a fall) and ``terrain_model_time`` (s on a terrain
+locomotion model, :meth:`~citygen.runner.envs.legs.LearnedLegs.use`). Who is driving is told by
 :meth:`TraverseEnv.set_operator` (the control modes of :mod:`citygen.runner.policies`).
 """
 
@@ -15,6 +23,7 @@ import numpy as np
 
 from citygen.errors import SpecError
 from citygen.runner import metrics as M
+from citygen.runner.envs.legs import GENERAL
 from citygen.runner.envs.nav import NavEnv
 from citygen.runner.tasks import DEFAULT_ROBOT
 from citygen.spec import Scene
@@ -79,6 +88,10 @@ class TraverseEnv(NavEnv):
         self._best = math.inf
         self._since_progress = 0.0
         self.attempts = 0
+        #: Resets after a fall (of :attr:`attempts`), and on learned legs the control steps
+        #: each locomotion model walked (model name -> steps).
+        self.falls = 0
+        self.model_steps: dict[str, int] = {}
         self._finished = False
 
     def _goal(self) -> tuple[float, float]:
@@ -86,6 +99,13 @@ class TraverseEnv(NavEnv):
 
     def _new_record(self):
         return M.TraverseEpisode(start_xy=self._start, dt=self.dt, mass=self.robot.mass)
+
+    def _legs_metrics(self) -> dict[str, float]:
+        """On learned legs: ``falls`` (the resets that followed a fall) and
+        ``terrain_model_time`` (s), the time a terrain locomotion model rather than the
+        general one walked the robot (Human-AI-Mode-1's dispatch)."""
+        terrain = sum(n for name, n in self.model_steps.items() if name != GENERAL)
+        return {"falls": float(self.falls), "terrain_model_time": terrain * self.dt}
 
     def _after_step(self):
         x, y, z, yaw = self.handle.pose(self.data)
@@ -108,12 +128,19 @@ class TraverseEnv(NavEnv):
         else:
             self._since_progress += self.dt
         done = self.waypoint >= len(self.route)
-        if not done and (
-            self._out_of_bounds(x, y) or self._fallen(z, x, y, yaw) or self._since_progress > STUCK_SECONDS
-        ):
+        fell = self._fallen(z, x, y, yaw)
+        if self.legs is not None:  # on learned legs: the steps each model walked (terrain dispatch)
+            self.model_steps[self.legs.model] = self.model_steps.get(self.legs.model, 0) + 1
+        if not done and (self._out_of_bounds(x, y) or fell or self._since_progress > STUCK_SECONDS):
             (ax, ay), ayaw = self._anchor
             self._spawn(ax, ay, ayaw)  # feet on the ground under each, as at the start (forwarded)
+            if self.legs is not None:  # standing, no command or last action, not fallen
+                self.legs.reset()
             self.attempts += 1
+            self.falls += fell
+            # The step ends where the robot was put: its recorded position is the anchor, and
+            # the reset step, not the next one, carries the jump that Speed leaves out.
+            x, y = self.handle.pose(self.data)[:2]
             self._best, self._since_progress = math.inf, 0.0
             reset = True
         if done:
@@ -146,6 +173,8 @@ class TraverseEnv(NavEnv):
                 "success_rate": 100.0 * done,
                 "route_completion": 100.0 * self.progress["done"],
             }
+            if self.legs is not None:
+                info["metrics"].update(self._legs_metrics())
             if self.traffic_record is not None:
                 info["metrics"].update(self.traffic_record.metrics())
         return obs, float(reward), bool(done), bool(truncated), info

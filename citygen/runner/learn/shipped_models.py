@@ -67,6 +67,19 @@ def general_locomotion(robot: str) -> Path:
     return general[robot]
 
 
+def terrain_locomotion(robot: str) -> dict[str, Path]:
+    """The shipped terrain locomotion models of ``robot``: ``terrain -> file`` (``"slope"`` for
+    ``loco-slope-<robot>.npz``), each trained on its one Urban-Loc terrain, the general model
+    not among them (the paper's "foundational" locomotion models, which Human-AI-Mode-1 of the
+    traverse dispatches by the ground ahead)."""
+    tasks = _shipped_files()[0]
+    return {
+        task.removeprefix("loco-"): path
+        for (task, owner), path in sorted(tasks.items())
+        if owner == robot and task in LOCO_TASKS
+    }
+
+
 def baseline(task: str, robot: str) -> Path:
     """The shipped baseline of ``task`` and ``robot``, or a one-line error listing those that exist."""
     found = shipped()
