@@ -126,24 +126,28 @@ def signalise(blocks: Sequence, zones: Sequence[Zone]) -> tuple[Signal, ...]:
                     red=ALL_RED,
                 )
             )
-        cycle = sum(p.green + p.amber + p.red for p in phases)
         heads = []
         for arm in g.arms:
             d = np.array([math.cos(arm.yaw), math.sin(arm.yaw)])
             n = np.array([-d[1], d[0]])  # the right of traffic coming in along this arm
             p = centre + d * (far[arm.socket] + 1.0) + n * arm.half_width
             heads.append(Head(position=(float(p[0]), float(p[1])), yaw=math.remainder(arm.yaw, 2 * math.pi)))
-        out.append(
-            Signal(
-                id=f"signal-{block.id}",
-                junction=block.id,
-                phases=tuple(phases),
-                cycle=cycle,
-                offset=round((centre[0] / WAVE_SPEED) % cycle, 1),
-                heads=tuple(heads),
-            )
-        )
+        out.append(_plan(f"signal-{block.id}", block.id, phases, centre[0], heads))
     return tuple(out)
+
+
+def _plan(name: str, junction: str, phases, x, heads) -> Signal:
+    """A signal plan of ``phases`` in order, its cycle their sum and its offset the green
+    wave's at ``x`` (m, the plan's centre along the wave)."""
+    cycle = sum(p.green + p.amber + p.red for p in phases)
+    return Signal(
+        id=name,
+        junction=junction,
+        phases=tuple(phases),
+        cycle=cycle,
+        offset=round((x / WAVE_SPEED) % cycle, 1),
+        heads=tuple(heads),
+    )
 
 
 WALK_GREEN, WALK_SPEED = 6.0, 1.2
@@ -203,16 +207,8 @@ def signalise_crossing(block: Straight, crosswalks: Sequence[Zone], lights: Sequ
         ),
         Phase(id="walk", crosswalks=tuple(z.id for z in crosswalks), green=walk, amber=AMBER, red=ALL_RED),
     )
-    cycle = sum(p.green + p.amber + p.red for p in phases)
     centre = p0 + d * (near + far) / 2
-    return Signal(
-        id=f"signal-{crosswalks[0].id}",
-        junction=block.id,
-        phases=phases,
-        cycle=cycle,
-        offset=round((centre[0] / WAVE_SPEED) % cycle, 1),
-        heads=tuple(heads),
-    )
+    return _plan(f"signal-{crosswalks[0].id}", block.id, phases, centre[0], heads)
 
 
 def signalise_walk(crosswalks: Sequence[Zone], ends: Sequence) -> Signal:
@@ -239,17 +235,8 @@ def signalise_walk(crosswalks: Sequence[Zone], ends: Sequence) -> Signal:
             red=ALL_RED,
         ),
     )
-    cycle = sum(ph.green + ph.amber + ph.red for ph in phases)
-    return Signal(
-        id=f"signal-{crosswalks[0].id}",
-        junction=crosswalks[0].id,
-        phases=phases,
-        cycle=cycle,
-        offset=round(((p[0] + q[0]) / 2 / WAVE_SPEED) % cycle, 1),
-        heads=tuple(
-            Head(position=_xy(np.asarray(xy)), yaw=math.remainder(yaw, 2 * math.pi)) for xy, yaw in ends
-        ),
-    )
+    heads = [Head(position=_xy(np.asarray(xy)), yaw=math.remainder(yaw, 2 * math.pi)) for xy, yaw in ends]
+    return _plan(f"signal-{crosswalks[0].id}", crosswalks[0].id, phases, (p[0] + q[0]) / 2, heads)
 
 
 def _xy(p: np.ndarray) -> tuple[float, float]:
