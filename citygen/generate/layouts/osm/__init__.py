@@ -158,7 +158,7 @@ class Osm(City):
 
     def fixed(self, placements: tuple[Placement, ...]) -> frozenset[str]:
         """The mapped objects: a traffic light stands beside them, never moves them."""
-        ids = {f"{m.category.replace('_', '-')}-{m.id}" for m in place_of(self.config).mapped}
+        ids = {m.placement_id for m in place_of(self.config).mapped}
         return frozenset(p.id for p in placements if p.id in ids)
 
     def scatter(

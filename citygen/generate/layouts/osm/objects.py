@@ -94,6 +94,11 @@ class Mapped:
     position: tuple[float, float]
     direction: float | None
 
+    @property
+    def placement_id(self) -> str:
+        """The id of its placement in a scene, by category and OSM id (``bench-n123``)."""
+        return f"{self.category.replace('_', '-')}-{self.id}"
+
 
 @functools.cache
 def clearance(category: str) -> float:
@@ -189,7 +194,7 @@ def place_mapped(
         placed.append(
             probe.model_copy(
                 update={
-                    "id": f"{m.category.replace('_', '-')}-{m.id}",
+                    "id": m.placement_id,
                     "position": (x, y, round(z, 3) + 0.0),
                 }
             )
