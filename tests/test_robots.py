@@ -208,6 +208,28 @@ def test_drive_tracks_speed_and_yaw_rate(name):
     assert handle.body_contacts(data).size == 0  # drove on its feet or wheels only
 
 
+def test_wheeled_legged_drives_level_at_full_speed_on_its_drive_pose():
+    """From rest to 2 m/s at the drive's acceleration limit, then its fastest turn at 1 m/s:
+    the base stays within 10 degrees of level, on all four wheels. On its walking stance (a
+    0.46 m wheelbase under a 0.58 m base) the same start rode a wheelie: pitched 40 degrees
+    at 1.5 m/s, the front wheels in the air, and tipped over at 2 m/s."""
+    model, data, handle = on_flat("wheeled_legged")
+    robot = handle.robot
+    assert not np.allclose(handle.drive_pose, handle.default)
+    handle.reset(data, (0.0, 0.0, 0.0, 0.0), drive=True)
+    assert np.array_equal(data.qpos[handle.leg_qadr], handle.drive_pose)
+    n, b = handle.drive_substeps, handle.base_id
+    periods = round(1.0 / (n * model.opt.timestep))
+    tilt = 0.0
+    for v, w in ((robot.max_speed, 0.0), (robot.max_speed, 0.0), (1.0, robot.max_yaw_rate)):
+        for _ in range(periods):
+            handle.control(data, v, w, n)
+            tilt = max(tilt, math.degrees(math.acos(min(1.0, data.xmat[b][8]))))
+    assert tilt < 10.0
+    assert handle.velocity(data)[3] > 0.8 * robot.max_yaw_rate
+    assert handle.body_contacts(data).size == 0
+
+
 @pytest.mark.parametrize("name", [n for n in BUILTIN if load_robot(n).nav_mode == "base"])
 def test_ideal_locomotion_turns_with_its_nose_on_a_wall(name):
     """A legged robot pushing into a wall at full speed still turns when asked (its yaw torque

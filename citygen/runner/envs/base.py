@@ -157,10 +157,11 @@ class _CitygenEnv(Sensors, gymnasium.Env):
             return 0
         return int(self.np_random.integers(self.source.size))
 
-    def _spawn(self, x: float, y: float, yaw: float) -> float:
-        """Put the robot standing at ``(x, y, yaw)`` (:meth:`RobotHandle.reset`) with its feet
-        on the ground under them and no part inside the ground: on rough ground, stairs or a
-        slope the ground under a foot is not the ground under the base. The feet are lifted
+    def _spawn(self, x: float, y: float, yaw: float, drive: bool = False) -> float:
+        """Put the robot standing at ``(x, y, yaw)`` (:meth:`RobotHandle.reset`; ``drive``: legs
+        in the wheel drive's pose) with its feet on the ground under them and no part inside
+        the ground: on rough ground, stairs or a slope the ground under a foot is not the
+        ground under the base. The feet are lifted
         onto the ground :func:`height_at` gives under each; then MuJoCo's own contacts lift it
         out of whatever it still penetrates, and :data:`SPAWN_CLEARANCE` is added. Returns
         the lift (m) over the ground under the base."""
@@ -170,7 +171,7 @@ class _CitygenEnv(Sensors, gymnasium.Env):
 
         m, d, h = self.model, self.data, self.handle
         ground = self._ground_z(x, y)
-        h.reset(d, (x, y, ground, yaw))
+        h.reset(d, (x, y, ground, yaw), drive)
         feet = h.foot_geom_ids
         under = height_at(self.scene, d.geom_xpos[feet, 0], d.geom_xpos[feet, 1])
         low = np.array([lowest_point(m, d, int(g)) for g in feet])
@@ -178,7 +179,7 @@ class _CitygenEnv(Sensors, gymnasium.Env):
         robot, ground_geoms = self._robot_geoms, self.prepared.ground_geoms
         for _ in range(20):  # MuJoCo's contacts: what still penetrates the ground
             if lift > 0.0:
-                h.reset(d, (x, y, ground + lift, yaw))
+                h.reset(d, (x, y, ground + lift, yaw), drive)
             n = d.ncon
             g1, g2, dist = d.contact.geom1[:n], d.contact.geom2[:n], d.contact.dist[:n]
             inside = ((robot[g1] & ground_geoms[g2]) | (robot[g2] & ground_geoms[g1])) & (dist < 0)
@@ -188,7 +189,7 @@ class _CitygenEnv(Sensors, gymnasium.Env):
         if lift <= 1e-6:
             return 0.0
         lift += SPAWN_CLEARANCE
-        h.reset(d, (x, y, ground + lift, yaw))
+        h.reset(d, (x, y, ground + lift, yaw), drive)
         mujoco.mj_forward(m, d)
         return lift
 

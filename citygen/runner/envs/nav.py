@@ -111,7 +111,7 @@ class NavEnv(_CitygenEnv):
         task = self.scene.task
         x, y = task.start.position
         self._start = (float(x), float(y))
-        self.handle.reset(self.data, (x, y, self._ground_z(x, y), task.start.yaw))
+        self.handle.reset(self.data, (x, y, self._ground_z(x, y), task.start.yaw), drive=self.legs is None)
         self._place_agents()
         import mujoco
 

@@ -122,6 +122,11 @@ class Robot:
     """Position actuators of ``leg_joints``, same order."""
     default_pose: tuple[float, ...] = ()
     """Standing angles (rad) of ``leg_joints``."""
+    drive_pose: tuple[float, ...] = ()
+    """Angles (rad) of ``leg_joints`` the legs hold while the wheel drive runs (navigation on
+    wheels; empty: ``default_pose``), standing the base at the same ``stand_height``. A
+    wheeled-legged robot drives with its feet under its hips: the long wheelbase keeps its
+    front wheels loaded when it accelerates, where the walking stance rides a wheelie."""
     action_scale: tuple[float, ...] = ()
     """Radians one unit of action moves each leg joint's target from the default pose."""
     foot_geoms: tuple[str, ...] = ()

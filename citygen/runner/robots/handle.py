@@ -178,6 +178,7 @@ class RobotHandle:
         self.wheel_speed = robot.max_speed / robot.wheel_radius if self.loco_wheels.size else 0.0
         self.mass = float(model.body_subtreemass[root])
         self.default = np.array(robot.default_pose, dtype=float)
+        self.drive_pose = np.array(robot.drive_pose or robot.default_pose, dtype=float)
         self.scale = np.array(robot.action_scale, dtype=float)
         self._is_robot_geom = np.zeros(model.ngeom, dtype=bool)
         self._is_robot_geom[self.geom_ids] = True
@@ -215,10 +216,10 @@ class RobotHandle:
     def n_joints(self) -> int:
         return self.robot.n_joints
 
-    def reset(self, data: Any, pose: tuple[float, float, float, float]) -> None:
+    def reset(self, data: Any, pose: tuple[float, float, float, float], drive: bool = False) -> None:
         """Put the robot standing at ``pose = (x, y, ground_z, yaw)`` (m, rad), legs in the
-        default pose, every robot velocity, applied force and drive integral zero; runs
-        ``mj_forward``."""
+        default pose (``drive``: in the wheel drive's, :attr:`Robot.drive_pose`), every robot
+        velocity, applied force and drive integral zero; runs ``mj_forward``."""
         m = self.model
         x, y, z, yaw = (float(v) for v in pose)
         for j in self.joint_ids:
@@ -226,10 +227,11 @@ class RobotHandle:
             data.qpos[a : a + n] = m.qpos0[a : a + n]
         q = self.qadr
         data.qpos[q : q + 7] = (x, y, z + self.robot.stand_height, math.cos(yaw / 2), 0, 0, math.sin(yaw / 2))
-        data.qpos[self.leg_qadr] = self.default
+        legs = self.drive_pose if drive else self.default
+        data.qpos[self.leg_qadr] = legs
         data.qvel[self.dof_ids] = 0.0
         data.qacc_warmstart[self.dof_ids] = 0.0
-        data.ctrl[self.leg_act] = self.default
+        data.ctrl[self.leg_act] = legs
         data.ctrl[self.wheel_act] = 0.0
         data.ctrl[self._steer_ids] = 0.0
         data.xfrc_applied[self.body_ids] = 0.0
@@ -300,7 +302,7 @@ class RobotHandle:
         w = _clamp(float(w), r.max_yaw_rate)
         ctrl = data.ctrl
         if self.leg_act.size:
-            ctrl[self.leg_act] = self.default
+            ctrl[self.leg_act] = self.drive_pose
         rv, rw = self._ref
         iv, iw = self._integral
         b, qa, da = self.base_id, self.qadr, self.dadr
