@@ -10,9 +10,9 @@ file here: every test and command that runs over robots picks it up):
   sphere in front and behind: exact differential drive.
 - ``quadruped``: Go2-like, trunk 0.38 x 0.09 x 0.11 m, about 15 kg, 12 hinge joints (hip
   abduction, hip flexion, knee per leg, legs in the order FR, FL, RR, RL) with position
-  actuators (kp 50 N m/rad, kd 1 N m s/rad, Go2's torque limits), standing base height 0.30 m.
-- ``wheeled_legged``: B2-W-like, about 76 kg, the same 12 leg joints (kp 600, kd 12) plus a
-  driven wheel at each foot (4 velocity actuators), standing base height about 0.60 m.
+  actuators (kp 60 N m/rad, kd 2 N m s/rad, Go2's torque limits), standing base height 0.30 m.
+- ``wheeled_legged``: B2-W-like, about 76 kg, the same 12 leg joints (kp 1500, kd 30) plus a
+  driven wheel at each foot (4 velocity actuators), standing base height about 0.58 m.
 - ``humanoid``: G1-like, 1.32 m tall, about 35 kg, 21 hinge joints (6 per leg, waist yaw,
   4 per arm) with position actuators and box feet, base (pelvis) height 0.66 m; ideal
   locomotion in navigation, a scripted walk (:mod:`citygen.runner.control.gaits_biped`) in locomotion.
@@ -30,7 +30,8 @@ robot and the base origin :attr:`Robot.stand_height` above it.
 wheel's velocity actuator gets the differential-drive wheel speed of the command,
 corrected by a proportional feedback on the measured base speed and yaw rate (it makes up
 for skid steering and slip; the four-wheel ``wheeled_legged`` turns by skidding). The legs
-of ``wheeled_legged`` hold the stand pose by their PD. The ``scooter`` steers its front
+of ``wheeled_legged`` hold its drive pose by their PD (:attr:`Robot.drive_pose`: feet under
+the hips, a 0.66 m wheelbase; on the walking stance's 0.46 m it rode a wheelie from 1.5 m/s). The ``scooter`` steers its front
 wheels to the Ackermann angles of the command and drives its rear wheels with the same
 feedback; a turn tighter than its steering allows at low speed becomes a K-turn. The
 ``quadruped`` and the ``humanoid`` have no learned
