@@ -133,7 +133,8 @@ class TraverseEnv(NavEnv):
             self.model_steps[self.legs.model] = self.model_steps.get(self.legs.model, 0) + 1
         if not done and (self._out_of_bounds(x, y) or fell or self._since_progress > STUCK_SECONDS):
             (ax, ay), ayaw = self._anchor
-            self._spawn(ax, ay, ayaw, drive=self.legs is None)  # feet on the ground under each, as at the start (forwarded)
+            # feet on the ground under each, as at the start (forwarded); wheels: the drive pose
+            self._spawn(ax, ay, ayaw, drive=self.legs is None)
             if self.legs is not None:  # standing, no command or last action, not fallen
                 self.legs.reset()
             self.attempts += 1

@@ -31,10 +31,10 @@ wheel's velocity actuator gets the differential-drive wheel speed of the command
 corrected by a proportional feedback on the measured base speed and yaw rate (it makes up
 for skid steering and slip; the four-wheel ``wheeled_legged`` turns by skidding). The legs
 of ``wheeled_legged`` hold its drive pose by their PD (:attr:`Robot.drive_pose`: feet under
-the hips, a 0.66 m wheelbase; on the walking stance's 0.46 m it rode a wheelie from 1.5 m/s). The ``scooter`` steers its front
-wheels to the Ackermann angles of the command and drives its rear wheels with the same
-feedback; a turn tighter than its steering allows at low speed becomes a K-turn. The
-``quadruped`` and the ``humanoid`` have no learned
+the hips, a 0.66 m wheelbase; on the walking stance's 0.46 m it rode a wheelie from 1.5
+m/s). The ``scooter`` steers its front wheels to the Ackermann angles of the command and
+drives its rear wheels with the same feedback; a turn tighter than its steering allows at
+low speed becomes a K-turn. The ``quadruped`` and the ``humanoid`` have no learned
 locomotion policy under the navigation policy, so they use **ideal locomotion**
 (``nav_mode == "base"``): the legs hold the stand pose by PD while a servo of forces and
 torques on the base (``data.xfrc_applied``) carries the body's weight

@@ -13,9 +13,8 @@ from citygen.runner.robots.registry import register
 from citygen.spec.task import ROBOTS
 
 _WL_LEGS = _leg_set(0.3285, 0.072, 0.12, 0.35, 0.35, 0.09)
-# The stance locomotion starts from and acts around: front feet a little behind their hips, rear feet in front, legs splayed out: a wheelbase
-# of 0.46 m against a
-# track of 0.72 m.
+# The stance locomotion starts from and acts around: front feet a little behind their hips,
+# rear feet in front, legs splayed out: a wheelbase of 0.46 m against a track of 0.72 m.
 _WL_POSE = tuple(
     round(float(q), 4)
     for leg in _WL_LEGS
