@@ -799,7 +799,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         when = f", measured {row['earlier']}" if row["earlier"] else ""
         print(
             f"  {mark} issue {t.issue}: {t.what}: {fmt(row['value'])} "
-            f"(target {t.op} {fmt(t.bound)} {t.unit}{when})"
+            f"(target {f'{t.op} {fmt(t.bound)} {t.unit}'.strip()}{when})"
         )
     failed = [k for k, v in results.get("benches", {}).items() if "error" in v]
     if failed:
