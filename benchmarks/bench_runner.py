@@ -693,6 +693,8 @@ def main(argv: list[str] | None = None) -> int:
         "depth64_2proc_steps_per_s": round(depth2, 1),
         "reset_cached_ms": round(resets["reset_cached_ms"], 2),
         "first_visit_ms": round(resets["first_visit_ms"], 1),
+        "first_visit_store_ms": round(resets["first_visit_store_ms"], 1),
+        "first_visit_over_store": round(resets["first_visit_ms"] / resets["first_visit_store_ms"], 3),
         "scene_generate_ms": round(resets["scene_generate_ms"], 1),
         "scene_mjcf_ms": round(resets["scene_mjcf_ms"], 1),
         "scene_compile_ms": round(resets["scene_compile_ms"], 1),

@@ -8,12 +8,17 @@ reset from the on-disk store of prepared scenes (a second process's first visit)
 environment's step (ms, 0.1 s of simulated time), its real-time factor, and the baselines
 measured in the same run: ``mj_step`` alone for the same 0.1 s of the same model (what
 the physics costs, from the last step's state with the servo's forces held; the step over it
-is the runner's share) and the step with the servo
+is the runner's share; ``*_mj_step_reach_ms``: the same with collisions restricted to the
+robot's reach, as the environment steps it) and the step with the servo
 casting its ground rays through the scene (``handle.terrain = None``: the runner before the
-5 cm ground raster in tiles, :mod:`citygen.runner.ground`), with their ratios.
+5 cm ground raster in tiles, :mod:`citygen.runner.ground`) and the step with every static geom
+in MuJoCo's collision detection (``*_whole_*``: the runner before collisions were restricted to
+the robot's reach, :mod:`citygen.runner.envs.reach`; ``*_static_geoms_kept``: how many of them
+the reach keeps), with their ratios.
 
-``python benchmarks/bench_traverse.py [--steps 200] [--city]`` (a few minutes for the town on
-2 cores; the city's first reset adds several); the last line is one JSON object of figures.
+``python benchmarks/bench_traverse.py [--steps 200] [--city] [--city-steps 50]`` (a few minutes
+for the town on 2 cores; the city's first reset adds several, its steps are timed over
+``--city-steps``); the last line is one JSON object of figures.
 """
 
 from __future__ import annotations
@@ -64,6 +69,12 @@ def measure(label: str, scene, steps: int, robot: str) -> dict:
         env.step(action)
     rays = (time.perf_counter() - t) / steps
     u.handle.terrain = terrain
+    reach, u._reach = u._reach, None  # every static geom in collision detection
+    t = time.perf_counter()
+    for _ in range(steps):
+        env.step(action)
+    whole = (time.perf_counter() - t) / steps
+    u._reach = reach
     model, data = u.model, mujoco.MjData(u.model)
     mujoco.mj_copyData(data, model, u.data)  # the last step's state and forces (the servo's held)
     substeps = max(1, round(u.dt / model.opt.timestep))
@@ -71,6 +82,14 @@ def measure(label: str, scene, steps: int, robot: str) -> dict:
     for _ in range(steps):
         mujoco.mj_step(model, data, nstep=substeps)
     physics = (time.perf_counter() - t) / steps
+    near_physics = None
+    if reach is not None:  # the same with the static geoms the reach leaves out
+        mujoco.mj_copyData(data, model, u.data)
+        t = time.perf_counter()
+        for _ in range(steps):
+            with reach.near(data):
+                mujoco.mj_step(model, data, nstep=substeps)
+        near_physics = (time.perf_counter() - t) / steps
     env.close()
     out.update(
         {
@@ -80,8 +99,12 @@ def measure(label: str, scene, steps: int, robot: str) -> dict:
             f"{label}_realtime_factor": u.dt / step,
             f"{label}_mj_step_ms": physics * 1e3,
             f"{label}_step_over_mj_step": step / physics,
+            f"{label}_mj_step_reach_ms": None if near_physics is None else near_physics * 1e3,
             f"{label}_rays_step_ms": rays * 1e3,
             f"{label}_rays_over_tiles": rays / step,
+            f"{label}_whole_step_ms": whole * 1e3,
+            f"{label}_whole_over_reach": whole / step,
+            f"{label}_static_geoms_kept": None if reach is None else reach.kept,
         }
     )
     return out
@@ -92,6 +115,7 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=200)
     parser.add_argument("--robot", default="quadruped")
     parser.add_argument("--city", action="store_true", help="the 1.2 km city too")
+    parser.add_argument("--city-steps", type=int, default=50, help="steps per figure on the city")
     args = parser.parse_args()
 
     import citygen
@@ -100,16 +124,19 @@ def main() -> None:
     from citygen.seeding import scene_seed
 
     figures: dict = {"steps": args.steps, "robot": args.robot}
+    if args.city:
+        figures["city_steps"] = args.city_steps
     scenes = {"town": generate(town_config(), scene_seed(2025, "urban-tra-city", 0))}
     if args.city:
         scenes["city"] = citygen.generate("urban-tra-city")
     for label, scene in scenes.items():
-        figures.update(measure(label, scene, args.steps, args.robot))
+        figures.update(measure(label, scene, args.city_steps if label == "city" else args.steps, args.robot))
         print(
             f"{label}: reset {figures[f'{label}_reset_cold_s']:.1f} s cold, "
             f"{figures[f'{label}_reset_stored_s']:.1f} s stored; step {figures[f'{label}_step_ms']:.1f} ms "
             f"({figures[f'{label}_realtime_factor']:.1f}x real time; mj_step "
-            f"{figures[f'{label}_mj_step_ms']:.1f} ms; with rays {figures[f'{label}_rays_step_ms']:.1f} ms)",
+            f"{figures[f'{label}_mj_step_ms']:.1f} ms; with rays {figures[f'{label}_rays_step_ms']:.1f} ms; "
+            f"every static geom collidable {figures[f'{label}_whole_step_ms']:.1f} ms)",
             flush=True,
         )
     print(json.dumps({k: round(v, 4) if isinstance(v, float) else v for k, v in figures.items()}))

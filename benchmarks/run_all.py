@@ -9,7 +9,8 @@ core with it), and collects the JSON object each prints on its last line. Writes
 ``--out`` (default: this folder):
 
 - ``results.json``: the machine (CPU model, cores, memory, Python and package versions,
-  load average), the commit, and per script its wall time, exit code and figures;
+  load average), the commit, and per script when it ran (time, commit, load average), its
+  wall time, exit code and figures;
 - ``REPORT.md``: the targets the issues set, each with its measured figure and whether it
   holds, the plots, the profile's stage shares, and every figure of every script;
 - ``plots/*.png``: generation time against scene area (log-log, fitted exponent), WFC time
@@ -20,6 +21,11 @@ core with it), and collects the JSON object each prints on its last line. Writes
 Every plotted figure stands beside a baseline measured in the same run (MetaDrive, RVO2
 through pyrvo, a naive implementation written in the benchmark, raw ``mj_step``, raw JSON
 serialisation, ideal scaling), so the ratios mean something on a shared, noisy machine.
+
+``--only`` and ``--skip`` run part of the suite and merge: every other script's entry is
+kept from the existing ``results.json``, with the time (``started``), commit and load
+average it was measured at, and the report dates each script's figures that were not
+measured in this run (the whole suite's wall time, too, is the last full run's).
 
 ``--report-only`` rebuilds the report and plots from an existing ``results.json``. The exit
 code is 1 when a script failed (its error is in the report), else 0; a missed target is
@@ -54,6 +60,8 @@ ARGS: dict[str, list[str]] = {
     "profile_generate": ["--scenes", "40"],
     # the scaling experiment's quick variant (the full one takes hours: see its docstring)
     "bench_learning": ["--quick"],
+    # issue 45's city figures: the Traverse on urban-tra-city itself, not only on the town
+    "bench_traverse": ["--city"],
 }
 """Arguments per script (by file stem); scripts not listed run with none."""
 EXTRA = ("profile_generate", "profile_export")
@@ -147,29 +155,42 @@ TARGETS = (
            "<=", 60, "s"),
     Target(7, "urban-tra-city USD stage on disk", "bench_export", "tra_city_usdc_mb", "<", 200, "MB"),
     Target(9, "whole suite (run_all.py), wall time", "run_all", "suite_wall_min", "<", 20, "min"),
-    Target(17, "NavStatic, wheeled, make_vector_env 2 workers, resets included", "bench_runner",
+    Target(45, "NavStatic, wheeled, make_vector_env 2 workers, resets included", "bench_runner",
            "navstatic_2proc_steps_per_s", ">=", 2600, "steps/s"),
-    Target(17, "NavStatic, wheeled, one environment, resets included", "bench_runner",
+    Target(45, "NavStatic, wheeled, one environment, resets included", "bench_runner",
            "navstatic_steps_per_s", ">=", 1500, "steps/s"),
-    Target(17, "NavStatic, quadruped, make_vector_env 2 workers", "bench_runner",
+    Target(45, "NavStatic, quadruped, make_vector_env 2 workers", "bench_runner",
            "quadruped_2proc_steps_per_s", ">=", 2000, "steps/s"),
+    Target(45, "LocoFlat, quadruped, citygen train's vector environment (loco.toml), random actions",
+           "bench_runner", "loco_train_steps_per_s", ">=", 8000, "steps/s"),
     Target(17, "NavStatic, 64 x 64 depth, make_vector_env 2 workers", "bench_runner",
            "depth64_2proc_steps_per_s", ">=", 1000, "steps/s"),
     Target(17, "runner cost over the mj_step calls it makes (CPU)", "bench_runner",
            "runner_over_mj_step", "<=", 1.5, "x"),
     Target(17, "reset to a cached scene, median", "bench_runner", "reset_cached_ms", "<=", 5, "ms"),
-    Target(17, "first visit to an Urban-Nav scene, median", "bench_runner", "first_visit_ms", "<=", 50, "ms"),
-    Target(17, "ORCA per agent-step over RVO2 (pyrvo), 100 agents, circle", "bench_orca",
+    Target(17, "first visit to an Urban-Nav scene, no on-disk store (cold), median", "bench_runner",
+           "first_visit_ms", "<=", 50, "ms"),
+    Target(45, "first visit to an Urban-Nav scene, on-disk store warm, median", "bench_runner",
+           "first_visit_store_ms", "<=", 50, "ms"),
+    Target(45, "ORCA per agent-step over RVO2 (pyrvo), 100 agents, circle", "bench_orca",
            "orca_circle_100_citygen_over_rvo2", "<=", 2, "x"),
-    Target(17, "ORCA per agent-step over RVO2 (pyrvo), 100 agents, random", "bench_orca",
+    Target(45, "ORCA per agent-step over RVO2 (pyrvo), 100 agents, random", "bench_orca",
            "orca_random_100_citygen_over_rvo2", "<=", 2, "x"),
     Target(18, "urban-tra-city, citygen export --format all (every core), wall time", "bench_export",
            "tra_city_all_wall_s", "<=", 300, "s"),
+    Target(45, "urban-tra-city Traverse, quadruped, first reset (cold: no on-disk store)", "bench_traverse",
+           "city_reset_cold_s", "<=", 30, "s"),
+    Target(45, "urban-tra-city Traverse, quadruped, reset from the on-disk store (warm)", "bench_traverse",
+           "city_reset_stored_s", "<=", 2, "s"),
+    Target(45, "urban-tra-city Traverse, quadruped, a step (0.1 s simulated)", "bench_traverse",
+           "city_step_ms", "<=", 20, "ms"),
     Target(45, "Traverse on a town of urban-tra-city's config, quadruped, real-time factor",
            "bench_traverse", "town_realtime_factor", ">=", 5, "x"),
 )  # fmt: skip
 """Every numeric target of issues 3 to 9, 17, 18 and 45 (issue 8 asks for ratios, not bounds:
-they are in the runner plot and table)."""
+they are in the runner plot and table). Issue 17's runner targets that issue 45 took over (its
+"Done when" list) are listed under 45; issue 45's "six baselines retrained" is not a benchmark
+figure."""
 
 
 # --- running ------------------------------------------------------------------------------
@@ -271,8 +292,15 @@ def machine() -> dict:
             versions["metadrive-simulator"] = probe.stdout.strip() or None
         except (OSError, subprocess.TimeoutExpired):
             versions["metadrive-simulator"] = None
+    if (head := commit()) is not None:
+        info["commit"] = head
+    return info
+
+
+def commit() -> str | None:
+    """The checkout's short commit, `` (modified)`` when tracked files differ from it."""
     try:
-        commit = subprocess.run(
+        head = subprocess.run(
             ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=HERE, timeout=10
         )
         dirty = subprocess.run(
@@ -282,33 +310,66 @@ def machine() -> dict:
             cwd=HERE,
             timeout=10,
         )
-        if commit.returncode == 0:
-            info["commit"] = commit.stdout.strip() + (" (modified)" if dirty.stdout.strip() else "")
     except (OSError, subprocess.TimeoutExpired):
-        pass
-    return info
+        return None
+    if head.returncode != 0:
+        return None
+    return head.stdout.strip() + (" (modified)" if dirty.stdout.strip() else "")
+
+
+def now() -> str:
+    return dt.datetime.now(dt.UTC).isoformat(timespec="seconds")
 
 
 def run_suite(paths: Sequence[Path], out: Path, progress: Callable[[str], None] = print) -> dict:
     """Run ``paths`` one by one; the results document (not yet written)."""
-    results: dict[str, Any] = {
-        "started": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
-        "machine": machine(),
-        "benches": {},
-    }
+    results: dict[str, Any] = {"started": now(), "machine": machine(), "benches": {}}
+    head = results["machine"].get("commit")
     t0 = time.perf_counter()
     for path in paths:
         args = ARGS.get(path.stem, [])
         progress(f"{path.stem} {' '.join(args)}".rstrip() + " ...")
-        entry = run_script(path, args, out / "logs" / f"{path.stem}.log")
+        when = {"started": now(), "commit": head, "load_average": [round(x, 2) for x in os.getloadavg()]}
+        entry = {**when, **run_script(path, args, out / "logs" / f"{path.stem}.log")}
         results["benches"][path.stem] = entry
         status = "ok" if "error" not in entry else f"FAILED ({entry['error']})"
         progress(f"  {entry['wall_s']:.0f} s, {status}")
     wall = time.perf_counter() - t0
     results["machine"]["load_average_end"] = [round(x, 2) for x in os.getloadavg()]
     results["suite_wall_s"] = round(wall, 1)
-    results["benches"]["run_all"] = {"figures": {"suite_wall_min": round(wall / 60, 2)}}
+    results["benches"]["run_all"] = {
+        "started": results["started"],
+        "commit": head,
+        "figures": {"suite_wall_min": round(wall / 60, 2)},
+    }
     return results
+
+
+def merge(results: dict, earlier: dict, order: Sequence[str]) -> dict:
+    """``results`` of part of the suite with every other script's entry of ``earlier`` (a
+    previous results document): each keeps when, at which commit and at which load average it
+    was measured (an entry of an older document without them gets its document's time and
+    commit), and ``run_all``'s suite wall time stays the last full run's. Entries follow
+    ``order`` (the scripts' stems), then ``run_all``; scripts no longer in ``order`` are dropped.
+    ``results["ran"]`` lists the scripts this run measured and ``results["suite_wall_s"]``
+    stays this run's wall time."""
+    ran = [name for name in results["benches"] if name != "run_all"]
+    machine_then = earlier.get("machine") or {}
+    stamp = {
+        "started": earlier.get("started"),
+        "commit": machine_then.get("commit"),
+        "load_average": machine_then.get("load_average_start"),
+    }
+    kept = {
+        name: {**stamp, **entry}
+        for name, entry in (earlier.get("benches") or {}).items()
+        if name not in ran and (name in order or name == "run_all") and isinstance(entry, dict)
+    }
+    benches = {**kept, **{k: v for k, v in results["benches"].items() if k != "run_all"}}
+    merged_benches = {name: benches[name] for name in order if name in benches}
+    if "run_all" in kept:  # a part's wall time is not the suite's
+        merged_benches["run_all"] = kept["run_all"]
+    return {**results, "ran": ran, "benches": merged_benches}
 
 
 # --- the report ---------------------------------------------------------------------------
@@ -341,11 +402,24 @@ def fmt(value: Any) -> str:
     return str(value)
 
 
+def earlier_run(results: dict, bench: str) -> str | None:
+    """When and at which commit ``bench``'s figures were measured, if not in this run (a run of
+    part of the suite keeps the other scripts' figures): ``"2026-11-29 03:10 UTC, commit 19f5c5e"``."""
+    ran = results.get("ran")
+    entry = results.get("benches", {}).get(bench)
+    if ran is None or entry is None or bench in ran:
+        return None
+    started = str(entry.get("started") or "?").replace("T", " ").replace("+00:00", " UTC")
+    started = re.sub(r"(\d\d:\d\d):\d\d", r"\1", started)
+    return f"{started}, commit {entry.get('commit') or '?'}"
+
+
 def target_rows(results: dict) -> list[dict]:
     rows = []
     for t in TARGETS:
         value = t.measured(results)
-        rows.append({"target": t, "value": value, "holds": t.holds(value), "ratio": t.ratio(value)})
+        rows.append({"target": t, "value": value, "holds": t.holds(value), "ratio": t.ratio(value),
+                     "earlier": earlier_run(results, t.bench) if value is not None else None})  # fmt: skip
     return rows
 
 
@@ -549,15 +623,28 @@ def write_report(results: dict, out: Path) -> Path:
     """``REPORT.md`` (and its plots) from ``results``; the report's path."""
     skipped = write_plots(results, out / "plots")
     m = results.get("machine", {})
+    ran = results.get("ran")
+    others = [k for k in results.get("benches", {}) if ran is not None and k not in ran and k != "run_all"]
+    if others:
+        how = (
+            f"This run measured {', '.join(f'`{k}`' for k in ran) or 'no script'} (`--only`/`--skip`); "
+            f"the figures of {', '.join(f'`{k}`' for k in others)} are kept from earlier runs, each dated "
+            "below (in the targets table beside the figure, and under *When each script ran*). Each "
+            "script ran in its own process; ratios are against baselines measured in the same script run."
+        )
+        when = f"this run {fmt(results.get('suite_wall_s'))} s"
+    else:
+        how = (
+            "Every figure below was measured in one run on the machine described here, each script in "
+            "its own process, one after another; ratios are against baselines measured in the same run."
+        )
+        when = f"whole suite {fmt(results.get('suite_wall_s'))} s"
     lines = [
         "# citygen benchmark report",
         "",
-        "Written by `python benchmarks/run_all.py` (do not edit by hand; re-run it). Every figure",
-        "below was measured in one run on the machine described here, each script in its own",
-        "process, one after another; ratios are against baselines measured in the same run.",
+        "Written by `python benchmarks/run_all.py` (do not edit by hand; re-run it). " + how,
         "",
-        f"- **When:** {results.get('started', '?')}; commit {m.get('commit', '?')}; "
-        f"whole suite {fmt(results.get('suite_wall_s'))} s",
+        f"- **When:** {results.get('started', '?')}; commit {m.get('commit', '?')}; {when}",
         f"- **Machine:** {m.get('cpu_model', '?')}, {m.get('cores_usable', '?')} usable cores of "
         f"{m.get('cores_online', '?')}, {fmt(m.get('memory_gib'))} GiB; load average "
         f"{fmt(m.get('load_average_start'))} at the start, {fmt(m.get('load_average_end'))} at the end "
@@ -574,10 +661,25 @@ def write_report(results: dict, out: Path) -> Path:
         t = row["target"]
         holds = {True: "yes", False: "**NO**", None: "not measured"}[row["holds"]]
         unit = f" {t.unit}" if t.unit and row["value"] is not None else ""
+        unit += f" (measured {row['earlier']})" if row["earlier"] else ""
         bound = f"{t.op} {fmt(t.bound)} {t.unit}".strip()
         lines.append(
             f"| {t.issue} | {t.what} | {fmt(row['value'])}{unit} | {bound} | {fmt(row['ratio'])} | {holds} |"
         )
+    stamped = {k: v for k, v in results.get("benches", {}).items() if k != "run_all" and v.get("started")}
+    if stamped:
+        lines += [
+            "",
+            "## When each script ran",
+            "",
+            "| script | started | commit | load average (1, 5, 15 min) at its start | wall s | this run |",
+            "|---|---|---|---|---|---|",
+        ]
+        lines += [
+            f"| {k} | {v['started']} | {v.get('commit') or '?'} | {fmt(v.get('load_average'))} | "
+            f"{fmt(v.get('wall_s'))} | {'no' if earlier_run(results, k) else 'yes'} |"
+            for k, v in stamped.items()
+        ]
     failed = {k: v for k, v in results.get("benches", {}).items() if "error" in v}
     if failed:
         lines += ["", "## Scripts that failed", ""]
@@ -636,7 +738,9 @@ def write_report(results: dict, out: Path) -> Path:
             f"### {name}",
             "",
             f"`python benchmarks/{name}.py {' '.join(entry.get('args', []))}`".replace(" `", "`") + f": "
-            f"{fmt(entry.get('wall_s'))} s" + (f", **failed**: {entry['error']}" if "error" in entry else ""),
+            f"{fmt(entry.get('wall_s'))} s"
+            + (f", **failed**: {entry['error']}" if "error" in entry else "")
+            + (f"; measured {e} (an earlier run)" if (e := earlier_run(results, name)) else ""),
             "",
         ]
         if figures:
@@ -673,8 +777,17 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"no such benchmark script: {', '.join(unknown)} (have {', '.join(sorted(names))})",
                   file=sys.stderr)  # fmt: skip
             return 2
+        order = [q.stem for q in paths]
         paths = [q for q in paths if (not args.only or q.stem in args.only) and q.stem not in args.skip]
         results = run_suite(paths, out)
+        if len(paths) < len(order):  # part of the suite: the other scripts' figures are kept
+            earlier: dict = {}
+            if results_path.exists():
+                try:
+                    earlier = json.loads(results_path.read_text())
+                except (OSError, json.JSONDecodeError) as exc:
+                    print(f"{results_path}: not merged, cannot read it ({exc})", file=sys.stderr)
+            results = merge(results, earlier if isinstance(earlier, dict) else {}, order)
         tmp = results_path.with_suffix(".json.tmp")
         tmp.write_text(json.dumps(results, indent=2) + "\n")
         tmp.replace(results_path)
@@ -683,8 +796,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     for row in target_rows(results):
         t = row["target"]
         mark = {True: "ok  ", False: "MISS", None: "--  "}[row["holds"]]
+        when = f", measured {row['earlier']}" if row["earlier"] else ""
         print(
-            f"  {mark} issue {t.issue}: {t.what}: {fmt(row['value'])} (target {t.op} {fmt(t.bound)} {t.unit})"
+            f"  {mark} issue {t.issue}: {t.what}: {fmt(row['value'])} "
+            f"(target {f'{t.op} {fmt(t.bound)} {t.unit}'.strip()}{when})"
         )
     failed = [k for k, v in results.get("benches", {}).items() if "error" in v]
     if failed:

@@ -161,3 +161,86 @@ def test_unknown_script_names_are_refused(tmp_path: Path, args: list[str]) -> No
     proc = run("--bench-dir", str(tmp_path), "--out", str(tmp_path / "out"), *args)
     assert proc.returncode == 2 and "no such benchmark script" in proc.stderr
     assert not (tmp_path / "out" / "results.json").exists()
+
+
+def test_only_and_skip_keep_the_other_scripts_figures_dated(tmp_path: Path) -> None:
+    """A run of part of the suite merges into results.json: the scripts it did not run keep
+    their figures with the time, commit and load they were measured at, the report dates
+    them (targets table, per-script table, every figure), and the whole suite's wall time
+    stays the last full run's."""
+    bench = tmp_path / "benches"
+    bench.mkdir()
+    for name, figures in (
+        ("bench_orca", {"orca_circle_100_citygen_over_rvo2": 1.5}),
+        ("bench_traverse", {"town_realtime_factor": 6.0}),
+        ("bench_wfc", {"wfc_64x64_ms": 12.5}),
+    ):
+        (bench / f"{name}.py").write_text(f"import json\nprint(json.dumps({figures!r}))\n")
+    out = tmp_path / "out"
+    out.mkdir()
+    earlier = {
+        "started": "2026-11-29T03:10:13+00:00",
+        "machine": {"commit": "19f5c5e", "load_average_start": [0.4, 1.2, 1.5]},
+        "suite_wall_s": 2389.0,
+        "benches": {
+            "bench_orca": ok({"orca_circle_100_citygen_over_rvo2": 4.09}),
+            "bench_wfc": ok({"wfc_64x64_ms": 42.6}),
+            # stamped by a merge before: keeps its own time and commit
+            "bench_traverse": {**ok({"town_realtime_factor": 4.19}), "started": "2026-11-30T03:00:00+00:00",
+                               "commit": "d8b9e5e", "load_average": [1.0, 1.0, 1.0]},
+            "bench_gone": ok({"x": 1}),  # no such script any more: dropped
+            "run_all": {"figures": {"suite_wall_min": 39.8}},
+        },
+    }  # fmt: skip
+    (out / "results.json").write_text(json.dumps(earlier))
+
+    proc = run("--bench-dir", str(bench), "--out", str(out), "--only", "bench_orca")
+    assert proc.returncode == 0, proc.stderr
+    results = json.loads((out / "results.json").read_text())
+    benches = results["benches"]
+    assert list(benches) == ["bench_orca", "bench_traverse", "bench_wfc", "run_all"]
+    assert results["ran"] == ["bench_orca"]
+    assert benches["bench_orca"]["figures"] == {"orca_circle_100_citygen_over_rvo2": 1.5}
+    assert benches["bench_orca"]["started"] == results["started"]
+    assert benches["bench_orca"]["commit"] == results["machine"].get("commit")
+    assert len(benches["bench_orca"]["load_average"]) == 3
+    wfc = benches["bench_wfc"]
+    assert wfc["figures"] == {"wfc_64x64_ms": 42.6}
+    assert (wfc["started"], wfc["commit"], wfc["load_average"]) == (
+        "2026-11-29T03:10:13+00:00", "19f5c5e", [0.4, 1.2, 1.5]
+    )  # fmt: skip
+    assert (benches["bench_traverse"]["started"], benches["bench_traverse"]["commit"]) == (
+        "2026-11-30T03:00:00+00:00", "d8b9e5e"
+    )  # fmt: skip
+    assert benches["run_all"]["figures"] == {"suite_wall_min": 39.8}
+
+    report = (out / "REPORT.md").read_text()
+    rows = {line.split("|")[2].strip(): line for line in report.splitlines() if line.startswith("| ")}
+    assert "measured" not in rows["ORCA per agent-step over RVO2 (pyrvo), 100 agents, circle"]
+    assert (
+        "| 42.6 ms (measured 2026-11-29 03:10 UTC, commit 19f5c5e) |"
+        in rows["WFC 64 x 64, 22 tile variants, median"]
+    )
+    assert (
+        "(measured 2026-11-30 03:00 UTC, commit d8b9e5e)"
+        in rows["Traverse on a town of urban-tra-city's config, quadruped, real-time factor"]
+    )
+    assert "(measured 2026-11-29 03:10 UTC, commit 19f5c5e)" in rows["whole suite (run_all.py), wall time"]
+    assert "This run measured `bench_orca`" in report
+    assert "| bench_wfc | 2026-11-29T03:10:13+00:00 | 19f5c5e | 0.400, 1.20, 1.50 | 1.00 | no |" in report
+    assert "measured 2026-11-29 03:10 UTC, commit 19f5c5e (an earlier run)" in report
+    assert "bench_gone" not in report
+
+    # --skip merges too; the scripts it ran replace their entries
+    proc = run("--bench-dir", str(bench), "--out", str(out), "--skip", "bench_orca")
+    assert proc.returncode == 0, proc.stderr
+    results = json.loads((out / "results.json").read_text())
+    assert results["ran"] == ["bench_traverse", "bench_wfc"]
+    assert results["benches"]["bench_wfc"]["figures"] == {"wfc_64x64_ms": 12.5}
+    assert results["benches"]["bench_orca"]["figures"] == {"orca_circle_100_citygen_over_rvo2": 1.5}
+
+    # a full run replaces the whole document, its own suite wall time included
+    proc = run("--bench-dir", str(bench), "--out", str(out))
+    results = json.loads((out / "results.json").read_text())
+    assert "ran" not in results and results["benches"]["run_all"]["figures"]["suite_wall_min"] < 5
+    assert "(measured" not in (out / "REPORT.md").read_text()

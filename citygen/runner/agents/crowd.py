@@ -208,7 +208,9 @@ class Crowd:
         self._f, self._shape = f, (rows, cols)
         n_nodes = rows * cols
         n = len(self.ids)
-        self._hop = np.full((n, 2, n_nodes), -1, dtype=np.int32)
+        # Every row is written below (each person is in one clearance class): no fill first,
+        # which on a city's table (200 people x 2 x 262,144 nodes, 0.4 GB) cost seconds.
+        self._hop = np.empty((n, 2, n_nodes), dtype=np.int32)
         # One graph per clearance class (5 cm): people of like size share their Dijkstra run.
         groups = np.floor(self.need / 0.05 + 1e-9) * 0.05
         for need in np.unique(groups):
@@ -219,10 +221,10 @@ class Crowd:
             _, pred = scipy.sparse.csgraph.dijkstra(
                 graph, directed=False, indices=src, return_predecessors=True
             )
+            np.maximum(pred, -1, out=pred)  # no predecessor (-9999): -1
             m = len(members)
             self._hop[members, 0] = pred[:m]
             self._hop[members, 1] = pred[m:]
-        self._hop[self._hop < 0] = -1
 
     def _node_of(self, xy: np.ndarray) -> np.ndarray:
         row, col = self._cells(xy)

@@ -126,7 +126,10 @@ class _CitygenEnv(Sensors, gymnasium.Env):
             self._live[id(prepared)] = live
             while len(self._live) > LIVE_SCENES:
                 self._live.pop(next(iter(self._live)))
-            self.prepared, self.data, self.handle, self._robot_geoms, self._foot_geoms, self._robot_ids = live
+            (
+                self.prepared, self.data, self.handle, self._robot_geoms, self._foot_geoms, self._robot_ids,
+                self._reach,
+            ) = live  # fmt: skip
             self.model = prepared.model
             self._substeps = max(1, round(self.dt / self.model.opt.timestep))
         self._index = index
@@ -134,21 +137,25 @@ class _CitygenEnv(Sensors, gymnasium.Env):
 
     def _bind(self, prepared: Prepared) -> tuple:
         """What running ``prepared`` needs in this environment: its MjData, the robot's
-        handle, the robot's (and its feet's) geoms as masks over the model's geoms, and the
-        robot's geom ids as a set."""
+        handle, the robot's (and its feet's) geoms as masks over the model's geoms, the
+        robot's geom ids as a set, and on a scene of city scale the static geoms near the
+        robot (:mod:`citygen.runner.envs.reach`; None elsewhere)."""
         import mujoco
 
+        from citygen.runner.envs.reach import reach_of
         from citygen.runner.robots import RobotHandle
 
         model = prepared.model
+        data = mujoco.MjData(model)
         handle = RobotHandle(model, self.robot)
+        reach = reach_of(model, data, handle.geom_ids, handle.base_id)
         handle.terrain = prepared.fine_tiles  # the servo reads the 5 cm ground raster, not rays
         robot_geoms = np.zeros(model.ngeom, dtype=bool)
         robot_geoms[handle.geom_ids] = True
         foot_geoms = np.zeros(model.ngeom, dtype=bool)
         foot_geoms[handle.foot_geom_ids] = True
         robot_ids = frozenset(handle.geom_ids.tolist())
-        return prepared, mujoco.MjData(model), handle, robot_geoms, foot_geoms, robot_ids
+        return prepared, data, handle, robot_geoms, foot_geoms, robot_ids, reach
 
     def _pick_index(self, options: dict | None) -> int:
         if options and "index" in options:

@@ -37,6 +37,7 @@ from citygen.runner import localmap
 from citygen.runner import metrics as M
 from citygen.runner.envs.base import _CitygenEnv
 from citygen.runner.envs.legs import learned_legs
+from citygen.runner.envs.reach import near
 from citygen.runner.tasks import DEFAULT_ROBOT
 from citygen.spec import Scene
 
@@ -157,16 +158,30 @@ class NavEnv(_CitygenEnv):
                 d.mocap_pos[mocap] = (0.0, 0.0, -100.0)
 
     def _write_agents(self) -> None:
-        d, bodies = self.data, self.prepared.agent_bodies
+        """Each agent's mocap body where the agent is, on the ground, facing its heading (one
+        array write per group; the quaternions by :mod:`math`, as one agent at a time had them)."""
+        d = self.data
         for group in (self.crowd, self.traffic):
             if group is None:
                 continue
             z = height_at(self.scene, group.pos[:, 0], group.pos[:, 1])
             yaw = group.headings() if hasattr(group, "headings") else group.yaw
-            for k, aid in enumerate(group.ids):
-                m = bodies[aid]
-                d.mocap_pos[m] = (group.pos[k, 0], group.pos[k, 1], z[k])
-                d.mocap_quat[m] = (math.cos(yaw[k] / 2), 0.0, 0.0, math.sin(yaw[k] / 2))
+            mocap = self._mocap_ids(group.ids)
+            d.mocap_pos[mocap, :2] = group.pos
+            d.mocap_pos[mocap, 2] = z
+            d.mocap_quat[mocap] = [(math.cos(h), 0.0, 0.0, math.sin(h)) for h in (yaw / 2).tolist()]
+
+    def _mocap_ids(self, ids: list[str]) -> np.ndarray:
+        """The mocap ids of agents ``ids`` (in their order), remembered per scene."""
+        cache = self.__dict__.setdefault("_mocap_cache", {})
+        have = cache.get(id(ids))
+        if have is None or have[0] is not self.prepared or have[1] is not ids:
+            bodies = self.prepared.agent_bodies
+            have = (self.prepared, ids, np.array([bodies[a] for a in ids], dtype=np.int64))
+            if len(cache) >= 8:
+                cache.clear()
+            cache[id(ids)] = have
+        return have[2]
 
     def others(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Positions, velocities and radii of the moving agents near the robot (people
@@ -204,10 +219,11 @@ class NavEnv(_CitygenEnv):
                     radii.append(self.crowd.radius)
                 self.traffic.step(np.concatenate(obstacles), np.concatenate(radii))
             self._write_agents()
-        if self.legs is not None:
-            self.legs.walk(v, w)
-        else:
-            self.handle.control(self.data, v, w, self._substeps)
+        with near(self._reach, self.data):  # a city's static geoms near the robot only
+            if self.legs is not None:
+                self.legs.walk(v, w)
+            else:
+                self.handle.control(self.data, v, w, self._substeps)
         self.steps += 1
         return self._after_step()
 
