@@ -12,8 +12,11 @@ statement, which the plot quotes.
 Scenes. Each side ``L`` is urban-nav-2-train's config (citygen's NavStatic training split,
 ``seeds/urban-nav.toml``) scaled to ``L`` x ``L`` m at its own density and time per metre:
 
-- objects: 4 per 100 m^2, the training split's 4 on 10 m x 10 m (1 at 5 m, 100 at 50 m),
-  at its density levels 50 %, 100 % and 150 %;
+- objects: citygen's default density, 4 per 100 m^2 of the ground that suits them
+  (``placement.count = "density"``; 2.9 on average on a 10 m scene, where urban-nav-2-train
+  places exactly 4), at its density levels 50 %, 100 % and 150 %. An exact count in
+  proportion to the area (4 per 100 m^2 of scene) asks a 50 m scene for up to 150 objects
+  where its layout may have room for 50: a quarter of those scenes failed to generate;
 - goals at least ``L / 2`` away (the test split's 7.5 m on 15 m), on walkable ground;
 - episodes of ``2 L`` seconds, ``20 L`` control steps (the 10 m split's 200 steps): a 50 m
   scene's 25-40 m routes do not fit in the paper's 200 steps at the wheeled robot's 1.5 m/s.
@@ -69,8 +72,6 @@ SIDES = (5.0, 10.0, 20.0, 35.0, 50.0)
 QUICK_SIDES = (5.0, 10.0)
 #: The split every size's config is scaled from.
 BASE_SPLIT = "urban-nav-2-train"
-#: Objects per square metre: urban-nav-2-train's 4 on 10 m x 10 m.
-OBJECTS_PER_M2 = 4 / 100.0
 #: Episode length per metre of side (control steps): the 10 m split's 200.
 STEPS_PER_M = 20
 #: Scenes in each size's training and test split.
@@ -87,17 +88,21 @@ def side_name(side: float) -> str:
 
 def side_config(side: float) -> dict:
     """urban-nav-2-train's generator config (its fields that differ from the defaults) on
-    ``side`` x ``side`` m: objects at its density, goals at least ``side / 2`` away."""
+    ``side`` x ``side`` m: objects at citygen's default density of the ground that suits
+    them, goals at least ``side / 2`` away."""
     from citygen.generate.splits import splits
 
     config = splits()[BASE_SPLIT].config.model_dump(mode="json", exclude_defaults=True)
     config["size"] = [side, side]
-    config["placement"] = {
-        **config.get("placement", {}),
-        "count": max(1, round(OBJECTS_PER_M2 * side * side)),
-    }
+    config["placement"] = {**config.get("placement", {}), "count": "density"}
     config["task"] = {**config.get("task", {}), "min_distance": side / 2}
     return config
+
+
+def _density() -> float:
+    from citygen.spec.config import PlacementConfig
+
+    return PlacementConfig().density_per_100m2
 
 
 def horizon(side: float) -> int:
@@ -155,7 +160,7 @@ def run_side(side: float, args: argparse.Namespace) -> dict:
     row = {
         "side_m": side,
         "area_m2": side * side,
-        "objects": side_config(side)["placement"]["count"],
+        "objects_per_100m2_of_suitable_ground": _density(),
         "min_goal_distance_m": side / 2,
         "horizon_steps": steps,
         "train_split": str(_rel(train_split)),
@@ -313,7 +318,7 @@ def main(argv: list[str] | None = None) -> dict:
         rows.append(run_side(side, args))
         r = rows[-1]
         print(
-            f"{r['side_m']:>4g} m ({r['area_m2']:>6g} m², {r['objects']:>3} objects, "
+            f"{r['side_m']:>4g} m ({r['area_m2']:>6g} m², "
             f"{r['horizon_steps']} steps): success {r['success_rate']:5.1f} ± {r['success_se']:.1f} %, "
             "route completion "
             f"{r['route_completion']:5.1f} % ({r['train_s']:.0f} s training)",

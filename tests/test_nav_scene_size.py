@@ -39,17 +39,19 @@ def test_two_tiny_sizes_end_to_end(tmp_path, capsys):
 
 
 def test_a_sizes_splits_make_scenes_of_that_size(tmp_path):
-    """Train and test manifests: the side, objects at the training split's density, goals at
-    least half the side away, and different scenes in the two."""
+    """Train and test manifests: the side, objects at citygen's default density of the ground
+    that suits them, goals at least half the side away, and different scenes in the two."""
     from citygen.generate.splits import generate_scene, resolve
 
     train, test = nav_scene_size.write_splits(20.0, tmp_path)
     (train_split,), (test_split,) = resolve(train), resolve(test)
     assert train_split.config == test_split.config and train_split.name != test_split.name
-    assert train_split.config.placement.count == 16 and train_split.scenes == 256
+    placement = train_split.config.placement
+    assert placement.count is None and placement.density_per_100m2 == 4.0 and train_split.scenes == 256
+    assert placement.density_levels == (0.5, 1.0, 1.5)
     scene = generate_scene(test_split, 1)  # density level 1.0
     assert (scene.bounds.max[0] - scene.bounds.min[0], scene.bounds.max[1] - scene.bounds.min[1]) == (20, 20)
-    assert len(scene.placements) == 16
+    assert scene.placements
     assert math.dist(scene.task.start.position, scene.task.goal) >= 10.0
     assert generate_scene(train_split, 1).task.goal != scene.task.goal
 
