@@ -69,37 +69,50 @@ def _start_policy(init: Path) -> Path | None:
     return next((p for p in (init / "policy.npz", init / "model.zip") if p.exists()), None)
 
 
-def run_one(scenes: int, sampling: str, args: argparse.Namespace) -> dict:
+def train_run(out: Path, args: argparse.Namespace, **fields) -> float:
+    """Train one NavStatic run into ``out`` with the options every run of a sweep shares
+    (``args``: config, robot, steps, envs, seed, init) and ``fields`` (split, scenes, sampling,
+    max_steps...) on top; seconds spent. A finished run (its ``policy.npz`` there) is not
+    trained again, an interrupted one resumes from its last checkpoint."""
     from citygen.runner.learn.config import load_config
     from citygen.runner.learn.train import train
 
-    out = args.out / f"{sampling}-{scenes}"
     cfg = load_config(
         args.config,
         task="nav-static",
-        split="urban-nav-2-train",
         robot=args.robot,
         steps=args.steps,
         envs=args.envs,
         seed=args.seed,
-        scenes=scenes,
-        sampling=sampling,
         checkpoint_every=max(args.steps // 4, 1),
         **({"init": str(args.init)} if args.init is not None else {}),
+        **fields,
     )
     t0 = time.perf_counter()
     resume = (out / "checkpoints").exists() and not (out / "policy.npz").exists()
     if not (out / "policy.npz").exists():
         train(cfg, out, resume=resume, progress=sys.stderr.isatty())
-    train_s = time.perf_counter() - t0
+    return time.perf_counter() - t0
+
+
+def run_one(scenes: int, sampling: str, args: argparse.Namespace) -> dict:
+    out = args.out / f"{sampling}-{scenes}"
+    train_s = train_run(out, args, split="urban-nav-2-train", scenes=scenes, sampling=sampling)
     result = evaluate(out / "policy.npz", out, args)
     return {**result, "scenes": scenes, "sampling": sampling, "train_s": train_s}
 
 
-def evaluate(policy: Path, folder: Path, args: argparse.Namespace) -> dict:
+def evaluate(
+    policy: Path,
+    folder: Path,
+    args: argparse.Namespace,
+    split: str = "urban-nav-2-test",
+    max_steps: int | None = None,
+) -> dict:
     """Success (%), its standard error and route completion of ``policy`` on the first
-    ``args.episodes`` scenes of urban-nav-2-test, kept in ``folder/test-<episodes>.json`` (the
-    test is deterministic: a policy evaluated once is not evaluated again)."""
+    ``args.episodes`` scenes of ``split`` (NavStatic; episodes cut at ``max_steps``, default the
+    task's horizon), kept in ``folder/test-<episodes>.json`` (the test is deterministic: a
+    policy evaluated once is not evaluated again)."""
     from citygen.runner.bench import run_bench
     from citygen.runner.metrics import summarise
 
@@ -109,12 +122,13 @@ def evaluate(policy: Path, folder: Path, args: argparse.Namespace) -> dict:
     t0 = time.perf_counter()
     rows = run_bench(
         "nav-static",
-        "urban-nav-2-test",
+        str(split),
         robot=args.robot,
         policy=str(policy),
         episodes=args.episodes,
         jobs=args.jobs,
         seed=args.seed,
+        **({} if max_steps is None else {"max_steps": max_steps}),
     )
     summary = summarise([{k: r[k] for k in ("success_rate", "route_completion")} for r in rows])
     result = {

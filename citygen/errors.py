@@ -70,6 +70,10 @@ class GenerationError(CitygenError):
         self.stage, self.seed, self.message = stage, seed, message
         super().__init__(f"generation failed in stage {stage!r} (seed {seed}): {message}")
 
+    def __reduce__(self):
+        # A worker process's error reaches its parent pickled: rebuilt from its three parts.
+        return type(self), (self.stage, self.seed, self.message)
+
 
 class ExportError(CitygenError):
     """A scene cannot be written in the requested format."""

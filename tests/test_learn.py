@@ -189,6 +189,22 @@ def test_the_training_env_gives_the_policy_clipped_goals():
         venv.close()
 
 
+def test_max_steps_cuts_training_episodes():
+    """``max_steps`` is the sub-environments' horizon: a robot standing still is cut after 3
+    steps with it, not within 3 without it (the task's 200)."""
+    from citygen.runner.learn.config import TrainConfig
+    from citygen.runner.learn.vecenv import make_training_env
+
+    for max_steps in (None, 3):
+        venv = make_training_env(TrainConfig(task="nav-clear", envs=1, processes=0, max_steps=max_steps))
+        try:
+            venv.reset()
+            ends = [bool(venv.step(np.zeros((1, 2), dtype=np.float32))[2][0]) for _ in range(3)]
+        finally:
+            venv.close()
+        assert ends == ([False, False, True] if max_steps == 3 else [False, False, False])
+
+
 def _numpy_policy_of(encoder, space, encoders: dict):
     """A :class:`NumpyPolicy` whose features are ``encoder``'s: its ``local_map`` CNN's
     weights, the meta's ``encoders`` as given, an all-zero 3-action head."""

@@ -261,6 +261,17 @@ def test_impossible_requests_fail_with_the_stage_named() -> None:
         generate(config, 1)
 
 
+def test_a_generation_error_survives_pickling() -> None:
+    """A vector env's worker sends its error to the parent pickled: a scene that fails to
+    generate there is this error in the parent, not a TypeError about __init__'s arguments."""
+    import pickle
+
+    exc = pickle.loads(pickle.dumps(GenerationError("placement", 7, "no room")))
+    assert isinstance(exc, GenerationError)
+    assert (exc.stage, exc.seed, exc.message) == ("placement", 7, "no room")
+    assert str(exc) == "generation failed in stage 'placement' (seed 7): no room"
+
+
 # --- the caches behind the speed of a scene (issue 9): same answers, bounded --------------
 
 

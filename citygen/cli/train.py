@@ -70,6 +70,16 @@ def train(
         str | None,
         typer.Option("--sampling", help="async (a scene per sub-environment) or sync.  [default: async]"),
     ] = None,
+    max_steps: Annotated[
+        int | None,
+        typer.Option(
+            "--max-steps",
+            min=1,
+            max=1_000_000,
+            help="Cut each training episode after this many steps (0.1 s each in navigation, 0.02 s "
+            "in locomotion).  [default: the task's horizon]",
+        ),
+    ] = None,
     locomotion: Annotated[
         str | None,
         typer.Option(
@@ -105,6 +115,7 @@ def train(
         sampling=sampling,
         processes=processes,
         locomotion=locomotion,
+        max_steps=max_steps,
         init=None if init is None else str(init),
     )
     _check_run(cfg, out, resume)

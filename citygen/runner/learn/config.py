@@ -84,6 +84,13 @@ class TrainConfig(BaseModel):
         description="async: every sub-environment draws its own scene at each reset; sync: "
         "all sub-environments run the same scene, a new one every rollout.",
     )
+    max_steps: Annotated[int, Field(ge=1, le=1_000_000)] | None = Field(
+        None,
+        description="Control steps after which a training episode is cut (0.1 s each in navigation, "
+        "0.02 s in locomotion; citygen bench --max-steps is the same for a test); default the "
+        "task's horizon (navigation: 200 steps, 20 s). Scenes larger than the Urban-Nav ones need "
+        "more time to cross (benchmarks/nav_scene_size.py).",
+    )
     locomotion: Literal["servo", "learned"] = Field(
         "servo",
         description="Navigation with a legged robot: on the ideal servo on its base, or on learned "

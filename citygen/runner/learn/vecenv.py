@@ -67,7 +67,7 @@ def _sub_env(
     task: str, split: str, robot: str, scenes: int | None, sampling: str, seed: int, rank: int, period: int,
     progress: float = 0.0, gamma: float = 0.99, reverse: float = 0.0, keys: tuple[str, ...] | None = None,
     loco: dict[str, Any] | None = None, locomotion: str = "servo",
-    gait: tuple[str, float, float] | None = None,
+    gait: tuple[str, float, float] | None = None, max_steps: int | None = None,
 ) -> gymnasium.Env:  # fmt: skip
     import multiprocessing
     import signal
@@ -81,7 +81,9 @@ def _sub_env(
     walk = {} if locomotion == "servo" else {"locomotion": locomotion}  # learned legs (envs.legs)
     if keys is not None:  # the walk's phase is the gait's to give (learn.residual)
         keys = tuple(k for k in keys if k != PHASE_KEY)
-    env = make_env(task, split=split, robot=robot, observations=keys, **walk)  # only what the policy reads
+    limit = {} if max_steps is None else {"max_steps": max_steps}  # else the task's horizon
+    # Only the keys the policy reads.
+    env = make_env(task, split=split, robot=robot, observations=keys, **walk, **limit)
     if (progress or reverse) and task.startswith("nav"):
         from citygen.runner.learn.shaping import ProgressReward
 
@@ -229,6 +231,7 @@ def make_training_env(cfg: TrainConfig) -> Sb3VecEnv:
             },
             cfg.locomotion,
             (cfg.gait, cfg.gait_scale, cfg.gait_max_speed) if cfg.gait else None,
+            cfg.max_steps,
         )
         for rank in range(cfg.envs)
     ]
