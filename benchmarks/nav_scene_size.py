@@ -54,7 +54,6 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import math
 import sys
 import time
 from pathlib import Path
@@ -184,22 +183,18 @@ def _rel(path: Path) -> Path:
 
 
 def linear_fit(xs: list[float], ys: list[float]) -> dict:
-    """Least squares ``y = intercept + slope x``, the slope's standard error (None for two
-    points) and R^2."""
-    n = len(xs)
-    mx, my = sum(xs) / n, sum(ys) / n
-    sxx = sum((x - mx) ** 2 for x in xs)
-    sxy = sum((x - mx) * (y - my) for x, y in zip(xs, ys, strict=True))
-    slope = sxy / sxx if sxx else 0.0
-    intercept = my - slope * mx
-    residual = sum((y - intercept - slope * x) ** 2 for x, y in zip(xs, ys, strict=True))
-    total = sum((y - my) ** 2 for y in ys)
-    slope_se = math.sqrt(residual / (n - 2) / sxx) if n > 2 and sxx else None
+    """Least squares ``y = intercept + slope x`` (scipy's ``linregress``), the slope's standard
+    error (None for two points) and R^2."""
+    from scipy.stats import linregress
+
+    if len(xs) < 2:  # one size: no slope to fit
+        return {"intercept_pct": ys[0], "slope_pct_per_m2": 0.0, "slope_se_pct_per_m2": None, "r2": 1.0}
+    fit = linregress(xs, ys)
     return {
-        "intercept_pct": intercept,
-        "slope_pct_per_m2": slope,
-        "slope_se_pct_per_m2": slope_se,
-        "r2": 1.0 - residual / total if total else 1.0,
+        "intercept_pct": float(fit.intercept),
+        "slope_pct_per_m2": float(fit.slope),
+        "slope_se_pct_per_m2": float(fit.stderr) if len(xs) > 2 else None,
+        "r2": float(fit.rvalue**2),
     }
 
 
