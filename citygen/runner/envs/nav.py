@@ -87,6 +87,7 @@ class NavEnv(_CitygenEnv):
         self.horizon = self.max_steps or NAV_HORIZON
         self.crowd = None
         self.traffic = None
+        self._agent_mocap: list[tuple] = []  # (group, its agents' mocap ids): _place_agents
 
     # The goal of the current step (a traverse moves it along the route).
     def _goal(self) -> tuple[float, float]:
@@ -137,6 +138,7 @@ class NavEnv(_CitygenEnv):
 
     def _place_agents(self) -> None:
         self.crowd = self.traffic = None
+        self._agent_mocap = []
         d = self.data
         if self._dynamic() and self.prepared.agent_bodies:
             from citygen.runner.agents.crowd import crowd_of
@@ -151,6 +153,12 @@ class NavEnv(_CitygenEnv):
                 self.traffic = Traffic(self.scene, dt=self.dt)
             if len(self.traffic.ids) == 0:
                 self.traffic = None
+            bodies = self.prepared.agent_bodies
+            self._agent_mocap = [
+                (group, np.array([bodies[a] for a in group.ids], dtype=np.int64))
+                for group in (self.crowd, self.traffic)
+                if group is not None
+            ]
             self._write_agents()
         else:
             # NavClear / NavStatic: no moving agents; their bodies are parked far below.
@@ -161,27 +169,12 @@ class NavEnv(_CitygenEnv):
         """Each agent's mocap body where the agent is, on the ground, facing its heading (one
         array write per group; the quaternions by :mod:`math`, as one agent at a time had them)."""
         d = self.data
-        for group in (self.crowd, self.traffic):
-            if group is None:
-                continue
+        for group, mocap in self._agent_mocap:
             z = height_at(self.scene, group.pos[:, 0], group.pos[:, 1])
             yaw = group.headings() if hasattr(group, "headings") else group.yaw
-            mocap = self._mocap_ids(group.ids)
             d.mocap_pos[mocap, :2] = group.pos
             d.mocap_pos[mocap, 2] = z
             d.mocap_quat[mocap] = [(math.cos(h), 0.0, 0.0, math.sin(h)) for h in (yaw / 2).tolist()]
-
-    def _mocap_ids(self, ids: list[str]) -> np.ndarray:
-        """The mocap ids of agents ``ids`` (in their order), remembered per scene."""
-        cache = self.__dict__.setdefault("_mocap_cache", {})
-        have = cache.get(id(ids))
-        if have is None or have[0] is not self.prepared or have[1] is not ids:
-            bodies = self.prepared.agent_bodies
-            have = (self.prepared, ids, np.array([bodies[a] for a in ids], dtype=np.int64))
-            if len(cache) >= 8:
-                cache.clear()
-            cache[id(ids)] = have
-        return have[2]
 
     def others(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Positions, velocities and radii of the moving agents near the robot (people
