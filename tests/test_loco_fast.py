@@ -74,7 +74,8 @@ def _reference_step(env, action):
     env.steps += 1
     x, y, _, _ = env.handle.pose(env.data)
     vel = env.handle.velocity(env.data)
-    fallen = _reference_ground_force(env) > FALL_FORCE or env._out_of_bounds(x, y)
+    fallen = _reference_ground_force(env) > FALL_FORCE
+    outside = env._out_of_bounds(x, y)
     dv = (vel[0] - env.command[0]) ** 2 + (vel[1] - env.command[1]) ** 2
     dz = (vel[3] - env.command[2]) ** 2
     reward = math.exp(-dv / 0.25**2) + 0.5 * math.exp(-dz / 0.25**2)
@@ -89,8 +90,8 @@ def _reference_step(env, action):
         env.command[2] = float(
             np.clip(HEADING_STIFFNESS * math.remainder(env.held_heading - yaw, 2 * math.pi), -1.0, 1.0)
         )
-    truncated = not fallen and env.steps >= env.horizon
-    info = {"scene": env.source.name, "index": env._index, "fallen": fallen}
+    truncated = not fallen and (outside or env.steps >= env.horizon)
+    info = {"scene": env.source.name, "index": env._index, "fallen": fallen, "out_of_bounds": outside}
     if fallen or truncated:
         env.recorder.finish()
         info["metrics"] = M.loco_metrics(env.recorder)

@@ -41,6 +41,21 @@ def test_projected_gravity_is_the_tilt_of_the_base(flat):
     assert g[2] == pytest.approx(-math.cos(0.3), abs=1e-5)
 
 
+def test_walking_off_the_grid_upright_ends_the_episode_without_a_fall(flat):
+    """Balance counts falls: a robot that leaves the terrain grid standing is truncated there
+    (its X-displacement the distance walked), not counted as fallen."""
+    import mujoco
+
+    flat.reset(seed=0)
+    u = flat.unwrapped
+    (_, _), (x1, _) = u.scene.bounds.min, u.scene.bounds.max
+    u.data.qpos[u.handle.qadr] = x1 + 0.05  # standing just past the edge
+    mujoco.mj_forward(u.model, u.data)
+    _, reward, terminated, truncated, info = flat.step(np.zeros(flat.action_space.shape))
+    assert truncated and not terminated and info["out_of_bounds"] and not info["fallen"]
+    assert info["is_success"] and info["metrics"]["balance"] == 100.0 and reward > -100.0
+
+
 def test_the_wheeled_legged_robot_drives_its_wheels_after_its_joints():
     env = make_env("loco-flat", robot="wheeled_legged")
     try:

@@ -217,7 +217,10 @@ class LocoEnv(_CitygenEnv):
         # plain floats: the same arithmetic as numpy's float64 scalars; kept for the training
         # wrapper's shaping (learn.loco), which reads the same state after the step
         vel = self.base_velocity = h._velocity(d)
-        fallen = self._ground_force() > FALL_FORCE or self._out_of_bounds(x, y)
+        fallen = self._ground_force() > FALL_FORCE
+        # walking off the terrain grid upright ends the episode without a fall: Balance is
+        # the share of episodes without one, and the ground there is not the task's
+        outside = self._out_of_bounds(x, y)
         c0, c1, c2 = self.command.tolist()
         dv = (vel[0] - c0) ** 2 + (vel[1] - c1) ** 2
         dz = (vel[3] - c2) ** 2
@@ -231,9 +234,9 @@ class LocoEnv(_CitygenEnv):
         if self.held_heading is not None:  # the next step's yaw rate turns back to it
             err = math.remainder(self.held_heading - pose[3], math.tau)
             self.command[2] = min(max(HEADING_STIFFNESS * err, -YAW_RATE_LIMIT), YAW_RATE_LIMIT)
-        truncated = not fallen and self.steps >= self.horizon
+        truncated = not fallen and (outside or self.steps >= self.horizon)
         obs = self._observation(pose, vel)
-        info = {"scene": self.source.name, "index": self._index, "fallen": fallen}
+        info = {"scene": self.source.name, "index": self._index, "fallen": fallen, "out_of_bounds": outside}
         if fallen or truncated:
             self.recorder.finish()
             info["metrics"] = M.loco_metrics(self.recorder)
