@@ -130,6 +130,19 @@ def test_an_episode_ends_at_the_horizon_with_the_metrics(nav2):
     assert 0.0 <= result["route_completion"] <= 100.0
 
 
+def test_an_episode_lasts_the_scenes_time_limit_unless_max_steps_cuts_it(nav2):
+    scene = nav2[1].model_copy(update={"task": nav2[1].task.model_copy(update={"time_limit": 1.5})})
+    for options, steps in (({}, 15), ({"max_steps": 7}, 7)):
+        env = make_env("nav-static", scene, **options)
+        env.reset(seed=0)
+        for n in range(1, 100):
+            _, _, term, trunc, _ = env.step(np.zeros(2, np.float32))
+            if term or trunc:
+                break
+        assert (n, trunc, term) == (steps, True, False)
+        env.close()
+
+
 def test_planner_reaches_goals_random_does_not(nav2):
     planner = [run_episode(make_env("nav-static", s), make_policy("planner"), seed=0) for s in nav2]
     random = [run_episode(make_env("nav-static", s), make_policy("random", seed=0), seed=0) for s in nav2]

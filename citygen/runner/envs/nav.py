@@ -17,7 +17,8 @@ the last step's ``info["is_success"]`` says whether the goal was reached. Reward
 episode; a fall ends it like leaving the bounds), ``2.0 * [(1 - tanh(d / 1.0)) + 0.2 (1 -
 tanh(d / 0.2))]`` for the distance ``d`` to the goal, ``-0.5`` on non-walkable ground and
 ``-1.0`` in collision (a contact with an object or an agent, or a person's disc
-overlapping the robot's). The horizon is :data:`NAV_HORIZON` steps. NavDynamic's people
+overlapping the robot's). An episode lasts the scene's ``task.time_limit`` (20 s by default:
+:data:`NAV_HORIZON` steps, the paper's horizon) unless ``max_steps`` cuts it. NavDynamic's people
 move by ORCA and its vehicles by IDM (:mod:`citygen.runner.agents`); in NavClear and
 NavStatic the scene's agents are removed.
 """
@@ -102,6 +103,8 @@ class NavEnv(_CitygenEnv):
             )
         self.goal = tuple(task.goal)
         self.tolerance = task.goal_tolerance
+        if self.max_steps is None:  # the scene's time limit (20 s, the paper's 200 steps, unless set)
+            self.horizon = max(1, math.ceil(task.time_limit / self.dt - 1e-9))
 
     def _dynamic(self) -> bool:
         return self.task_kind in ("nav-dynamic", "traverse")
