@@ -135,10 +135,10 @@ def test_an_episode_lasts_the_scenes_time_limit_unless_max_steps_cuts_it(nav2):
     for options, steps in (({}, 15), ({"max_steps": 7}, 7)):
         env = make_env("nav-static", scene, **options)
         env.reset(seed=0)
-        for n in range(1, 100):
+        n, term, trunc = 0, False, False
+        while not (term or trunc) and n < 100:
             _, _, term, trunc, _ = env.step(np.zeros(2, np.float32))
-            if term or trunc:
-                break
+            n += 1
         assert (n, trunc, term) == (steps, True, False)
         env.close()
 
