@@ -62,6 +62,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import bench_learning  # benchmarks/bench_learning.py: one training run, one test
 
+from citygen.errors import GenerationError
 from citygen.io import write_atomic
 
 HERE = Path(__file__).resolve().parent
@@ -310,7 +311,11 @@ def main(argv: list[str] | None = None) -> dict:
     t0 = time.perf_counter()
     rows = []
     for side in args.sides:
-        rows.append(run_side(side, args))
+        try:
+            rows.append(run_side(side, args))
+        except GenerationError as err:  # a scene of the size's splits: one line, exit 2
+            print(f"nav_scene_size.py: --sides {side:g}: {err}", file=sys.stderr)
+            raise SystemExit(2) from None
         r = rows[-1]
         print(
             f"{r['side_m']:>4g} m ({r['area_m2']:>6g} m², "

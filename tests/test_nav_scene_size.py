@@ -65,3 +65,17 @@ def test_bad_options_exit_2(args, says, capsys):
         nav_scene_size.main(args)
     assert exc.value.code == 2
     assert says in capsys.readouterr().err.strip().splitlines()[-1]
+
+
+def test_a_scene_that_does_not_generate_is_one_line_and_exit_2(tmp_path, monkeypatch, capsys):
+    from citygen.errors import GenerationError
+
+    def fails(side, args):
+        raise GenerationError("placement", 7, "placed 50 of the 74 objects asked for")
+
+    monkeypatch.setattr(nav_scene_size, "run_side", fails)
+    with pytest.raises(SystemExit) as exc:
+        nav_scene_size.main(["--sides", "35", "--out", str(tmp_path), "--runs", str(tmp_path)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert exc.value.code == 2 and len(err) == 1
+    assert err[0].startswith("nav_scene_size.py: --sides 35: ") and "placed 50 of the 74" in err[0]
