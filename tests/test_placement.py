@@ -360,8 +360,9 @@ def test_a_draw_that_runs_out_of_room_at_its_end_is_drawn_again() -> None:
 
 def test_a_draw_far_short_is_drawn_again_too() -> None:
     """A 35 m NavStatic scene of the scene-size experiment (benchmarks/nav_scene_size.py) placed
-    23 of the 49 objects its density asks for in its first draw (random early objects walled
-    the start off from the goal) and used to fail there; a later draw fits them all."""
+    23 of the 49 objects its density asks for in its first draw (its furniture ground is
+    narrow: candidates were turned away as too close to those placed) and used to fail there;
+    a later draw fits them all."""
     from citygen.generate.splits import generate_scene, resolve
 
     path = Path(__file__).parents[1] / "benchmarks/results/nav-scene-size/splits/nav-static-35m-test.json"
@@ -369,3 +370,13 @@ def test_a_draw_far_short_is_drawn_again_too() -> None:
     scene = generate_scene(split, 103)
     furniture = [p for p in scene.placements if not p.asset.startswith("building/")]
     assert len(furniture) == 49 and validate(scene) == []
+
+
+def test_a_request_beyond_the_room_is_one_error_naming_the_numbers() -> None:
+    """Every draw fails, the last one patient, and the stage says how many fit of how many."""
+    config = TRAIN.model_copy(update={"placement": PlacementConfig(count=150)})
+    with pytest.raises(GenerationError) as err:
+        generate(config, 0)
+    text = str(err.value)
+    assert "\n" not in text and "of the 150 objects asked for (placement.count = 150" in text
+    assert "600 candidates for the next found no room" in text

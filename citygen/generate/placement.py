@@ -20,7 +20,9 @@ into):
 
 How many: ``config.count`` objects (exact) or ``density_per_100m2`` per 100 m2 of the
 ground the categories suit, times the scene's density level (Urban-Nav-2's 50 %, 100 %,
-150 %); when an object finds no room in :data:`TRIES` candidates the stage fails with a
+150 %); when an object finds no room in :data:`TRIES` candidates the draw starts again from
+the next stream (:data:`ATTEMPTS` draws, then a last one of :data:`PATIENT_TRIES` candidates
+an object), and when every draw fails the stage fails with a
 :class:`~citygen.errors.GenerationError` giving the numbers, never places fewer in silence.
 Buildings fill their lots and are not counted. Each scene draws a small palette
 of variants per category, so a street repeats its bench model as real streets do (and
@@ -57,7 +59,10 @@ PALETTE = 6
 TRIES = 60
 """Candidates drawn per object before the stage gives up on it."""
 ATTEMPTS = 8
-"""Draws of a scene's furniture that ran out of room before placement fails."""
+"""Draws of a scene's furniture that ran out of room before the last, patient one."""
+PATIENT_TRIES = 600
+"""Candidates drawn per object in the last draw: a crowded scene's last gaps are found by
+sampling longer (it runs only where every draw of :data:`TRIES` failed, once an error)."""
 MAX_TILT = 0.12
 """Most rise (m) of the ground under an object's base."""
 CROSSING_REACH = 6.0
@@ -373,17 +378,19 @@ def place_objects(
     if ends is not None and ends.needs_path and walkable is None:
         walkable = walkable_ground(zones, (*bounds.min, *bounds.max))
     reach = max(cfg.clearance, *(CATEGORIES[n].clearance for n in slots))
-    # A draw that runs out of room is drawn again from the next child generator (the first
-    # draw's stream is the one every scene always had: a scene that fits at once keeps its
-    # bytes); a request that fails every draw is an error. A draw far short is drawn again
-    # too: random early objects can wall a large scene's start off from its goal (35 and 50 m
-    # scenes at 4 objects per 100 m2 placed 23 of 49 and 92 of 150, then fit on a later draw);
-    # scenes that generated before keep their bytes, since stopping early only raised errors.
-    for attempt in range(ATTEMPTS):
+    # A draw that runs out of room is drawn again from the next child generator, with a last
+    # draw of PATIENT_TRIES candidates an object; only a request that fails every draw is an
+    # error. The first draw's stream is the one every scene always had, so a scene that fits
+    # at once keeps its bytes, and so does every scene that generated before: draws after one
+    # far short of its count, and the last patient draw, ran only where placement used to fail
+    # (35 and 50 m NavStatic scenes at 4 objects per 100 m2, whose furniture ground is narrow:
+    # 23 of 49 and 90 of 150 placed, candidates turned away as too close to those placed).
+    for attempt in range(ATTEMPTS + 1):
         stream = child(rng, 200 if attempt == 0 else 200 + attempt)
         path = _Path(walkable, ends) if ends is not None and ends.needs_path else None
+        tries = TRIES if attempt < ATTEMPTS else PATIENT_TRIES
         scattered, done = _scatter(
-            slots, palettes, ground, terrain, cfg, wanted, reach, keep_out, path, stream
+            slots, palettes, ground, terrain, cfg, wanted, reach, keep_out, path, stream, tries
         )
         if scattered is not None:
             return (*placed, *scattered)
@@ -394,21 +401,21 @@ def place_objects(
     )
     raise GenerationError("placement", seed, (
         f"placed {done} of the {wanted} objects asked for ({asked}, density level {level:g}): "
-        f"{TRIES} candidates for the next found no room in the {area:,.0f} m2 of zones they suit, "
+        f"{PATIENT_TRIES} candidates for the next found no room in the {area:,.0f} m2 of zones they suit, "
         f"{cfg.clearance:g} m apart; "
         "ask for fewer objects, a smaller clearance or a larger scene"
     ))  # fmt: skip
 
 
-def _scatter(slots, palettes, ground, terrain, cfg, wanted, reach, keep_out, path, rng):
+def _scatter(slots, palettes, ground, terrain, cfg, wanted, reach, keep_out, path, rng, tries=TRIES):
     """``wanted`` furniture objects drawn from ``rng`` (see :func:`place_objects`), or
-    ``(None, n)`` when the ``n + 1``-th finds no room in :data:`TRIES` candidates."""
+    ``(None, n)`` when the ``n + 1``-th finds no room in ``tries`` candidates."""
     placed: list[Placement] = []
     taken = _Hash()
     order = list(slots)
     counts: dict[str, int] = defaultdict(int)
     for done in range(wanted):
-        for _ in range(TRIES):
+        for _ in range(tries):
             name = order[int(rng.integers(len(order)))]
             asset = resolve(palettes[name][int(rng.integers(PALETTE))])
             slot = slots[name]
