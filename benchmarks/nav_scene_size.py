@@ -1,6 +1,6 @@
 r"""Navigation difficulty against scene size (the paper's "Necessity of Foundational Tasks",
 task size): NavStatic success of wheeled policies trained and tested on square scenes of 5 m to
-50 m side, against the scene's area, with a least-squares line.
+50 m side, against the scene's area, with least-squares lines against the area and its logarithm.
 
 The paper (URBAN-SIM appendix, "Necessity of Foundational Tasks"): "We train navigation
 models with varying sizes of the scene, from 5m x 5m to 50m x 50m, to analyze changes in
@@ -54,6 +54,7 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import math
 import sys
 import time
 from pathlib import Path
@@ -152,6 +153,17 @@ def training_success(run: Path) -> tuple[float | None, float | None]:
     return float(rows[0]["success_rate"]), float(rows[-1]["success_rate"])
 
 
+def training_seconds(run: Path, spent: float) -> float:
+    """Wall seconds the run trained (its curve.csv's last ``seconds``), else ``spent``."""
+    curve = run / "curve.csv"
+    if curve.exists():
+        with open(curve, newline="") as f:
+            rows = [r for r in csv.DictReader(f) if r.get("seconds") not in (None, "")]
+        if rows:
+            return float(rows[-1]["seconds"])
+    return spent
+
+
 def run_side(side: float, args: argparse.Namespace) -> dict:
     """Train and test one size; its row of the results."""
     train_split, test_split = write_splits(side, args.out)
@@ -169,7 +181,8 @@ def run_side(side: float, args: argparse.Namespace) -> dict:
     if args.start:
         start = bench_learning.evaluate(args.init, run / "start", args, test_split, steps)
         row["start"] = {k: start[k] for k in ("success_rate", "success_se", "route_completion")}
-    row["train_s"] = bench_learning.train_run(run, args, split=str(train_split), max_steps=steps)
+    spent = bench_learning.train_run(run, args, split=str(train_split), max_steps=steps)
+    row["train_s"] = training_seconds(run, spent)  # the run's own clock: a resumed size spent ~0 here
     row["train_success_first_pct"], row["train_success_last_pct"] = training_success(run)
     test = bench_learning.evaluate(run / "policy.npz", run, args, test_split, steps)
     row.update({k: test[k] for k in ("success_rate", "success_se", "route_completion", "eval_s")})
@@ -199,7 +212,25 @@ def linear_fit(xs: list[float], ys: list[float]) -> dict:
     }
 
 
-def plot(rows: list[dict], fit: dict, path: Path, args: argparse.Namespace) -> None:
+def log_fit(xs: list[float], ys: list[float]) -> dict:
+    """Least squares ``y = intercept + slope ln(x)`` (scipy's ``linregress``) and its R^2: the
+    shape to set beside the paper's straight line, where success falls fastest on small
+    scenes."""
+    from scipy.stats import linregress
+
+    if len(xs) < 2:
+        return {"intercept_pct": ys[0], "slope_pct_per_ln_m2": 0.0, "r2": 1.0}
+    fit = linregress([math.log(x) for x in xs], ys)
+    return {
+        "intercept_pct": float(fit.intercept),
+        "slope_pct_per_ln_m2": float(fit.slope),
+        "r2": float(fit.rvalue**2),
+    }
+
+
+def plot(
+    rows: list[dict], fit: dict, path: Path, args: argparse.Namespace, logfit: dict | None = None
+) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -230,6 +261,16 @@ def plot(rows: list[dict], fit: dict, path: Path, args: argparse.Namespace) -> N
         label=f"least squares: {fit['intercept_pct']:.1f} % {fit['slope_pct_per_m2'] * 1000:+.1f} "
         f"points per 1,000 m² (R² {fit['r2']:.2f})",
     )
+    if logfit is not None and len(rows) > 1:
+        curve_x = [min(area) * (max(area) / min(area)) ** (k / 100) for k in range(101)]
+        ax.plot(
+            curve_x,
+            [logfit["intercept_pct"] + logfit["slope_pct_per_ln_m2"] * math.log(x) for x in curve_x],
+            ":",
+            color="tab:orange",
+            label=f"against ln(area): {logfit['slope_pct_per_ln_m2'] * math.log(2):+.1f} points per "
+            f"doubling of the area (R² {logfit['r2']:.2f})",
+        )
     starts = [r for r in rows if "start" in r]
     if starts:
         ax.errorbar(
@@ -325,9 +366,10 @@ def main(argv: list[str] | None = None) -> dict:
             flush=True,
         )
     fit = linear_fit([r["area_m2"] for r in rows], [r["success_rate"] for r in rows])
+    logfit = log_fit([r["area_m2"] for r in rows], [r["success_rate"] for r in rows])
     name = "quick" if args.quick else "results"
     plot_path = args.out / ("quick.png" if args.quick else "nav_scene_size.png")
-    plot(rows, fit, plot_path, args)
+    plot(rows, fit, plot_path, args, logfit)
     doc = {
         "experiment": "NavStatic success against scene size (URBAN-SIM, Necessity of Foundational Tasks)",
         "paper": PAPER + " (figure only; no numbers in the paper)",
@@ -342,6 +384,7 @@ def main(argv: list[str] | None = None) -> dict:
         + " ".join(argv if argv is not None else sys.argv[1:]),
         "sizes": rows,
         "fit": fit,
+        "fit_log_area": logfit,
         "plot": str(_rel(plot_path.resolve())),
     }
     write_atomic(args.out / f"{name}.json", (json.dumps(doc, indent=1) + "\n").encode())
@@ -369,6 +412,11 @@ def main(argv: list[str] | None = None) -> dict:
         + ("" if slope_se is None else f" (± {slope_se * 1000:.2f})")
         + f", R² {fit['r2']:.3f}; the paper: {PAPER}"
     )
+    print(
+        f"against ln(area): success = {logfit['intercept_pct']:.1f} % "
+        f"{logfit['slope_pct_per_ln_m2'] * math.log(2):+.2f} points per doubling of the area, "
+        f"R² {logfit['r2']:.3f}"
+    )
     print(f"wrote {args.out / f'{name}.json'} and {plot_path}")
     figures = {f"success_{side_name(r['side_m'])}_pct": round(r["success_rate"], 2) for r in rows}
     figures.update({f"success_se_{side_name(r['side_m'])}_pct": round(r["success_se"], 2) for r in rows})
@@ -377,6 +425,8 @@ def main(argv: list[str] | None = None) -> dict:
             "slope_pct_per_1000_m2": round(fit["slope_pct_per_m2"] * 1000, 3),
             "intercept_pct": round(fit["intercept_pct"], 2),
             "r2": round(fit["r2"], 4),
+            "points_per_area_doubling": round(logfit["slope_pct_per_ln_m2"] * math.log(2), 3),
+            "r2_log_area": round(logfit["r2"], 4),
             "steps_per_size": args.steps,
             "test_episodes": args.episodes,
             "wall_s": round(time.perf_counter() - t0, 1),

@@ -31,6 +31,8 @@ def test_two_tiny_sizes_end_to_end(tmp_path, capsys):
     fit = doc["fit"]
     a, b = (r["success_rate"] for r in doc["sizes"])
     assert fit["slope_pct_per_m2"] == pytest.approx((b - a) / (64 - 25))
+    logfit = doc["fit_log_area"]
+    assert logfit["slope_pct_per_ln_m2"] == pytest.approx((b - a) / math.log(64 / 25))
     assert json.loads((out / "quick.json").read_text())["sizes"] == doc["sizes"]
     data = (out / "quick.png").read_bytes()
     assert data[:8] == b"\x89PNG\r\n\x1a\n" and struct.unpack(">II", data[16:24])[0] > 500
