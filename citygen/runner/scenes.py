@@ -162,6 +162,9 @@ class Prepared:
     """bool per geom: the ground (zones, terrain, apron)."""
     agent_bodies: dict[str, int] = field(default_factory=dict)
     """agent id -> mocap id."""
+    store_key: str | None = None
+    """Its entry's key in the on-disk store (:mod:`~citygen.runner.scene_store`), where what
+    its episodes derive from it may be kept too; None without a store."""
     _fields: dict = field(default_factory=dict)
     _routes: dict = field(default_factory=dict)
 
@@ -433,6 +436,8 @@ class SceneCache:
             item = prepare(source.scene(index), robot, terrain)
             if disk is not None:
                 disk.save(stored, item)
+        if disk is not None:
+            item.store_key = stored
         size = item.footprint()
         self._items[key] = (item, size)
         self.bytes += size

@@ -103,15 +103,68 @@ def crowd_of(prepared, scene: Scene, *, rng: np.random.Generator, dt: float) -> 
     """``Crowd(scene, prepared.occupancy, rng=rng, dt=dt)``, its clearance field and paths
     (which depend on the scene alone) built once and kept on the env's cached scene data
     ``prepared``: each call is a copy of them reset with ``rng``, the same crowd a new one is
-    (its constructor draws nothing from ``rng``). On a town they took 6 of a 10 s reset."""
+    (its constructor draws nothing from ``rng``). On a town they took 6 of a 10 s reset. The
+    path tables are kept in the on-disk store too, beside the scene's entry
+    (:meth:`~citygen.runner.scene_store.SceneStore.load_array`): on a city their Dijkstra
+    runs were most of a reset from the store."""
     have = getattr(prepared, "_crowd", None)
     if have is None or have[0] is not scene or have[1] != dt:
-        have = (scene, dt, Crowd(scene, prepared.occupancy, rng=rng, dt=dt))
+        disk, key = _store_of(prepared)
+        hop = (
+            None
+            if disk is None
+            else disk.load_array(key, PATHS_ENTRY, check=_table_check(scene, prepared.occupancy))
+        )
+        made = Crowd(scene, prepared.occupancy, rng=rng, dt=dt, hop=hop)
+        if disk is not None and hop is None and made._hop.size:
+            disk.save_array(key, PATHS_ENTRY, made._hop)
+        have = (scene, dt, made)
         prepared._crowd = have
     crowd = copy.copy(have[2])  # its arrays shared: an episode replaces, never edits, them,
     crowd.speed = crowd.speed.copy()  # but for the speeds (SignalCrowd holds people at red)
     crowd.reset(rng)
     return crowd
+
+
+#: The name of the path tables beside a scene's entry in the on-disk store.
+PATHS_ENTRY = "crowd-paths"
+
+
+def _store_of(prepared) -> tuple:
+    """The on-disk store and ``prepared``'s key in it, or ``(None, None)``."""
+    from citygen.runner import scene_store
+
+    key = getattr(prepared, "store_key", None)
+    disk = scene_store.store() if key is not None else None
+    return (disk, key) if disk is not None else (None, None)
+
+
+def _table_check(scene: Scene, occupancy: OccupancyMap):
+    """Whether a stored path table fits the crowd of ``scene`` on ``occupancy``: its shape and
+    type, every entry a node or -1 (a damaged file never indexes out of the grid)."""
+    n = sum(isinstance(a, Person) for a in scene.agents)
+    rows, cols = _nav_shape(occupancy.grid)
+
+    def check(hop: np.ndarray) -> bool:
+        if hop.dtype != np.int32 or hop.shape != (n, 2, rows * cols):
+            return False
+        return not hop.size or (int(hop.min()) >= -1 and int(hop.max()) < rows * cols)
+
+    return check
+
+
+def _nav_factor(grid) -> int:
+    """Fine cells per side of a cell of the people's path grid (:data:`NAV_CELL`, coarser
+    where the grid would exceed :data:`MAX_NAV_NODES`)."""
+    res = grid.resolution
+    cell = max(NAV_CELL, math.sqrt(grid.rows * grid.cols * res * res / MAX_NAV_NODES))
+    return max(1, math.ceil(cell / res - 1e-9))
+
+
+def _nav_shape(grid) -> tuple[int, int]:
+    """Rows and columns of the people's path grid over ``grid``."""
+    f = _nav_factor(grid)
+    return -(-grid.rows // f), -(-grid.cols // f)
 
 
 class Crowd:
@@ -125,6 +178,8 @@ class Crowd:
     (m/s), ``target`` ``(N,)`` (0: heading for the goal, 1: for the start) and ``arrivals``
     ``(N,)`` (targets reached so far). Constant: ``ids``, ``radius`` (m), ``speed`` (preferred,
     m/s), ``max_speed`` (m/s), ``need`` (m: the clearance kept from non-walkable cell centres).
+    ``hop``: the path tables of an earlier crowd of the same scene and map (its ``_hop``,
+    kept by :func:`crowd_of`), taken as they are instead of computed.
     """
 
     def __init__(
@@ -137,6 +192,7 @@ class Crowd:
         tau: float = 2.0,
         neighbor_dist: float = 5.0,
         max_neighbors: int = 10,
+        hop: np.ndarray | None = None,
     ) -> None:
         if not (isinstance(dt, int | float) and dt > 0):
             raise ValueError(f"Crowd dt: expected a step > 0 in seconds, got {dt!r}")
@@ -165,7 +221,7 @@ class Crowd:
         )
         self.need = np.maximum(self.need, 0.0)
         self._static_radius = self.need + half_diag - self.radius
-        self._build_paths()
+        self._build_paths(hop)
         self.reset(rng)
 
     # grid look-ups
@@ -190,13 +246,13 @@ class Crowd:
         """Whether each person ``i`` may stand at ``xy[i]`` (``(N, 2)`` m): its cell keeps ``need[i]``."""
         return self._clear_at(xy) >= self.need
 
-    def _build_paths(self) -> None:
+    def _build_paths(self, hop: np.ndarray | None = None) -> None:
         """Per person and target (goal, start) the next hop towards it on a coarse grid of
-        :data:`NAV_CELL` cells, whose nodes are each block's best-cleared fine cell."""
+        :data:`NAV_CELL` cells, whose nodes are each block's best-cleared fine cell (``hop``:
+        the tables, already computed)."""
         g, res = self._grid, self._grid.resolution
-        cell = max(NAV_CELL, math.sqrt(g.rows * g.cols * res * res / MAX_NAV_NODES))
-        f = max(1, math.ceil(cell / res - 1e-9))
-        rows, cols = -(-g.rows // f), -(-g.cols // f)
+        f = _nav_factor(g)
+        rows, cols = _nav_shape(g)
         pad = np.full((rows * f, cols * f), -1.0)
         pad[: g.rows, : g.cols] = self.clearance
         blocks = pad.reshape(rows, f, cols, f).transpose(0, 2, 1, 3).reshape(rows, cols, f * f)
@@ -208,6 +264,9 @@ class Crowd:
         self._f, self._shape = f, (rows, cols)
         n_nodes = rows * cols
         n = len(self.ids)
+        if hop is not None:
+            self._hop = hop
+            return
         # Every row is written below (each person is in one clearance class): no fill first,
         # which on a city's table (200 people x 2 x 262,144 nodes, 0.4 GB) cost seconds.
         self._hop = np.empty((n, 2, n_nodes), dtype=np.int32)
