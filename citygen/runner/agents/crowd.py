@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Callable, Mapping
 
 import numpy as np
 import scipy.ndimage
@@ -103,21 +104,18 @@ def crowd_of(prepared, scene: Scene, *, rng: np.random.Generator, dt: float) -> 
     """``Crowd(scene, prepared.occupancy, rng=rng, dt=dt)``, its clearance field and paths
     (which depend on the scene alone) built once and kept on the env's cached scene data
     ``prepared``: each call is a copy of them reset with ``rng``, the same crowd a new one is
-    (its constructor draws nothing from ``rng``). On a town they took 6 of a 10 s reset. The
-    path tables are kept in the on-disk store too, beside the scene's entry
-    (:meth:`~citygen.runner.scene_store.SceneStore.load_array`): on a city their Dijkstra
-    runs were most of a reset from the store."""
+    (its constructor draws nothing from ``rng``). On a town they took 6 of a 10 s reset. Its
+    :meth:`Crowd.tables` are kept in the on-disk store too, beside the scene's entry
+    (:meth:`~citygen.runner.scene_store.SceneStore.load_array`): on a city their distance
+    transform and Dijkstra runs were most of a reset from the store."""
     have = getattr(prepared, "_crowd", None)
     if have is None or have[0] is not scene or have[1] != dt:
         disk, key = _store_of(prepared)
-        hop = (
-            None
-            if disk is None
-            else disk.load_array(key, PATHS_ENTRY, check=_table_check(scene, prepared.occupancy))
-        )
-        made = Crowd(scene, prepared.occupancy, rng=rng, dt=dt, hop=hop)
-        if disk is not None and hop is None and made._hop.size:
-            disk.save_array(key, PATHS_ENTRY, made._hop)
+        tables = None if disk is None else _load_tables(disk, key, scene, prepared.occupancy)
+        made = Crowd(scene, prepared.occupancy, rng=rng, dt=dt, tables=tables)
+        if disk is not None and tables is None and len(made.ids):
+            for name, array in made.tables().items():
+                disk.save_array(key, f"{TABLES_ENTRY}-{name}", array)
         have = (scene, dt, made)
         prepared._crowd = have
     crowd = copy.copy(have[2])  # its arrays shared: an episode replaces, never edits, them,
@@ -126,8 +124,9 @@ def crowd_of(prepared, scene: Scene, *, rng: np.random.Generator, dt: float) -> 
     return crowd
 
 
-#: The name of the path tables beside a scene's entry in the on-disk store.
-PATHS_ENTRY = "crowd-paths"
+#: The prefix of the names of a crowd's tables (:meth:`Crowd.tables`) beside its scene's
+#: entry in the on-disk store.
+TABLES_ENTRY = "crowd"
 
 
 def _store_of(prepared) -> tuple:
@@ -139,18 +138,34 @@ def _store_of(prepared) -> tuple:
     return (disk, key) if disk is not None else (None, None)
 
 
-def _table_check(scene: Scene, occupancy: OccupancyMap):
-    """Whether a stored path table fits the crowd of ``scene`` on ``occupancy``: its shape and
-    type, every entry a node or -1 (a damaged file never indexes out of the grid)."""
+def _load_tables(disk, key: str, scene: Scene, occupancy: OccupancyMap) -> dict[str, np.ndarray] | None:
+    """The stored :meth:`Crowd.tables` of ``scene``'s crowd on ``occupancy``, each checked
+    (shape and type; every path entry a node or -1, so that a damaged file never indexes off
+    the grid), or None when one is missing or fails."""
     n = sum(isinstance(a, Person) for a in scene.agents)
-    rows, cols = _nav_shape(occupancy.grid)
+    g = occupancy.grid
+    rows, cols = _nav_shape(g)
 
-    def check(hop: np.ndarray) -> bool:
-        if hop.dtype != np.int32 or hop.shape != (n, 2, rows * cols):
+    def fits(shape: tuple, dtype) -> Callable[[np.ndarray], bool]:
+        return lambda a: a.dtype == dtype and a.shape == shape
+
+    def paths(hop: np.ndarray) -> bool:
+        if not fits((n, 2, rows * cols), np.int32)(hop):
             return False
         return not hop.size or (int(hop.min()) >= -1 and int(hop.max()) < rows * cols)
 
-    return check
+    checks = {
+        "paths": paths,
+        "clearance": fits((g.rows, g.cols), np.float64),
+        "blocked": fits((g.rows, g.cols, 2), np.float64),
+    }
+    out = {}
+    for name, check in checks.items():
+        array = disk.load_array(key, f"{TABLES_ENTRY}-{name}", check=check)
+        if array is None:
+            return None
+        out[name] = array
+    return out
 
 
 def _nav_factor(grid) -> int:
@@ -178,8 +193,8 @@ class Crowd:
     (m/s), ``target`` ``(N,)`` (0: heading for the goal, 1: for the start) and ``arrivals``
     ``(N,)`` (targets reached so far). Constant: ``ids``, ``radius`` (m), ``speed`` (preferred,
     m/s), ``max_speed`` (m/s), ``need`` (m: the clearance kept from non-walkable cell centres).
-    ``hop``: the path tables of an earlier crowd of the same scene and map (its ``_hop``,
-    kept by :func:`crowd_of`), taken as they are instead of computed.
+    ``tables``: :meth:`tables` of an earlier crowd of the same scene and map (kept by
+    :func:`crowd_of`), taken as they are instead of computed.
     """
 
     def __init__(
@@ -192,7 +207,7 @@ class Crowd:
         tau: float = 2.0,
         neighbor_dist: float = 5.0,
         max_neighbors: int = 10,
-        hop: np.ndarray | None = None,
+        tables: Mapping[str, np.ndarray] | None = None,
     ) -> None:
         if not (isinstance(dt, int | float) and dt > 0):
             raise ValueError(f"Crowd dt: expected a step > 0 in seconds, got {dt!r}")
@@ -207,21 +222,24 @@ class Crowd:
         self.goal = np.array([a.goal for a in people], dtype=np.float64).reshape(-1, 2)
         self._grid = occupancy.grid
         res = occupancy.resolution
-        walk = np.pad(occupancy.walkable_mask(), 1)  # off the map is not walkable
-        edt, idx = scipy.ndimage.distance_transform_edt(walk, return_indices=True)
-        #: Distance (m) from each cell centre to the nearest non-walkable cell centre.
-        self.clearance = edt[1:-1, 1:-1] * res
-        g = self._grid
-        self._blocked_xy = np.stack(
-            [g.x0 + (idx[1, 1:-1, 1:-1] - 0.5) * res, g.y0 + (idx[0, 1:-1, 1:-1] - 0.5) * res], axis=-1
-        )
+        if tables is None:
+            walk = np.pad(occupancy.walkable_mask(), 1)  # off the map is not walkable
+            edt, idx = scipy.ndimage.distance_transform_edt(walk, return_indices=True)
+            #: Distance (m) from each cell centre to the nearest non-walkable cell centre.
+            self.clearance = edt[1:-1, 1:-1] * res
+            g = self._grid
+            self._blocked_xy = np.stack(
+                [g.x0 + (idx[1, 1:-1, 1:-1] - 0.5) * res, g.y0 + (idx[0, 1:-1, 1:-1] - 0.5) * res], axis=-1
+            )
+        else:
+            self.clearance, self._blocked_xy = tables["clearance"], tables["blocked"]
         half_diag = res * math.sqrt(0.5)
         self.need = np.minimum(
             self.radius + half_diag, np.minimum(self._clear_at(self.start), self._clear_at(self.goal))
         )
         self.need = np.maximum(self.need, 0.0)
         self._static_radius = self.need + half_diag - self.radius
-        self._build_paths(hop)
+        self._build_paths(None if tables is None else tables["paths"])
         self.reset(rng)
 
     # grid look-ups
@@ -284,6 +302,12 @@ class Crowd:
             m = len(members)
             self._hop[members, 0] = pred[:m]
             self._hop[members, 1] = pred[m:]
+
+    def tables(self) -> dict[str, np.ndarray]:
+        """What the constructor computes from the scene and its map alone, the costly part
+        of a crowd (a city's: 0.6 GB, seconds of distance transform and Dijkstra): ``paths``
+        (the next hops), ``clearance`` and ``blocked`` (each cell's nearest blocked cell)."""
+        return {"paths": self._hop, "clearance": self.clearance, "blocked": self._blocked_xy}
 
     def _node_of(self, xy: np.ndarray) -> np.ndarray:
         row, col = self._cells(xy)
