@@ -129,3 +129,68 @@ def test_the_store_keeps_to_its_budget_dropping_the_oldest_first(tmp_path):
     s.prune()
     left = sorted(p.name[:2] for p in tmp_path.glob("*/*.pkl.z"))
     assert left == ["04", "05"]  # 400 KB within 0.5 MiB, the two most recently used
+
+
+CORNER = ROOT / "examples" / "street_corner.json"
+
+
+def _walk(crowd, steps: int = 40) -> np.ndarray:
+    """The crowd's positions over ``steps`` steps with a robot standing still in it."""
+    out = []
+    for _ in range(steps):
+        crowd.step(np.array([12.0, 6.0]), np.zeros(2), 0.35)
+        out.append(crowd.pos.copy())
+    return np.array(out)
+
+
+def test_a_crowds_stored_tables_are_the_computed_ones_and_move_it_the_same(store):
+    from citygen.runner.agents.crowd import TABLES_ENTRY, crowd_of
+
+    source = SceneSource(scene=CORNER)
+    robot = make_env("nav-dynamic", scene=CORNER).unwrapped.robot
+    fresh = SceneCache().get(source, 0, robot)
+    first = crowd_of(fresh, fresh.scene, rng=np.random.default_rng(3), dt=0.1)
+    assert store.array_path(fresh.store_key, f"{TABLES_ENTRY}-paths").is_file()
+    again = SceneCache().get(source, 0, robot)  # a second process's first visit
+    second = crowd_of(again, again.scene, rng=np.random.default_rng(3), dt=0.1)
+    for name, want in first.tables().items():
+        got = second.tables()[name]
+        assert isinstance(got, np.memmap) and not isinstance(want, np.memmap), name
+        assert got.dtype == want.dtype and np.array_equal(got, want), name
+    assert np.array_equal(_walk(second), _walk(first))
+
+
+@pytest.mark.parametrize("damage", ["truncated", "out of range"])
+def test_a_broken_path_table_is_computed_and_written_again(store, damage):
+    from citygen.runner.agents.crowd import TABLES_ENTRY, crowd_of
+
+    source = SceneSource(scene=CORNER)
+    robot = make_env("nav-dynamic", scene=CORNER).unwrapped.robot
+    prepared = SceneCache().get(source, 0, robot)
+    want = crowd_of(prepared, prepared.scene, rng=np.random.default_rng(3), dt=0.1)._hop.copy()
+    path = store.array_path(prepared.store_key, f"{TABLES_ENTRY}-paths")
+    if damage == "truncated":
+        path.write_bytes(path.read_bytes()[:-100])
+    else:
+        bad = want.copy()
+        bad.flat[0] = 10**8  # the right size, an entry no node has
+        np.save(path, bad)
+    again = SceneCache().get(source, 0, robot)
+    writes = store.writes
+    crowd = crowd_of(again, again.scene, rng=np.random.default_rng(3), dt=0.1)
+    assert not isinstance(crowd._hop, np.memmap) and np.array_equal(crowd._hop, want)
+    assert store.writes == writes + 3 and np.array_equal(np.load(path), want)  # the three tables
+
+
+def test_a_big_entry_is_stored_uncompressed_and_reads_the_same(store, monkeypatch):
+    monkeypatch.setattr(scene_store, "COMPRESS_BELOW", 0)  # every entry "big"
+    source = SceneSource(scene=SCENE)
+    robot = make_env("nav-static", scene=SCENE).unwrapped.robot
+    fresh = SceneCache().get(source, 0, robot)
+    (entry,) = store.root.glob("*/*.pkl.z")
+    assert entry.read_bytes()[:1] == b"\x80"  # a pickle, not a zlib stream
+    again = SceneCache().get(source, 0, robot)
+    assert store.hits == 1 and np.array_equal(again.free, fresh.free)
+    assert again.model.ngeom == fresh.model.ngeom
+    entry.write_bytes(entry.read_bytes()[:1000])  # truncated: a miss, written again
+    assert SceneCache().get(source, 0, robot).model.ngeom == fresh.model.ngeom and store.writes == 2

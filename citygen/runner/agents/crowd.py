@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Callable, Mapping
 
 import numpy as np
 import scipy.ndimage
@@ -103,15 +104,82 @@ def crowd_of(prepared, scene: Scene, *, rng: np.random.Generator, dt: float) -> 
     """``Crowd(scene, prepared.occupancy, rng=rng, dt=dt)``, its clearance field and paths
     (which depend on the scene alone) built once and kept on the env's cached scene data
     ``prepared``: each call is a copy of them reset with ``rng``, the same crowd a new one is
-    (its constructor draws nothing from ``rng``). On a town they took 6 of a 10 s reset."""
+    (its constructor draws nothing from ``rng``). On a town they took 6 of a 10 s reset. Its
+    :meth:`Crowd.tables` are kept in the on-disk store too, beside the scene's entry
+    (:meth:`~citygen.runner.scene_store.SceneStore.load_array`): on a city their distance
+    transform and Dijkstra runs were most of a reset from the store."""
     have = getattr(prepared, "_crowd", None)
     if have is None or have[0] is not scene or have[1] != dt:
-        have = (scene, dt, Crowd(scene, prepared.occupancy, rng=rng, dt=dt))
+        disk, key = _store_of(prepared)
+        tables = None if disk is None else _load_tables(disk, key, scene, prepared.occupancy)
+        made = Crowd(scene, prepared.occupancy, rng=rng, dt=dt, tables=tables)
+        if disk is not None and tables is None and len(made.ids):
+            for name, array in made.tables().items():
+                disk.save_array(key, f"{TABLES_ENTRY}-{name}", array)
+        have = (scene, dt, made)
         prepared._crowd = have
     crowd = copy.copy(have[2])  # its arrays shared: an episode replaces, never edits, them,
     crowd.speed = crowd.speed.copy()  # but for the speeds (SignalCrowd holds people at red)
     crowd.reset(rng)
     return crowd
+
+
+#: The prefix of the names of a crowd's tables (:meth:`Crowd.tables`) beside its scene's
+#: entry in the on-disk store.
+TABLES_ENTRY = "crowd"
+
+
+def _store_of(prepared) -> tuple:
+    """The on-disk store and ``prepared``'s key in it, or ``(None, None)``."""
+    from citygen.runner import scene_store
+
+    key = getattr(prepared, "store_key", None)
+    disk = scene_store.store() if key is not None else None
+    return (disk, key) if disk is not None else (None, None)
+
+
+def _load_tables(disk, key: str, scene: Scene, occupancy: OccupancyMap) -> dict[str, np.ndarray] | None:
+    """The stored :meth:`Crowd.tables` of ``scene``'s crowd on ``occupancy``, each checked
+    (shape and type; every path entry a node or -1, so that a damaged file never indexes off
+    the grid), or None when one is missing or fails."""
+    n = sum(isinstance(a, Person) for a in scene.agents)
+    g = occupancy.grid
+    rows, cols = _nav_shape(g)
+
+    def fits(shape: tuple, dtype) -> Callable[[np.ndarray], bool]:
+        return lambda a: a.dtype == dtype and a.shape == shape
+
+    def paths(hop: np.ndarray) -> bool:
+        if not fits((n, 2, rows * cols), np.int32)(hop):
+            return False
+        return not hop.size or (int(hop.min()) >= -1 and int(hop.max()) < rows * cols)
+
+    checks = {
+        "paths": paths,
+        "clearance": fits((g.rows, g.cols), np.float64),
+        "blocked": fits((g.rows, g.cols, 2), np.float64),
+    }
+    out = {}
+    for name, check in checks.items():
+        array = disk.load_array(key, f"{TABLES_ENTRY}-{name}", check=check)
+        if array is None:
+            return None
+        out[name] = array
+    return out
+
+
+def _nav_factor(grid) -> int:
+    """Fine cells per side of a cell of the people's path grid (:data:`NAV_CELL`, coarser
+    where the grid would exceed :data:`MAX_NAV_NODES`)."""
+    res = grid.resolution
+    cell = max(NAV_CELL, math.sqrt(grid.rows * grid.cols * res * res / MAX_NAV_NODES))
+    return max(1, math.ceil(cell / res - 1e-9))
+
+
+def _nav_shape(grid) -> tuple[int, int]:
+    """Rows and columns of the people's path grid over ``grid``."""
+    f = _nav_factor(grid)
+    return -(-grid.rows // f), -(-grid.cols // f)
 
 
 class Crowd:
@@ -125,6 +193,8 @@ class Crowd:
     (m/s), ``target`` ``(N,)`` (0: heading for the goal, 1: for the start) and ``arrivals``
     ``(N,)`` (targets reached so far). Constant: ``ids``, ``radius`` (m), ``speed`` (preferred,
     m/s), ``max_speed`` (m/s), ``need`` (m: the clearance kept from non-walkable cell centres).
+    ``tables``: :meth:`tables` of an earlier crowd of the same scene and map (kept by
+    :func:`crowd_of`), taken as they are instead of computed.
     """
 
     def __init__(
@@ -137,6 +207,7 @@ class Crowd:
         tau: float = 2.0,
         neighbor_dist: float = 5.0,
         max_neighbors: int = 10,
+        tables: Mapping[str, np.ndarray] | None = None,
     ) -> None:
         if not (isinstance(dt, int | float) and dt > 0):
             raise ValueError(f"Crowd dt: expected a step > 0 in seconds, got {dt!r}")
@@ -151,21 +222,24 @@ class Crowd:
         self.goal = np.array([a.goal for a in people], dtype=np.float64).reshape(-1, 2)
         self._grid = occupancy.grid
         res = occupancy.resolution
-        walk = np.pad(occupancy.walkable_mask(), 1)  # off the map is not walkable
-        edt, idx = scipy.ndimage.distance_transform_edt(walk, return_indices=True)
-        #: Distance (m) from each cell centre to the nearest non-walkable cell centre.
-        self.clearance = edt[1:-1, 1:-1] * res
-        g = self._grid
-        self._blocked_xy = np.stack(
-            [g.x0 + (idx[1, 1:-1, 1:-1] - 0.5) * res, g.y0 + (idx[0, 1:-1, 1:-1] - 0.5) * res], axis=-1
-        )
+        if tables is None:
+            walk = np.pad(occupancy.walkable_mask(), 1)  # off the map is not walkable
+            edt, idx = scipy.ndimage.distance_transform_edt(walk, return_indices=True)
+            #: Distance (m) from each cell centre to the nearest non-walkable cell centre.
+            self.clearance = edt[1:-1, 1:-1] * res
+            g = self._grid
+            self._blocked_xy = np.stack(
+                [g.x0 + (idx[1, 1:-1, 1:-1] - 0.5) * res, g.y0 + (idx[0, 1:-1, 1:-1] - 0.5) * res], axis=-1
+            )
+        else:
+            self.clearance, self._blocked_xy = tables["clearance"], tables["blocked"]
         half_diag = res * math.sqrt(0.5)
         self.need = np.minimum(
             self.radius + half_diag, np.minimum(self._clear_at(self.start), self._clear_at(self.goal))
         )
         self.need = np.maximum(self.need, 0.0)
         self._static_radius = self.need + half_diag - self.radius
-        self._build_paths()
+        self._build_paths(None if tables is None else tables["paths"])
         self.reset(rng)
 
     # grid look-ups
@@ -190,13 +264,13 @@ class Crowd:
         """Whether each person ``i`` may stand at ``xy[i]`` (``(N, 2)`` m): its cell keeps ``need[i]``."""
         return self._clear_at(xy) >= self.need
 
-    def _build_paths(self) -> None:
+    def _build_paths(self, hop: np.ndarray | None = None) -> None:
         """Per person and target (goal, start) the next hop towards it on a coarse grid of
-        :data:`NAV_CELL` cells, whose nodes are each block's best-cleared fine cell."""
+        :data:`NAV_CELL` cells, whose nodes are each block's best-cleared fine cell (``hop``:
+        the tables, already computed)."""
         g, res = self._grid, self._grid.resolution
-        cell = max(NAV_CELL, math.sqrt(g.rows * g.cols * res * res / MAX_NAV_NODES))
-        f = max(1, math.ceil(cell / res - 1e-9))
-        rows, cols = -(-g.rows // f), -(-g.cols // f)
+        f = _nav_factor(g)
+        rows, cols = _nav_shape(g)
         pad = np.full((rows * f, cols * f), -1.0)
         pad[: g.rows, : g.cols] = self.clearance
         blocks = pad.reshape(rows, f, cols, f).transpose(0, 2, 1, 3).reshape(rows, cols, f * f)
@@ -208,6 +282,9 @@ class Crowd:
         self._f, self._shape = f, (rows, cols)
         n_nodes = rows * cols
         n = len(self.ids)
+        if hop is not None:
+            self._hop = hop
+            return
         # Every row is written below (each person is in one clearance class): no fill first,
         # which on a city's table (200 people x 2 x 262,144 nodes, 0.4 GB) cost seconds.
         self._hop = np.empty((n, 2, n_nodes), dtype=np.int32)
@@ -225,6 +302,12 @@ class Crowd:
             m = len(members)
             self._hop[members, 0] = pred[:m]
             self._hop[members, 1] = pred[m:]
+
+    def tables(self) -> dict[str, np.ndarray]:
+        """What the constructor computes from the scene and its map alone, the costly part
+        of a crowd (a city's: 0.6 GB, seconds of distance transform and Dijkstra): ``paths``
+        (the next hops), ``clearance`` and ``blocked`` (each cell's nearest blocked cell)."""
+        return {"paths": self._hop, "clearance": self.clearance, "blocked": self._blocked_xy}
 
     def _node_of(self, xy: np.ndarray) -> np.ndarray:
         row, col = self._cells(xy)

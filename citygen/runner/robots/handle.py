@@ -10,6 +10,7 @@ import numpy as np
 
 from citygen.errors import CitygenError, ExportError
 from citygen.exporters.mjcf.contract import MJCF, ROBOT_BIT, ROBOT_CONAFFINITY, import_mujoco
+from citygen.exporters.mjcf.parse import compile_spec, scene_spec
 from citygen.runner.robots.base import _GRAVITY, HOVER_CLEARANCE, IMPRATIO, PREFIX, Robot, _v
 
 
@@ -38,7 +39,7 @@ def compose(scene_mjcf: MJCF, robot: Robot, pose: tuple[float, float, float, flo
     mujoco = import_mujoco()
     x, y, z, yaw = (float(v) for v in pose)
     try:
-        scene = mujoco.MjSpec.from_string(scene_mjcf.xml, assets=dict(scene_mjcf.assets))
+        scene = scene_spec(scene_mjcf)  # a city's in chunks: MuJoCo's parser is quadratic
         child = mujoco.MjSpec.from_string(robot.xml, assets=dict(robot.assets))
     except ValueError as exc:
         raise ExportError(f"compose: MuJoCo rejected the {robot.name!r} robot or the scene: {exc}") from None
@@ -63,7 +64,7 @@ def compose(scene_mjcf: MJCF, robot: Robot, pose: tuple[float, float, float, flo
     frame = scene.worldbody.add_frame(pos=[x, y, z], quat=[math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])
     scene.attach(child, prefix=PREFIX, frame=frame)
     try:
-        return scene.compile()
+        return compile_spec(scene)
     except ValueError as exc:
         raise ExportError(
             f"compose: MuJoCo rejected the scene with the {robot.name!r} robot: {exc}"
