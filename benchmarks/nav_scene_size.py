@@ -141,27 +141,27 @@ def write_splits(side: float, folder: Path) -> tuple[Path, Path]:
     return paths[0], paths[1]
 
 
-def training_success(run: Path) -> tuple[float | None, float | None]:
-    """Training success (%) of the run's first and last logged rollouts (its curve.csv)."""
+def _curve(run: Path) -> list[dict]:
+    """The rows of the run's learning curve (its curve.csv), none when it has none."""
     curve = run / "curve.csv"
     if not curve.exists():
-        return None, None
+        return []
     with open(curve, newline="") as f:
-        rows = [r for r in csv.DictReader(f) if r.get("success_rate") not in (None, "")]
+        return list(csv.DictReader(f))
+
+
+def training_success(rows: list[dict]) -> tuple[float | None, float | None]:
+    """Training success (%) of the first and last logged rollouts of a run's curve ``rows``."""
+    rows = [r for r in rows if r.get("success_rate") not in (None, "")]
     if not rows:
         return None, None
     return float(rows[0]["success_rate"]), float(rows[-1]["success_rate"])
 
 
-def training_seconds(run: Path, spent: float) -> float:
-    """Wall seconds the run trained (its curve.csv's last ``seconds``), else ``spent``."""
-    curve = run / "curve.csv"
-    if curve.exists():
-        with open(curve, newline="") as f:
-            rows = [r for r in csv.DictReader(f) if r.get("seconds") not in (None, "")]
-        if rows:
-            return float(rows[-1]["seconds"])
-    return spent
+def training_seconds(rows: list[dict], spent: float) -> float:
+    """Wall seconds a run trained (its curve ``rows``' last ``seconds``), else ``spent``."""
+    rows = [r for r in rows if r.get("seconds") not in (None, "")]
+    return float(rows[-1]["seconds"]) if rows else spent
 
 
 def run_side(side: float, args: argparse.Namespace) -> dict:
@@ -182,8 +182,9 @@ def run_side(side: float, args: argparse.Namespace) -> dict:
         start = bench_learning.evaluate(args.init, run / "start", args, test_split, steps)
         row["start"] = {k: start[k] for k in ("success_rate", "success_se", "route_completion")}
     spent = bench_learning.train_run(run, args, split=str(train_split), max_steps=steps)
-    row["train_s"] = training_seconds(run, spent)  # the run's own clock: a resumed size spent ~0 here
-    row["train_success_first_pct"], row["train_success_last_pct"] = training_success(run)
+    curve = _curve(run)
+    row["train_s"] = training_seconds(curve, spent)  # the run's own clock: a resumed size spent ~0 here
+    row["train_success_first_pct"], row["train_success_last_pct"] = training_success(curve)
     test = bench_learning.evaluate(run / "policy.npz", run, args, test_split, steps)
     row.update({k: test[k] for k in ("success_rate", "success_se", "route_completion", "eval_s")})
     return row
@@ -213,19 +214,12 @@ def linear_fit(xs: list[float], ys: list[float]) -> dict:
 
 
 def log_fit(xs: list[float], ys: list[float]) -> dict:
-    """Least squares ``y = intercept + slope ln(x)`` (scipy's ``linregress``) and its R^2: the
-    shape to set beside the paper's straight line, where success falls fastest on small
-    scenes."""
-    from scipy.stats import linregress
-
-    if len(xs) < 2:
-        return {"intercept_pct": ys[0], "slope_pct_per_ln_m2": 0.0, "r2": 1.0}
-    fit = linregress([math.log(x) for x in xs], ys)
-    return {
-        "intercept_pct": float(fit.intercept),
-        "slope_pct_per_ln_m2": float(fit.slope),
-        "r2": float(fit.rvalue**2),
-    }
+    """Least squares ``y = intercept + slope ln(x)`` (:func:`linear_fit` on ``ln x``) and its
+    R^2: the shape to set beside the paper's straight line, where success falls fastest on
+    small scenes."""
+    fit = linear_fit([math.log(x) for x in xs], ys)
+    slope = fit["slope_pct_per_m2"]
+    return {"intercept_pct": fit["intercept_pct"], "slope_pct_per_ln_m2": slope, "r2": fit["r2"]}
 
 
 def plot(

@@ -407,7 +407,7 @@ def place_objects(
     ))  # fmt: skip
 
 
-def _scatter(slots, palettes, ground, terrain, cfg, wanted, reach, keep_out, path, rng, tries=TRIES):
+def _scatter(slots, palettes, ground, terrain, cfg, wanted, reach, keep_out, path, rng, tries):
     """``wanted`` furniture objects drawn from ``rng`` (see :func:`place_objects`), or
     ``(None, n)`` when the ``n + 1``-th finds no room in ``tries`` candidates."""
     placed: list[Placement] = []

@@ -144,7 +144,7 @@ def _load_tables(disk, key: str, scene: Scene, occupancy: OccupancyMap) -> dict[
     the grid), or None when one is missing or fails."""
     n = sum(isinstance(a, Person) for a in scene.agents)
     g = occupancy.grid
-    rows, cols = _nav_shape(g)
+    _, rows, cols = _nav_grid(g)
 
     def fits(shape: tuple, dtype) -> Callable[[np.ndarray], bool]:
         return lambda a: a.dtype == dtype and a.shape == shape
@@ -168,18 +168,14 @@ def _load_tables(disk, key: str, scene: Scene, occupancy: OccupancyMap) -> dict[
     return out
 
 
-def _nav_factor(grid) -> int:
-    """Fine cells per side of a cell of the people's path grid (:data:`NAV_CELL`, coarser
-    where the grid would exceed :data:`MAX_NAV_NODES`)."""
+def _nav_grid(grid) -> tuple[int, int, int]:
+    """The people's path grid over ``grid``: fine cells per side of one of its cells
+    (:data:`NAV_CELL`, coarser where the grid would exceed :data:`MAX_NAV_NODES`), its rows
+    and its columns."""
     res = grid.resolution
     cell = max(NAV_CELL, math.sqrt(grid.rows * grid.cols * res * res / MAX_NAV_NODES))
-    return max(1, math.ceil(cell / res - 1e-9))
-
-
-def _nav_shape(grid) -> tuple[int, int]:
-    """Rows and columns of the people's path grid over ``grid``."""
-    f = _nav_factor(grid)
-    return -(-grid.rows // f), -(-grid.cols // f)
+    f = max(1, math.ceil(cell / res - 1e-9))
+    return f, -(-grid.rows // f), -(-grid.cols // f)
 
 
 class Crowd:
@@ -269,8 +265,7 @@ class Crowd:
         :data:`NAV_CELL` cells, whose nodes are each block's best-cleared fine cell (``hop``:
         the tables, already computed)."""
         g, res = self._grid, self._grid.resolution
-        f = _nav_factor(g)
-        rows, cols = _nav_shape(g)
+        f, rows, cols = _nav_grid(g)
         pad = np.full((rows * f, cols * f), -1.0)
         pad[: g.rows, : g.cols] = self.clearance
         blocks = pad.reshape(rows, f, cols, f).transpose(0, 2, 1, 3).reshape(rows, cols, f * f)

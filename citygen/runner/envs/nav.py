@@ -103,8 +103,12 @@ class NavEnv(_CitygenEnv):
             )
         self.goal = tuple(task.goal)
         self.tolerance = task.goal_tolerance
-        if self.max_steps is None:  # the scene's time limit (20 s, the paper's 200 steps, unless set)
-            self.horizon = max(1, math.ceil(task.time_limit / self.dt - 1e-9))
+        self.horizon = self._horizon_for(task)
+
+    def _horizon_for(self, task) -> int:
+        """Control steps an episode of ``task`` lasts: ``max_steps``, else its time limit (20 s,
+        the paper's 200 steps, unless the scene sets another)."""
+        return self.max_steps or max(1, math.ceil(task.time_limit / self.dt - 1e-9))
 
     def _dynamic(self) -> bool:
         return self.task_kind in ("nav-dynamic", "traverse")

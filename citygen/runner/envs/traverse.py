@@ -82,8 +82,7 @@ class TraverseEnv(NavEnv):
         self.waypoint = 0
         self.goal = self.route[0]
         self.tolerance = task.goal_tolerance
-        if self.max_steps is None:
-            self.horizon = max(1, math.ceil(task.time_limit / self.dt))
+        self.horizon = self._horizon_for(task)
         self._anchor = (tuple(task.start.position), task.start.yaw)
         self._best = math.inf
         self._since_progress = 0.0
