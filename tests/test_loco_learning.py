@@ -172,6 +172,40 @@ def test_the_fall_share_the_foot_clearance_and_the_turn_progress_change_only_the
             e.close()
 
 
+def test_heading_progress_pays_the_speed_along_the_held_heading_in_the_world():
+    """``heading_progress`` adds its weight times the share of the commanded speed made good
+    along the held heading in the world (a robot driving in circles earns it on one half of the
+    circle and pays it on the other), and nothing where the command turns (no held heading)."""
+    kws = ({}, {"heading_progress": 1.5})
+    envs = [LocoTraining(make_env("loco-flat", robot="quadruped"), seed=0, rank=0, **kw) for kw in kws]
+    try:
+        for e in envs:
+            e.reset(seed=4, options={"command": (0.8, 0.0, 0.0)})
+        u = envs[1].unwrapped
+        held = u.held_heading
+        assert held is not None
+        rng = np.random.default_rng(5)
+        paid = []
+        for a in np.clip(0.6 * rng.standard_normal((40, 12)), -1, 1):
+            (_, plain, end, *_), (_, heading, *_) = [e.step(a) for e in envs]
+            if end:
+                break
+            vx, vy, _, _ = u.base_velocity  # in the robot's frame
+            yaw = u.handle.pose(u.data)[3] - held  # the robot's heading against the held one
+            along = (vx * math.cos(yaw) - vy * math.sin(yaw)) / 0.8
+            assert heading == pytest.approx(plain + 1.5 * min(max(along, -1.0), 1.0), abs=1e-6)
+            paid.append(heading - plain)
+        assert len(paid) > 20 and min(paid) < 0 < max(paid)  # both ways under noise
+        for e in envs:
+            e.reset(seed=4, options={"command": (0.8, 0.0, 0.5)})  # a turning command
+        a = np.zeros(12)
+        (_, plain, *_), (_, heading, *_) = [e.step(a) for e in envs]
+        assert heading == plain
+    finally:
+        for e in envs:
+            e.close()
+
+
 @pytest.fixture(scope="module")
 def grid(tmp_path_factory):
     path = tmp_path_factory.mktemp("grid") / "grid.toml"

@@ -237,6 +237,14 @@ class TrainConfig(BaseModel):
         "policy learns to turn in place (the 0.25 rad/s tracking kernel pays a standing robot "
         "almost nothing for a 1 rad/s turn).",
     )
+    heading_progress: Annotated[float, Field(ge=0, le=10)] = Field(
+        0.0,
+        description="Locomotion, training only: weight of a heading-progress term (where the "
+        "episode holds a heading, the share of the commanded speed made good along the commanded "
+        "direction in the world, clipped to [-1, 1]): the forward-progress term is in the "
+        "robot's frame and pays a robot driving in circles in full; this one averages zero "
+        "around a circle.",
+    )
     gait: Literal["walk"] | None = Field(
         None,
         description="Locomotion, a biped: the policy rides on the scripted walk (a residual over its "

@@ -25,6 +25,13 @@ adds what makes the same policy learnable on a laptop in hours:
   turns (|c_wz| > 0.1 rad/s), the forward-progress term's twin for yaw: the tracking kernel
   pays a robot standing under a 1 rad/s command almost nothing, so nothing led the general
   model to turn in place (it walked forward and turned while walking only).
+- **Heading progress** (``heading_progress``): where the episode holds a heading (a straight
+  command under heading control), the share of the commanded speed made good along the
+  commanded direction *in the world* (the held heading turned by the command's own angle),
+  clipped to [-1, 1]. The forward-progress term is in the robot's frame, so a robot driving
+  in circles at the commanded speed earns all of it; this one averages zero around a circle.
+  The wheeled-legged robot's general model learnt to circle on the mixed grid (circling keeps
+  it off harder terrain: the curriculum moves a robot that covers little ground a row down).
 - **Only positive rewards** (``only_positive``, legged_gym's ``only_positive_rewards``): a
   step's reward before the fall's ``-100`` is clipped at zero, so that a noisy first policy
   whose penalties cost more per step than a fall (the wheeled-legged robot's torques: about
@@ -82,12 +89,14 @@ class LocoTraining(gymnasium.Wrapper):
         self, env: gymnasium.Env, *, seed: int, rank: int, shaping: float = 1.0,
         command_mix: float = 0.0, curriculum: bool = True, only_positive: bool = False,
         effort_scale: float = 1.0, alive: float = 0.0, fall_penalty: float = 1.0,
-        foot_clearance: float = 0.0, turn_progress: float = 0.0,
+        foot_clearance: float = 0.0, turn_progress: float = 0.0, heading_progress: float = 0.0,
     ):  # fmt: skip
         super().__init__(env)
         self._fall_refund = (1.0 - float(fall_penalty)) * -FALL_PENALTY
         self._clearance = float(foot_clearance)
         self._turn = float(turn_progress)
+        self._heading = float(heading_progress)
+        self._held_dir: tuple[float, float] | None = None  # world direction / commanded speed
         self._last_feet: np.ndarray | None = None
         self.shaping = float(shaping)
         self._torque = WEIGHTS["torque"] * float(effort_scale)
@@ -124,6 +133,12 @@ class LocoTraining(gymnasium.Wrapper):
         self._stepping = not u.robot.loco_wheels
         self._last_qvel = None
         self._last_feet = None
+        self._held_dir = None
+        held = getattr(u, "held_heading", None)
+        speed = math.hypot(u.command[0], u.command[1])
+        if self._heading and held is not None and speed > 0.1:
+            angle = held + math.atan2(u.command[1], u.command[0])
+            self._held_dir = (math.cos(angle) / speed, math.sin(angle) / speed)
         return obs, info
 
     def _grid(self, options: dict):
@@ -168,6 +183,9 @@ class LocoTraining(gymnasium.Wrapper):
             r += WEIGHTS["progress"] * min(max((vx * c0 + vy * c1) / asked, -1.0), 1.0)
         if self._turn and abs(c2) > 0.1:
             r += self._turn * min(max(wz / c2, -1.0), 1.0)
+        if self._held_dir is not None:  # a free joint's linear qvel is in the world frame
+            along = qv[h.dadr] * self._held_dir[0] + qv[h.dadr + 1] * self._held_dir[1]
+            r += self._heading * min(max(along, -1.0), 1.0)
         r += WEIGHTS["ang_vel_xy"] * float(w @ w)
         r += WEIGHTS["tilt"] * float(g @ g)
         r += self._alive + self._torque * float(tau @ tau)
