@@ -60,8 +60,10 @@ def test_every_legged_robot_with_a_general_model_walks_a_nav_task_on_it(general,
     assert env.observation_space == servo.observation_space  # navigation sees the same keys
     env.reset(seed=0)
     servo.reset(seed=0)
-    servo.step(np.array([1.0, 0.0]))  # its servo damps its robot's free joint
-    assert servo.handle._damped
+    servo.step(np.array([1.0, 0.0]))
+    # the ideal servo damps its robot's free joint; the wheeled-legged robot drives on its
+    # wheels in its drive pose instead (Robot.nav_mode)
+    assert servo.handle._damped == (env.robot.nav_mode == "base")
     # Feet get the slopes as prisms, the servo heightfields: two compiled scenes, never one.
     assert (env.terrain, servo.terrain) == ("hybrid", "heightfield") and servo.model is not env.model
     assert env.legs.path == general[robot] and env.legs.repeats == 5  # 0.1 s nav step, 50 Hz legs
@@ -78,7 +80,8 @@ def test_every_legged_robot_with_a_general_model_walks_a_nav_task_on_it(general,
         assert not env.handle._damped  # the servo never ran: the legs carried it
         free = env.model.dof_damping[env.handle.dadr : env.handle.dadr + 6]
         assert free.tolist() == free_damping(env.robot).tolist()  # the servo's damping is gone
-        assert env.legs.command.tolist() == [env.robot.max_speed, 0.0, 0.0]
+        # the action's full speed, clipped into the model's training range (COMMANDS)
+        assert env.legs.command.tolist() == [min(env.robot.max_speed, COMMANDS[0][1]), 0.0, 0.0]
         targets = env.data.ctrl[env.handle.leg_act]
         assert not np.allclose(targets, env.handle.default)  # the model sets the joints' targets
         assert set(obs) == set(servo.observation_space.spaces)
