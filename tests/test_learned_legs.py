@@ -3,8 +3,9 @@ every legged robot with a general locomotion model walks a navigation task on it
 what LocoEnv would show it; a fall ends the episode as a failure; everything else is one
 line and exit 2.
 
-No general model ships yet: the shipped LocoFlat model stands in for the quadruped's (a copy
-whose metadata says it was trained on the general split), beside copies of the shipped files.
+The shipped files are copied; a robot whose general model does not ship gets the shipped
+LocoFlat model as a stand-in only for the quadruped (a copy whose metadata says it was trained
+on the general split).
 """
 
 from __future__ import annotations
