@@ -71,7 +71,9 @@ def compose(scene_mjcf: MJCF, robot: Robot, pose: tuple[float, float, float, flo
         scene.memory = max(scene.memory, n * 16 * 1024)
         # The static objects' bodies (7,900 on a city) fused into the world: MuJoCo's passes
         # over bodies run at every physics step whatever the body, so a static body costs as
-        # a moving one. Their geoms keep their names, places and contact parameters.
+        # a moving one. Their geoms keep their names, places and contact parameters. MuJoCo's
+        # fusing is slow: 24 s of CPU of a city's compile (28 -> 51 s), paid once per scene
+        # and code version with the on-disk store; its steps' physics went 44 -> 29 ms.
         scene.compiler.fusestatic = True
     frame = scene.worldbody.add_frame(pos=[x, y, z], quat=[math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])
     scene.attach(child, prefix=PREFIX, frame=frame)
