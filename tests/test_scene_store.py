@@ -223,10 +223,12 @@ def test_a_big_model_is_kept_beside_its_entry_in_mujocos_format_and_reads_the_sa
     )
 
 
-def test_a_scenes_stored_local_map_layers_are_the_computed_ones(store):
+def test_a_scenes_stored_local_map_layers_are_the_computed_ones(store, monkeypatch):
     from types import SimpleNamespace
 
     from citygen.runner import localmap
+
+    monkeypatch.setattr(localmap, "STORE_LAYERS_FROM", 0)  # as if it were a town
 
     source = SceneSource(scene=CORNER)
     robot = make_env("nav-dynamic", scene=CORNER).unwrapped.robot

@@ -320,18 +320,23 @@ def _layers_of(env: Any) -> StaticLayers:
 
 #: The prefix of the names of a scene's static layers beside its entry in the on-disk store.
 LAYERS_ENTRY = "localmap"
+#: Occupancy-map cells from which a scene's static layers are kept in the on-disk store (a
+#: town's or a city's map; an Urban-Nav square's layers take milliseconds, not three files).
+STORE_LAYERS_FROM = 1 << 20
 
 
 def _stored_layers(prepared: Any) -> StaticLayers:
     """:func:`static_layers` of ``prepared``'s scene, read from the on-disk store beside its
     entry (:meth:`~citygen.runner.scene_store.SceneStore.load_array`) when they are there and
-    fit its occupancy map, else computed and kept there: painting a city's 7,900 objects and
-    its buildings cost a second of a reset from the store."""
+    fit its occupancy map, else computed and kept there (a map of :data:`STORE_LAYERS_FROM`
+    cells or more): painting a city's 7,900 objects and its buildings cost a second of a reset
+    from the store."""
     from citygen.runner import scene_store
 
     key = getattr(prepared, "store_key", None)
-    disk = scene_store.store() if key is not None else None
     occ = prepared.occupancy
+    big = occ.heights.size >= STORE_LAYERS_FROM
+    disk = scene_store.store() if key is not None and big else None
     if disk is not None:
         k = max(1, round(POOL_CELL / occ.resolution))
         m = math.ceil(5.0 / (occ.resolution * k))
