@@ -194,3 +194,53 @@ def test_a_big_entry_is_stored_uncompressed_and_reads_the_same(store, monkeypatc
     assert again.model.ngeom == fresh.model.ngeom
     entry.write_bytes(entry.read_bytes()[:1000])  # truncated: a miss, written again
     assert SceneCache().get(source, 0, robot).model.ngeom == fresh.model.ngeom and store.writes == 2
+
+
+def test_a_big_model_is_kept_beside_its_entry_in_mujocos_format_and_reads_the_same(store, monkeypatch):
+    import mujoco
+
+    monkeypatch.setattr(scene_store, "MJB_FROM", 0)  # every model "big"
+    source = SceneSource(scene=SCENE)
+    robot = make_env("nav-static", scene=SCENE).unwrapped.robot
+    fresh = SceneCache().get(source, 0, robot)
+    (model_file,) = store.root.glob("*/*.mjb")
+    (entry,) = store.root.glob("*/*.pkl.z")
+    assert model_file.name.startswith(entry.name.split(".")[0])
+    again = SceneCache().get(source, 0, robot)
+    assert store.hits == 1 and again.model is not fresh.model
+
+    def saved(model) -> bytes:
+        buffer = np.empty(mujoco.mj_sizeModel(model), dtype=np.uint8)
+        mujoco.mj_saveModel(model, None, buffer)
+        return buffer.tobytes()
+
+    assert saved(again.model) == saved(fresh.model)
+    model_file.write_bytes(model_file.read_bytes()[:1000])  # truncated: a miss, written again
+    writes = store.writes
+    assert SceneCache().get(source, 0, robot).model.ngeom == fresh.model.ngeom
+    assert store.writes == writes + 1 and saved(mujoco.MjModel.from_binary_path(str(model_file))) == saved(
+        fresh.model
+    )
+
+
+def test_a_scenes_stored_local_map_layers_are_the_computed_ones(store, monkeypatch):
+    from types import SimpleNamespace
+
+    from citygen.runner import localmap
+
+    monkeypatch.setattr(localmap, "STORE_LAYERS_FROM", 0)  # as if it were a town
+
+    source = SceneSource(scene=CORNER)
+    robot = make_env("nav-dynamic", scene=CORNER).unwrapped.robot
+    fresh = SceneCache().get(source, 0, robot)
+    want = localmap._layers_of(SimpleNamespace(prepared=fresh))
+    assert store.array_path(fresh.store_key, f"{localmap.LAYERS_ENTRY}-elevation").is_file()
+    again = SceneCache().get(source, 0, robot)  # a second process's first visit
+    got = localmap._layers_of(SimpleNamespace(prepared=again))
+    assert isinstance(got.elevation, np.memmap) and not isinstance(want.elevation, np.memmap)
+    for name in ("elevation", "walkable", "crossable"):
+        a, b = getattr(got, name), getattr(want, name)
+        assert a.dtype == b.dtype and np.array_equal(a, b), name
+    assert (got.x0, got.y0, got.cell) == (want.x0, want.y0, want.cell)
+    pose = (float(fresh.scene.task.start.position[0]), float(fresh.scene.task.start.position[1]), 0.3)
+    assert np.array_equal(localmap.LocalMap()(got, pose, 0.0), localmap.LocalMap()(want, pose, 0.0))

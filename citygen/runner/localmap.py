@@ -314,9 +314,50 @@ def _layers_of(env: Any) -> StaticLayers:
     prepared = env.prepared
     layers = _LAYERS.get(prepared)
     if layers is None:
-        layers = _LAYERS[prepared] = static_layers(
-            prepared.scene, prepared.occupancy, crossable=prepared.crossable
-        )
+        layers = _LAYERS[prepared] = _stored_layers(prepared)
+    return layers
+
+
+#: The prefix of the names of a scene's static layers beside its entry in the on-disk store.
+LAYERS_ENTRY = "localmap"
+#: Occupancy-map cells from which a scene's static layers are kept in the on-disk store (a
+#: town's or a city's map; an Urban-Nav square's layers take milliseconds, not three files).
+STORE_LAYERS_FROM = 1 << 20
+
+
+def _stored_layers(prepared: Any) -> StaticLayers:
+    """:func:`static_layers` of ``prepared``'s scene, read from the on-disk store beside its
+    entry (:meth:`~citygen.runner.scene_store.SceneStore.load_array`) when they are there and
+    fit its occupancy map, else computed and kept there (a map of :data:`STORE_LAYERS_FROM`
+    cells or more): painting a city's 7,900 objects and its buildings cost a second of a reset
+    from the store."""
+    from citygen.runner import scene_store
+
+    key = getattr(prepared, "store_key", None)
+    occ = prepared.occupancy
+    big = occ.heights.size >= STORE_LAYERS_FROM
+    disk = scene_store.store() if key is not None and big else None
+    if disk is not None:
+        k = max(1, round(POOL_CELL / occ.resolution))
+        m = math.ceil(5.0 / (occ.resolution * k))
+        shape = (-(-occ.shape[0] // k) + 2 * m, -(-occ.shape[1] // k) + 2 * m)
+
+        def fits(dtype) -> Any:
+            return lambda a: a.dtype == dtype and a.shape == shape
+
+        arrays = [
+            disk.load_array(key, f"{LAYERS_ENTRY}-{name}", check=fits(dtype))
+            for name, dtype in (("elevation", np.float32), ("walkable", bool), ("crossable", bool))
+        ]
+        if all(a is not None for a in arrays):
+            cell = occ.resolution * k
+            return StaticLayers(
+                arrays[0], arrays[1], occ.grid.x0 - m * cell, occ.grid.y0 - m * cell, cell, arrays[2]
+            )
+    layers = static_layers(prepared.scene, occ, crossable=prepared.crossable)
+    if disk is not None:
+        for name in ("elevation", "walkable", "crossable"):
+            disk.save_array(key, f"{LAYERS_ENTRY}-{name}", getattr(layers, name))
     return layers
 
 

@@ -12,7 +12,10 @@ both) for the duration of an environment's physics call and puts them back after
 model is whole whenever anything else reads it: a spawn's contacts, another environment of
 the process stepping the same compiled scene, a pickle for the on-disk store. The city's
 broadphase then costs 30 ms a control step; MuJoCo's kinematics of every body and geom, which
-no flag skips, is what remains of the physics.
+no flag skips, is what remains of the physics. (A town's and a city's static bodies are now
+fused into the world at compile time, :func:`citygen.runner.robots.handle.compose`: their
+geoms are the world body's, left out one by one, and the bodies below apply to models
+compiled otherwise.)
 
 What changes: nothing MuJoCo computes. The geoms left out are those whose bounding sphere
 (grown by its margin) lies more than :data:`SLACK` m beyond the robot's own bounding sphere
