@@ -321,14 +321,17 @@ def _layers_of(env: Any) -> StaticLayers:
 #: The prefix of the names of a scene's static layers beside its entry in the on-disk store.
 LAYERS_ENTRY = "localmap"
 #: Occupancy-map cells from which a scene's static layers are kept in the on-disk store (a
-#: town's or a city's map; an Urban-Nav square's layers take milliseconds, not three files).
+#: town's or a city's map; an Urban-Nav square's layers take milliseconds, not four files).
 STORE_LAYERS_FROM = 1 << 20
+#: The files of a scene's static layers in the store (name, dtype): the three layers and their
+#: frame (``x0``, ``y0``, ``cell``), kept as :func:`static_layers` made them.
+_LAYER_FILES = (("elevation", np.float32), ("walkable", bool), ("crossable", bool), ("frame", np.float64))
 
 
 def _stored_layers(prepared: Any) -> StaticLayers:
     """:func:`static_layers` of ``prepared``'s scene, read from the on-disk store beside its
-    entry (:meth:`~citygen.runner.scene_store.SceneStore.load_array`) when they are there and
-    fit its occupancy map, else computed and kept there (a map of :data:`STORE_LAYERS_FROM`
+    entry (:meth:`~citygen.runner.scene_store.SceneStore.load_array`) when they are there,
+    else computed and kept there (a map of :data:`STORE_LAYERS_FROM`
     cells or more): painting a city's 7,900 objects and its buildings cost a second of a reset
     from the store."""
     from citygen.runner import scene_store
@@ -338,26 +341,21 @@ def _stored_layers(prepared: Any) -> StaticLayers:
     big = occ.heights.size >= STORE_LAYERS_FROM
     disk = scene_store.store() if key is not None and big else None
     if disk is not None:
-        k = max(1, round(POOL_CELL / occ.resolution))
-        m = math.ceil(5.0 / (occ.resolution * k))
-        shape = (-(-occ.shape[0] // k) + 2 * m, -(-occ.shape[1] // k) + 2 * m)
-
-        def fits(dtype) -> Any:
-            return lambda a: a.dtype == dtype and a.shape == shape
-
-        arrays = [
-            disk.load_array(key, f"{LAYERS_ENTRY}-{name}", check=fits(dtype))
-            for name, dtype in (("elevation", np.float32), ("walkable", bool), ("crossable", bool))
+        stored = [
+            disk.load_array(key, f"{LAYERS_ENTRY}-{name}", check=lambda a, t=dtype: a.dtype == t)
+            for name, dtype in _LAYER_FILES
         ]
-        if all(a is not None for a in arrays):
-            cell = occ.resolution * k
-            return StaticLayers(
-                arrays[0], arrays[1], occ.grid.x0 - m * cell, occ.grid.y0 - m * cell, cell, arrays[2]
-            )
+        if all(a is not None for a in stored):
+            elev, walk, cross, frame = stored
+            if elev.shape == walk.shape == cross.shape and frame.shape == (3,):
+                x0, y0, cell = frame.tolist()
+                return StaticLayers(elev, walk, x0, y0, cell, cross)
     layers = static_layers(prepared.scene, occ, crossable=prepared.crossable)
     if disk is not None:
-        for name in ("elevation", "walkable", "crossable"):
-            disk.save_array(key, f"{LAYERS_ENTRY}-{name}", getattr(layers, name))
+        frame = np.array([layers.x0, layers.y0, layers.cell])
+        arrays = (layers.elevation, layers.walkable, layers.crossable, frame)
+        for (name, _), array in zip(_LAYER_FILES, arrays, strict=True):
+            disk.save_array(key, f"{LAYERS_ENTRY}-{name}", array)
     return layers
 
 

@@ -134,10 +134,10 @@ class LocoTraining(gymnasium.Wrapper):
         self._last_qvel = None
         self._last_feet = None
         self._held_dir = None
-        held = getattr(u, "held_heading", None)
-        speed = math.hypot(u.command[0], u.command[1])
-        if self._heading and held is not None and speed > 0.1:
-            angle = held + math.atan2(u.command[1], u.command[0])
+        c0, c1 = u.command[:2].tolist()
+        speed = math.hypot(c0, c1)
+        if self._heading and u.held_heading is not None and speed > 0.1:
+            angle = u.held_heading + math.atan2(c1, c0)
             self._held_dir = (math.cos(angle) / speed, math.sin(angle) / speed)
         return obs, info
 
