@@ -233,9 +233,10 @@ def test_wheeled_legged_drives_level_at_full_speed_on_its_drive_pose():
 @pytest.mark.parametrize("name", [n for n in BUILTIN if load_robot(n).nav_mode == "base"])
 def test_ideal_locomotion_turns_with_its_nose_on_a_wall(name):
     """A legged robot pushing into a wall at full speed still turns when asked (its yaw torque
-    is of the order of its push at the feet's lever): with the servo's old yaw gain the
-    contact's friction held it within 2 degrees for the 3 s, pinned, as learned policies
-    were on benches in NavDynamic."""
+    is of the order of its push at the feet's lever, Robot.servo_yaw_gain): with the servo's
+    old yaw gain of 10/s the contact's friction held it within 2 degrees for the 3 s, pinned,
+    as learned policies were on benches in NavDynamic; the humanoid at the quadruped's 50/s
+    turned 32 degrees (pinned on bins in NavDynamic), at its own 100/s about 150."""
     robot = load_robot(name)
     ground = flat_ground()
     wall = (
@@ -255,7 +256,7 @@ def test_ideal_locomotion_turns_with_its_nose_on_a_wall(name):
         touched |= handle.body_contacts(data).size > 0
     yaw = handle.pose(data)[3]
     assert touched  # it did reach the wall
-    assert abs(math.degrees(yaw)) > 20.0
+    assert abs(math.degrees(yaw)) > 90.0
 
 
 @pytest.mark.parametrize("name", [n for n in BUILTIN if load_robot(n).nav_mode in ("wheels", "ackermann")])

@@ -133,6 +133,13 @@ class Robot:
     """Geoms allowed to touch the ground: feet, wheels, casters."""
     legs: tuple[Leg, ...] = ()
     """Leg geometry for the gaits (built-in legged robots; empty otherwise)."""
+    servo_yaw_gain: float = 50.0
+    """Yaw gain (1/s) of the ideal-locomotion servo (``nav_mode == "base"``): its yaw torque
+    is this times the robot's composite inertia times the yaw-rate error. A walking robot
+    turns with the same feet it pushes with, so the torque should be of the order of its push
+    (mass x 10/s per m/s of error) at the feet's lever, ~0.2 m: 50/s gives the quadruped
+    (15 kg, 0.57 kg m^2) 28 N m against 30; a robot whose turn is much weaker than its push
+    stays pinned, nose on a bench, while it pushes."""
     timestep: float = TIMESTEP
     """Physics step (s) of a model with this robot: the longest its drive, servo and contacts
     behave the same at (planner success unchanged), since the step's cost is its physics."""

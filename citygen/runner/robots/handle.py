@@ -125,13 +125,10 @@ SERVO_REFRESH_DT = 0.02
 # Drive feedback: wheel speeds get the command plus these gains (1) times the error of the
 # measured forward speed and yaw rate, and these gains (1/s) times its integral.
 _WHEEL_P, _WHEEL_I = 0.5, 3.0
-# Ideal-locomotion servo: planar velocity (1/s), yaw rate (1/s), height (1/s^2, 1/s), attitude
-# (1/s^2, 1/s). A legged robot pushes and turns with the same feet, so its yaw torque matches
-# its push at the feet's lever: the quadruped's push at a 1 m/s error is 15 kg x 10/s =
-# 150 N, x ~0.2 m = 30 N m, and its yaw gain of 50/s gives 0.56 kg m^2 x 50/s = 28 N m at a
-# 1 rad/s error. At 10/s (6 N m) a robot with its nose on a bench could not turn while it
-# pushed (the contact's friction held it) and stayed pinned there for the rest of an episode.
-_SERVO_V, _SERVO_W, _SERVO_KP, _SERVO_KD = 10.0, 50.0, 400.0, 40.0
+# Ideal-locomotion servo: planar velocity (1/s), height (1/s^2, 1/s), attitude (1/s^2, 1/s);
+# its yaw gain is the robot's (Robot.servo_yaw_gain: a torque of the order of its push at the
+# feet's lever, so that a robot with its nose on a bench still turns while it pushes).
+_SERVO_V, _SERVO_KP, _SERVO_KD = 10.0, 400.0, 40.0
 #: Ackermann steering's K-turn (see :meth:`RobotHandle.drive`): top speed (m/s) and the
 #: time (s) of each forward or backward leg.
 KTURN_SPEED, KTURN_PERIOD = 0.6, 1.5
@@ -420,7 +417,7 @@ class RobotHandle:
                 weight + m * _SERVO_KP * (target - z),
                 inertia * _SERVO_KP * r5 - dz * fy,
                 inertia * _SERVO_KP * -r2 + dz * fx,
-                inertia * _SERVO_W * rw + dx * fy - dy * fx,
+                inertia * self.robot.servo_yaw_gain * rw + dx * fy - dy * fx,
             )
             if step:
                 mj_step(model, data, nstep=k)
@@ -430,12 +427,12 @@ class RobotHandle:
         """The servo's velocity feedback as damping of the base's free joint: its planar
         velocity (gain ``_SERVO_V`` x mass), its height (``_SERVO_KD`` x mass; the free
         joint's linear velocity is in the world frame), its roll and pitch rates
-        (``_SERVO_KD`` x ``inertia``) and its yaw rate (``_SERVO_W`` x ``inertia``; the
+        (``_SERVO_KD`` x ``inertia``) and its yaw rate (:attr:`Robot.servo_yaw_gain` x ``inertia``; the
         angular velocity is in the base's frame, which the servo keeps level)."""
         m, a = self.mass, self.dadr
         self.model.dof_damping[a : a + 6] = (
             m * _SERVO_V, m * _SERVO_V, m * _SERVO_KD,
-            inertia * _SERVO_KD, inertia * _SERVO_KD, inertia * _SERVO_W,
+            inertia * _SERVO_KD, inertia * _SERVO_KD, inertia * self.robot.servo_yaw_gain,
         )  # fmt: skip
         self._damped = True
 
