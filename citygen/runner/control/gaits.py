@@ -323,7 +323,11 @@ class TrotController(_FootController):
         riser's tread) by mid-swing, down to the ground it lands on, and never lower than
         ``_CLEAR`` over the ground just ahead of it (a riser's edge it is about to cross).
         On level ground, ``lift`` times ``sin^2(pi s)`` as before, to the bit."""
-        g = self._ground(handle, data, self._world_xy(data, handle, path))
+        norm = float(np.hypot(*ahead))
+        probe = xy + _PROBE[:, None] * (ahead / norm) if norm > 1e-6 else xy[None]
+        # one look-up for the path and the probe (the points' world positions one by one)
+        both = self._ground(handle, data, self._world_xy(data, handle, np.vstack([path, probe])))
+        g, edge = both[: len(path)], float(np.max(both[len(path) :]))
         start, land = float(self._lift_ground[i]), float(g[-1])
         high = max(float(np.max(g)), start)
         bump = 0.5 - 0.5 * math.cos(2 * math.pi * s)
@@ -331,10 +335,6 @@ class TrotController(_FootController):
             z = (start - under) + (lift + (high - start)) * bump
         else:
             z = (land - under) + (lift + (high - land)) * bump
-        norm = float(np.hypot(*ahead))
-        if norm > 1e-6:
-            probe = xy + _PROBE[:, None] * (ahead / norm)
-            edge = float(np.max(self._ground(handle, data, self._world_xy(data, handle, probe))))
-            if edge > under + 0.01:  # a rise just ahead: over its top before moving on
-                z = max(z, edge - under + _CLEAR)
+        if edge > under + 0.01:  # a rise just ahead: over its top before moving on
+            z = max(z, edge - under + _CLEAR)
         return z
