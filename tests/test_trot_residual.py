@@ -53,12 +53,13 @@ def test_the_trots_swing_clears_a_riser_it_steps_onto(grids):
         def ahead_of_start(x: float, y: float) -> float:
             return (x - x0) * c + (y - y0) * s
 
-        handle.terrain = SimpleNamespace(ground_at=lambda x, y: RISER if ahead_of_start(x, y) >= edge else 0.0)
+        step = SimpleNamespace(ground_at=lambda x, y: RISER if ahead_of_start(x, y) >= edge else 0.0)
+        handle.terrain = step
         trot = TrotController(command=(0.5, 0.0, 0.0), ramp=0.0)
         seen = []
-        trot._action = lambda handle, data, feet, ground, stance, dt: seen.append(
-            (feet.copy(), ground.copy(), stance.copy())
-        ) or np.zeros(12)
+        trot._action = lambda handle, data, feet, ground, stance, dt: (
+            seen.append((feet.copy(), ground.copy(), stance.copy())) or np.zeros(12)
+        )
         radius = handle.robot.legs[0].foot_radius
         crossings, on_step = 0, set()
         speed, dt = 0.5, env.dt
@@ -155,7 +156,8 @@ def test_a_tiny_trot_run_on_stairs_exports_a_policy_that_rides_on_the_trot(tmp_p
         f"b{i}": b for i, b in enumerate(exported.biases)
     }
     last = len(exported.weights) - 1
-    arrays[f"w{last}"], arrays[f"b{last}"] = np.zeros_like(arrays[f"w{last}"]), np.zeros_like(arrays[f"b{last}"])
+    for key in (f"w{last}", f"b{last}"):
+        arrays[key] = np.zeros_like(arrays[key])
     policy = load_policy(write_policy(tmp_path / "silent.npz", exported.meta, arrays))
     assert isinstance(policy, ResidualPolicy) and PHASE_KEY not in policy.shapes
     env = make_env("loco-flat", robot="quadruped", split=str(grids["flat"]), max_steps=250)
