@@ -58,6 +58,12 @@ _KNEE_SEARCH = 0.45
 _SHIN = np.array([0.25, 0.5, 0.75, 1.0])
 # Half the length (m) of ground a stand's foothold must find level (on a tread, not an edge).
 _TREAD = 0.03
+# Points (fractions of the way from lift-off to landing) where a swing looks up the ground of its path.
+_SWING_PATH = np.linspace(0.0, 1.0, 9)
+# How far ahead (m, along a swing) of a swinging foot's centre it looks for a rise, and how
+# far over that rise's top (m) it then keeps: the foot (2 cm radius) and the 5 cm raster's ramp.
+_PROBE = np.array([0.02, 0.04, 0.06])
+_CLEAR = 0.02
 
 
 def _tilt(data: Any, handle: RobotHandle) -> np.ndarray:
@@ -240,13 +246,19 @@ class TrotController(_FootController):
         self._feet: np.ndarray | None = None  # where each foot is (x, y, base frame)
         self._lift_off = np.zeros((4, 2))  # where each swinging foot left the ground
         self._swinging = np.zeros(4, dtype=bool)
+        self._lift_ground = np.zeros(4)  # world height (m) of the ground each swing left
+
+    def cycle_frequency(self, handle: RobotHandle) -> float:
+        """Gait cycles per second (Hz): ``frequency``, or by the leg's length as a pendulum's."""
+        leg0 = handle.robot.legs[0]
+        return self.frequency or 2.8 * math.sqrt(0.426 / (leg0.thigh + leg0.calf))
 
     def act(self, handle: RobotHandle, data: Any, t: float) -> np.ndarray:
         """The action (12 numbers in [-1, 1]) for time ``t`` (s)."""
         self._check(handle)
         leg0 = handle.robot.legs[0]
         reach = leg0.thigh + leg0.calf
-        freq = self.frequency or 2.8 * math.sqrt(0.426 / reach)
+        freq = self.cycle_frequency(handle)
         lift = self.step_height if self.step_height is not None else 0.15 * reach
         dt = self._dt(t)
         nominal = self.nominal(handle)
@@ -265,6 +277,7 @@ class TrotController(_FootController):
         stance_time = self.duty / freq
         feet = np.zeros((4, 3))
         stance = np.zeros(4, dtype=bool)
+        swing: dict[int, tuple[float, np.ndarray, np.ndarray]] = {}  # leg: (s, path, its heading)
         for i in range(4):
             x, y = self._feet[i]
             phase = ((t - self._t0) * freq + _TROT_PHASE[i]) % 1.0
@@ -277,6 +290,8 @@ class TrotController(_FootController):
             else:  # swing: forward to the next foothold, leaving and landing at the ground's speed
                 if not self._swinging[i]:
                     self._swinging[i], self._lift_off[i] = True, self._feet[i]
+                    start_xy = self._world_xy(data, handle, self._feet[i][None])
+                    self._lift_ground[i] = self._ground(handle, data, start_xy)[0]
                 s = (phase - self.duty) / (1.0 - self.duty)
                 land = nominal[i, :2] + stance_time * sweep / 2 + self.raibert * (vel[:2] - (vx, vy))
                 swing_time = (1.0 - self.duty) / freq
@@ -284,7 +299,42 @@ class TrotController(_FootController):
                 start = self._lift_off[i]
                 along = s * s * (3 - 2 * s) * (land - start) - s * (1 - s) * (1 - 2 * s) * swing_time * sweep
                 self._feet[i] = start + along
-                feet[i, 2] = lift * (0.5 - 0.5 * math.cos(2 * math.pi * s))
+                u = _SWING_PATH[:, None]  # the same curve at points along the whole swing
+                path = (
+                    start
+                    + u * u * (3 - 2 * u) * (land - start)
+                    - u * (1 - u) * (1 - 2 * u) * (swing_time * sweep)
+                )
+                # where the landing spot is by touchdown: the ground passes under at -sweep
+                ahead = land + (1.0 - s) * swing_time * sweep
+                swing[i] = (s, np.vstack([path, ahead[None]]), land - start)
             feet[i, :2] = self._feet[i]
         ground = self._ground(handle, data, self._world_xy(data, handle, feet))
+        for i, (s, path, ahead) in swing.items():
+            feet[i, 2] = self._swing_height(handle, data, i, s, path, ahead, feet[i, :2], ground[i], lift)
         return self._action(handle, data, feet, ground, stance, dt)
+
+    def _swing_height(self, handle: RobotHandle, data: Any, i: int, s: float, path: np.ndarray,
+                      ahead: np.ndarray, xy: np.ndarray, under: float, lift: float) -> float:  # fmt: skip
+        """Height (m, over the ground ``under`` the foot) of swing foot ``i`` at ``s`` (0 to 1)
+        of its swing along ``path`` (base frame: lift-off to landing, then the landing spot
+        where the ground under it will be at touchdown; ``ahead`` its direction), at ``xy``
+        now: up from the ground it left to ``lift`` over the highest ground of its path (a
+        riser's tread) by mid-swing, down to the ground it lands on, and never lower than
+        ``_CLEAR`` over the ground just ahead of it (a riser's edge it is about to cross).
+        On level ground, ``lift`` times ``sin^2(pi s)`` as before, to the bit."""
+        norm = float(np.hypot(*ahead))
+        probe = xy + _PROBE[:, None] * (ahead / norm) if norm > 1e-6 else xy[None]
+        # one look-up for the path and the probe (the points' world positions one by one)
+        both = self._ground(handle, data, self._world_xy(data, handle, np.vstack([path, probe])))
+        g, edge = both[: len(path)], float(np.max(both[len(path) :]))
+        start, land = float(self._lift_ground[i]), float(g[-1])
+        high = max(float(np.max(g)), start)
+        bump = 0.5 - 0.5 * math.cos(2 * math.pi * s)
+        if s < 0.5:  # differences first: 0 on level ground, whatever the ground's height
+            z = (start - under) + (lift + (high - start)) * bump
+        else:
+            z = (land - under) + (lift + (high - land)) * bump
+        if edge > under + 0.01:  # a rise just ahead: over its top before moving on
+            z = max(z, edge - under + _CLEAR)
+        return z

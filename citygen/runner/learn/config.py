@@ -245,12 +245,13 @@ class TrainConfig(BaseModel):
         "robot's frame and pays a robot driving in circles in full; this one averages zero "
         "around a circle.",
     )
-    gait: Literal["walk"] | None = Field(
+    gait: Literal["walk", "trot"] | None = Field(
         None,
-        description="Locomotion, a biped: the policy rides on the scripted walk (a residual over its "
-        "joint action, plus one action setting its speed; it reads the walk's phase as gait_phase; "
-        "citygen.runner.learn.residual). The exported policy records it; the environment and "
-        "its metrics stay the paper's.",
+        description="Locomotion: the policy rides on a scripted gait, 'walk' for a biped (a residual "
+        "over its joint action, plus one action setting its speed) or 'trot' for a four-legged robot "
+        "(a residual over the terrain-aware trot's action, plus one action setting its swing "
+        "height); it reads the gait's phase as gait_phase (citygen.runner.learn.residual). The "
+        "exported policy records it; the environment and its metrics stay the paper's.",
     )
     gait_scale: Annotated[float, Field(gt=0, le=2)] = Field(
         0.2,
@@ -260,7 +261,8 @@ class TrainConfig(BaseModel):
     gait_max_speed: Annotated[float, Field(ge=0.1, le=1.0)] = Field(
         1.0,
         description="With gait: the fastest (m/s) the policy may ask the walk for, a speed "
-        "curriculum by stages (each stage --init the one before with a higher cap).",
+        "curriculum by stages (each stage --init the one before with a higher cap); with the "
+        "trot, a cap on the forward command it follows.",
     )
     curriculum: bool = Field(
         True,

@@ -14,8 +14,19 @@ the policy's action is the environment's joint action plus one number more:
   free to ask for any speed at once raises it faster than it learns to balance it;
 - a residual added to the walk's joint action: ``walk + scale * a[:-1]``, clipped to [-1, 1].
 
-It reads the environment's observation and the walk's phase (``gait_phase``: the sine and
-cosine of the two-step cycle and the walk's start-up ramp), which the walk's clock gives and
+With ``gait = "trot"`` (a four-legged robot: the quadruped, or the wheeled-legged robot
+on braked wheels) the policy rides the same way on the terrain-aware trot
+(:class:`~citygen.runner.control.gaits.TrotController`, whose swing clears the highest
+ground of its path, a riser's tread): a residual over all of the environment's actions,
+``trot + scale * a[:-1]`` (the wheels' speeds around 0), and one number more, the swing
+height, ``HEIGHT + HEIGHT_SPAN * a[-1]`` leg lengths over that ground (0.06 m, 0.02-0.11 m
+for the quadruped), followed with a time constant of ``HEIGHT_TAU`` s. The trot follows the
+episode's command (its forward part capped at ``max_speed``) and holds the episode's heading
+with its own integrator, as ``--policy trot`` does; ``gait_phase`` is the sine and cosine of
+the trot's cycle and its start-up ramp.
+
+It reads the environment's observation and the gait's phase (``gait_phase``: the sine and
+cosine of the walk's two-step cycle and the walk's start-up ramp), which the gait's clock gives and
 the environment does not. The environment, its reward and every ``citygen bench`` metric stay
 the paper's: the residual is part of the policy. An exported ``policy.npz`` records
 ``gait`` in its meta; :func:`~citygen.runner.learn.policy.load_policy` wraps it in
@@ -33,8 +44,9 @@ import numpy as np
 from citygen.errors import CitygenError
 from citygen.runner.learn.config import PHASE_KEY, TrainConfig
 
-#: Gait generators a residual policy can ride on (TrainConfig.gait).
-GAITS = ("walk",)
+#: Gait generators a residual policy can ride on (TrainConfig.gait): the biped's walk, the
+#: four-legged robots' trot.
+GAITS = ("walk", "trot")
 #: The walk's speed (m/s) at a zero speed action: the fastest it walks on its own.
 BASE_SPEED = 0.4
 #: m/s per unit of the speed action (a small action noise still explores speeds).
@@ -45,6 +57,13 @@ MAX_SPEED = 1.0
 #: scales with the speed, and a speed that jumps from step to step (action noise) jerks them
 #: under the robot (the walk with per-step speed noise of std 0.18 m/s falls within 3-4 s).
 SPEED_RATE = 0.5
+#: The trot's swing height (fractions of the leg's thigh + calf) over the highest ground of a
+#: swing's path at a zero height action (the scripted trot's), per unit of the action, and
+#: the least and most it may be.
+HEIGHT, HEIGHT_SPAN, HEIGHT_RANGE = 0.15, 0.1, (0.05, 0.25)
+#: Time constant (s) with which the trot's swing height follows the height action: per-step
+#: action noise would otherwise shake a swinging foot up and down.
+HEIGHT_TAU = 0.1
 
 
 def gait_spec(config: dict[str, Any]) -> dict[str, Any] | None:
@@ -60,56 +79,89 @@ def gait_spec(config: dict[str, Any]) -> dict[str, Any] | None:
 
 
 class GaitResidual:
-    """The arithmetic both training and the exported policy share: the walk of one episode,
-    its phase, and the joint action of a residual action (see the module docstring)."""
+    """The arithmetic both training and the exported policy share: the gait of one episode
+    (the biped's walk or the trot), its phase, and the environment's action for a residual
+    action (see the module docstring)."""
 
     def __init__(self, gait: str, scale: float, max_speed: float = MAX_SPEED):
         if gait not in GAITS:
             raise CitygenError(f"gait: expected one of {', '.join(GAITS)}, got {gait!r}")
         self.gait, self.scale, self.max_speed = gait, float(scale), float(max_speed)
-        self.walk: Any = None  # the episode's BipedWalk (reset)
+        self.walk: Any = None  # the episode's BipedWalk or TrotController (reset)
         self.t = 0.0
         self.speed = BASE_SPEED
+        self.height = 0.0  # the trot's swing height (m)
 
     def check(self, robot: Any) -> None:
-        """A one-line error unless ``robot`` is one the gait drives (a biped for the walk)."""
-        if len(robot.legs) != 2:
+        """A one-line error unless ``robot`` is one the gait drives (a biped for the walk, a
+        built-in four-legged robot for the trot)."""
+        if self.gait == "walk" and len(robot.legs) != 2:
             raise CitygenError(
                 f"gait {self.gait!r}: a residual over the walk needs a biped, not {robot.name!r}"
             )
+        if self.gait == "trot" and (len(robot.legs) != 4 or len(robot.leg_joints) != 12):
+            raise CitygenError(
+                f"gait {self.gait!r}: a residual over the trot needs a four-legged robot, not {robot.name!r}"
+            )
+
+    def _reach(self, env: Any) -> float:
+        leg = env.robot.legs[0]
+        return leg.thigh + leg.calf
 
     def reset(self, env: Any) -> None:
         """A new episode of ``env`` (the unwrapped locomotion environment)."""
+        from citygen.runner.control.gaits import TrotController
         from citygen.runner.control.gaits_biped import BipedWalk
 
         self.check(env.robot)
-        # the episode's own turn; under heading control the walk holds its heading itself
+        # the episode's own turn; under heading control the gait holds its heading itself
         turn = float(env.command[2]) if env.held_heading is None else 0.0
+        self.t = 0.0  # the gait's clock, summed step by step as the scripted gaits' policy does
+        if self.gait == "trot":
+            command = (float(env.command[0]), float(env.command[1]), turn)
+            self.height = HEIGHT * self._reach(env)
+            self.walk = TrotController(command=command, step_height=self.height, max_speed=self.max_speed)
+            return
         # the walk may go as fast as any policy may ask; this policy's cap is on the target
         self.walk = BipedWalk(command=(BASE_SPEED, 0.0, turn), max_speed=MAX_SPEED)
-        self.t = 0.0  # the walk's clock, summed step by step as the scripted walk's policy does
         self.speed = BASE_SPEED
 
     def phase(self, env: Any) -> np.ndarray:
-        """``gait_phase`` at ``env``'s step: sin and cos of the two-step cycle, the ramp."""
+        """``gait_phase`` at ``env``'s step: sin and cos of the gait's cycle (the walk's two
+        steps, the trot's two strides), and its start-up ramp."""
         tau = env.steps * env.dt
-        angle = math.pi * tau / self.walk.period
-        ramp = min(1.0, max(0.0, (tau - 0.2) / 1.0))
+        if self.gait == "trot":
+            angle = 2 * math.pi * tau * self.walk.cycle_frequency(env.handle)
+            ramp = min(1.0, tau / self.walk.ramp) if self.walk.ramp > 0 else 1.0
+        else:
+            angle = math.pi * tau / self.walk.period
+            ramp = min(1.0, max(0.0, (tau - 0.2) / 1.0))
         return np.array([math.sin(angle), math.cos(angle), ramp], dtype=np.float32)
 
     def action(self, env: Any, a: np.ndarray) -> np.ndarray:
         """The environment's action for the residual action ``a`` (one number more)."""
         a = np.asarray(a, dtype=np.float64)
         n = env.n_joints
-        target = min(max(BASE_SPEED + SPEED_SPAN * float(min(max(a[-1], -1.0), 1.0)), 0.0), self.max_speed)
-        step = SPEED_RATE * env.dt
-        self.speed += min(max(target - self.speed, -step), step)
+        knob = float(min(max(a[-1], -1.0), 1.0))
         walk = self.walk
-        walk.command = (self.speed, 0.0, walk.command[2])
+        if self.gait == "trot":
+            reach = self._reach(env)
+            lo, hi = HEIGHT_RANGE
+            target = min(max(HEIGHT + HEIGHT_SPAN * knob, lo), hi) * reach
+            self.height += (target - self.height) * min(1.0, env.dt / HEIGHT_TAU)
+            walk.step_height = self.height
+        else:
+            target = min(max(BASE_SPEED + SPEED_SPAN * knob, 0.0), self.max_speed)
+            step = SPEED_RATE * env.dt
+            self.speed += min(max(target - self.speed, -step), step)
+            walk.command = (self.speed, 0.0, walk.command[2])
         base = walk.act(env.handle, env.data, self.t)
         self.t += env.dt
         out = np.zeros(env.action_space.shape, dtype=np.float32)  # as the scripted gaits' actions
-        out[:n] = base[:n] + self.scale * a[:n]
+        full = np.zeros(out.shape[0])  # the gait's action: the legs', the wheels' at 0 (braked)
+        full[:n] = base[:n]
+        k = out.shape[0] if self.gait == "trot" else n  # the trot's residual reaches the wheels
+        out[:k] = full[:k] + self.scale * a[:k]
         return out.clip(-1.0, 1.0)
 
 
@@ -141,8 +193,8 @@ class ResidualTraining(gymnasium.Wrapper):
 
 class ResidualPolicy:
     """An exported residual policy as a runner policy (``reset(env)``, ``act(obs)``): the
-    network reads the environment's observation and the walk's phase, and its action rides
-    on the walk. ``shapes`` and ``meta["action_shape"]`` are the environment's, for
+    network reads the environment's observation and the gait's phase, and its action rides
+    on the gait. ``shapes`` and ``meta["action_shape"]`` are the environment's, for
     :func:`~citygen.runner.learn.policy.check_fits`."""
 
     def __init__(self, inner: Any):
