@@ -14,7 +14,8 @@ casting its ground rays through the scene (``handle.terrain = None``: the runner
 5 cm ground raster in tiles, :mod:`citygen.runner.ground`) and the step with every static geom
 in MuJoCo's collision detection (``*_whole_*``: the runner before collisions were restricted to
 the robot's reach, :mod:`citygen.runner.envs.reach`; ``*_static_geoms_kept``: how many of them
-the reach keeps), with their ratios.
+the reach keeps; a town's and a city's fused models are now stepped whole, the reach None,
+and these figures repeat the step's), with their ratios.
 
 ``python benchmarks/bench_traverse.py [--steps 200] [--city] [--city-steps 50]`` (a few minutes
 for the town on 2 cores; the city's first reset adds several, its steps are timed over

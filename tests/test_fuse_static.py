@@ -120,3 +120,16 @@ def test_the_static_world_is_placed_once_and_the_robot_never_sleeps(composed):
     for _ in range(10):
         handle.control(data, 0.8 * robot.max_speed, 0.0, 20)
     assert abs(data.xpos[handle.base_id, 0] - x0) > 0.3
+
+
+def test_the_reach_leaves_a_fused_model_whole(composed, monkeypatch):
+    """citygen.runner.envs.reach: a model whose static geoms are all the world's (fused) is
+    stepped whole; the same scene compiled plain, its objects in bodies, gets a reach."""
+    from citygen.runner.envs import reach as R
+
+    _, robot, plain, fused = composed
+    monkeypatch.setattr(R, "FROM_GEOMS", 1)  # as if the square were a city
+    for model, want in ((plain, True), (fused, False)):
+        handle = H.RobotHandle(model, robot)
+        got = R.reach_of(model, mujoco.MjData(model), handle.geom_ids, handle.base_id)
+        assert (got is not None) is want
