@@ -49,7 +49,10 @@ def measure(label: str, scene, steps: int, robot: str) -> dict:
         for kind in ("cold", "stored"):
             cache = SceneCache()  # each a first visit in this process
             base.process_cache = lambda cache=cache: cache
-            env = make_env("traverse", scene=scene, robot=robot)
+            # from the store, a copy of the scene, as a second process would hold: what is
+            # kept per scene object (the terrain features' index) starts empty
+            here = scene if kind == "cold" else type(scene).model_validate_json(scene.model_dump_json())
+            env = make_env("traverse", scene=here, robot=robot)
             t = time.perf_counter()
             env.reset(seed=0)
             out[f"{label}_reset_{kind}_s"] = time.perf_counter() - t

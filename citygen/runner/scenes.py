@@ -446,7 +446,7 @@ class SceneCache:
         disk = scene_store.store()
         if disk is not None:
             stored = scene_store.entry_key(source.content_key(index), robot, terrain)
-            item = disk.load(stored, robot)
+            item = disk.load(stored, robot, source._scene)  # a scene held: not read again
         if item is None:
             item = prepare(source.scene(index), robot, terrain)
             if disk is not None:
