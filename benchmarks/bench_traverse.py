@@ -14,7 +14,8 @@ casting its ground rays through the scene (``handle.terrain = None``: the runner
 5 cm ground raster in tiles, :mod:`citygen.runner.ground`) and the step with every static geom
 in MuJoCo's collision detection (``*_whole_*``: the runner before collisions were restricted to
 the robot's reach, :mod:`citygen.runner.envs.reach`; ``*_static_geoms_kept``: how many of them
-the reach keeps), with their ratios.
+the reach keeps; a town's and a city's fused models are now stepped whole, the reach None,
+and these figures repeat the step's), with their ratios.
 
 ``python benchmarks/bench_traverse.py [--steps 200] [--city] [--city-steps 50]`` (a few minutes
 for the town on 2 cores; the city's first reset adds several, its steps are timed over
@@ -48,7 +49,10 @@ def measure(label: str, scene, steps: int, robot: str) -> dict:
         for kind in ("cold", "stored"):
             cache = SceneCache()  # each a first visit in this process
             base.process_cache = lambda cache=cache: cache
-            env = make_env("traverse", scene=scene, robot=robot)
+            # from the store, a copy of the scene, as a second process would hold: what is
+            # kept per scene object (the terrain features' index) starts empty
+            here = scene if kind == "cold" else type(scene).model_validate_json(scene.model_dump_json())
+            env = make_env("traverse", scene=here, robot=robot)
             t = time.perf_counter()
             env.reset(seed=0)
             out[f"{label}_reset_{kind}_s"] = time.perf_counter() - t

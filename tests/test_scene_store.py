@@ -244,3 +244,31 @@ def test_a_scenes_stored_local_map_layers_are_the_computed_ones(store, monkeypat
     assert (got.x0, got.y0, got.cell) == (want.x0, want.y0, want.cell)
     pose = (float(fresh.scene.task.start.position[0]), float(fresh.scene.task.start.position[1]), 0.3)
     assert np.array_equal(localmap.LocalMap()(got, pose, 0.0), localmap.LocalMap()(want, pose, 0.0))
+
+
+@pytest.mark.parametrize("split", ["urban-nav-2-test", "urban-loc-3-test", "urban-tra-standard"])
+def test_a_scenes_digest_is_the_one_json_dumps_gave(split):
+    """The store's key of a scene (pydantic-core's JSON) is the digest json.dumps gave."""
+    import citygen
+    from citygen.runner.scenes import _digest, _digest_reference
+
+    scene = citygen.generate(split, index=0)
+    assert _digest(scene) == _digest_reference(scene)
+    moved = scene.model_copy(update={"bounds": scene.bounds.model_copy(update={"max": (1.0, 2.0)})})
+    assert _digest(moved) == _digest_reference(moved) != _digest(scene)
+
+
+def test_a_caller_holding_the_scene_gets_it_attached_and_others_the_stored_copy(store):
+    """An entry holds its scene after the prepared scene: a source given the scene object
+    gets that object back (the stored copy is not read); a source by split, the stored copy."""
+    import citygen
+
+    scene = citygen.generate("urban-nav-2-test", index=4)
+    robot = make_env("nav-static", scene=scene).unwrapped.robot
+    first = SceneCache().get(SceneSource(scene=scene), 0, robot)
+    held = SceneCache().get(SceneSource(scene=scene), 0, robot)
+    assert store.hits == 1 and held.scene is scene and first.scene is scene
+    (entry,) = store.root.glob("*/*.pkl.z")
+    read = store.load(entry.name.removesuffix(".pkl.z"), robot)
+    assert read.scene == scene and read.scene is not scene
+    assert np.array_equal(read.free, held.free)

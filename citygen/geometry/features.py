@@ -79,18 +79,25 @@ def _index(features: Sequence[AnyFeature]) -> _Index:
     j0 = np.floor((cy - ey - oy) / BUCKET).astype(np.int64)
     j1 = np.floor((cy + ey - oy) / BUCKET).astype(np.int64)
     nx, ny = int(i1.max()) + 1, int(j1.max()) + 1
-    ids, owners = [], []
-    for k in range(m):
-        jj, ii = np.mgrid[j0[k] : j1[k] + 1, i0[k] : i1[k] + 1]
-        ids.append((jj * nx + ii).ravel())
-        owners.append(np.full(jj.size, k))
-    ids_a, owners_a = np.concatenate(ids), np.concatenate(owners)
+    ids_a, owners_a = _buckets(i0, i1, j0, j1, nx)
     order = np.argsort(ids_a, kind="stable")
     starts = np.searchsorted(ids_a[order], np.arange(nx * ny + 1))
     return _Index(
         cx, cy, cos, sin, length, width / 2, np.array([f.height for f in features]), kind,
         a, n, tread, (ox, oy), (ny, nx), starts, owners_a[order],
     )  # fmt: skip
+
+
+def _buckets(i0, i1, j0, j1, nx: int) -> tuple[np.ndarray, np.ndarray]:
+    """The bucket ids ``j * nx + i`` each feature ``k`` covers (its ``[j0, j1] x [i0, i1]``,
+    ``j`` major) one feature after another, and their owners ``k``: what one ``np.mgrid``
+    per feature gave (a city's 13,800 features: 0.26 s of its first ``height_at``)."""
+    w = i1 - i0 + 1
+    count = w * (j1 - j0 + 1)
+    owners = np.repeat(np.arange(len(w)), count)
+    local = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
+    rows, cols = np.divmod(local, w[owners])
+    return (j0[owners] + rows) * nx + i0[owners] + cols, owners
 
 
 _CACHE: dict[int, tuple[tuple, _Index]] = {}

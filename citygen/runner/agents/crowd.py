@@ -277,8 +277,9 @@ class Crowd:
         self._f, self._shape = f, (rows, cols)
         n_nodes = rows * cols
         n = len(self.ids)
-        if hop is not None:
-            self._hop = hop
+        if hop is not None:  # a stored table, memory-mapped (kept so for tables()), indexed
+            self._paths = hop  # as a plain array: a memmap's own indexing cost a city's step 1 ms
+            self._hop = np.asarray(hop)
             return
         # Every row is written below (each person is in one clearance class): no fill first,
         # which on a city's table (200 people x 2 x 262,144 nodes, 0.4 GB) cost seconds.
@@ -297,12 +298,13 @@ class Crowd:
             m = len(members)
             self._hop[members, 0] = pred[:m]
             self._hop[members, 1] = pred[m:]
+        self._paths = self._hop
 
     def tables(self) -> dict[str, np.ndarray]:
         """What the constructor computes from the scene and its map alone, the costly part
         of a crowd (a city's: 0.6 GB, seconds of distance transform and Dijkstra): ``paths``
         (the next hops), ``clearance`` and ``blocked`` (each cell's nearest blocked cell)."""
-        return {"paths": self._hop, "clearance": self.clearance, "blocked": self._blocked_xy}
+        return {"paths": self._paths, "clearance": self.clearance, "blocked": self._blocked_xy}
 
     def _node_of(self, xy: np.ndarray) -> np.ndarray:
         row, col = self._cells(xy)
@@ -342,56 +344,73 @@ class Crowd:
         """Where each person is heading now ``(N, 2)`` (m)."""
         return np.where((self.target == 0)[:, None], self.goal, self.start)
 
-    def preferred_velocities(self) -> np.ndarray:
-        """Velocities (m/s) towards a waypoint :data:`LOOKAHEAD` cells ahead on each person's path."""
-        n = len(self.ids)
-        tgt = self.targets()
-        node = self._node_of(self.pos)
-        rows = np.arange(n)
+    def preferred_velocities(self, rows: np.ndarray | None = None) -> np.ndarray:
+        """Velocities (m/s) towards a waypoint :data:`LOOKAHEAD` cells ahead on each person's
+        path (of the people ``rows``, default everyone)."""
+        rows = np.arange(len(self.ids)) if rows is None else rows
+        tgt = self.targets()[rows]
+        pos, target = self.pos[rows], self.target[rows]
+        node = self._node_of(pos)
         for _ in range(LOOKAHEAD):
-            nxt = self._hop[rows, self.target, node]
+            nxt = self._hop[rows, target, node]
             node = np.where(nxt >= 0, nxt, node)
         src = self._node_of(tgt)
-        lost = self._hop[rows, self.target, self._node_of(self.pos)] < 0  # at the target's node, or cut off
+        lost = self._hop[rows, target, self._node_of(pos)] < 0  # at the target's node, or cut off
         aim = np.where(((node == src) | lost)[:, None], tgt, self._node_xy[node])
-        u, dist = _unit(aim - self.pos)
-        return u * np.minimum(self.speed, dist / self.dt)[:, None]
+        u, dist = _unit(aim - pos)
+        return u * np.minimum(self.speed[rows], dist / self.dt)[:, None]
 
-    def _static(self) -> tuple[np.ndarray, np.ndarray]:
-        """The nearest blocked cell centres seen from each person and from 8 points around it."""
+    def _static(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The nearest blocked cell centres seen from each person ``rows`` and from 8 points around it."""
+        pos, radius, static_radius = self.pos[rows], self.radius[rows], self._static_radius[rows]
         ang = np.arange(8) * (np.pi / 4)
-        probe = self.radius[:, None, None] + 0.3
-        around = self.pos[:, None] + probe * np.stack([np.cos(ang), np.sin(ang)], -1)[None]
-        pts = np.concatenate([self.pos[:, None], around], axis=1)
+        probe = radius[:, None, None] + 0.3
+        around = pos[:, None] + probe * np.stack([np.cos(ang), np.sin(ang)], -1)[None]
+        pts = np.concatenate([pos[:, None], around], axis=1)
         row, col = self._cells(pts)
         near = self._blocked_xy[row, col]
-        reach = (self.radius + self.max_speed * 1.0 + self._static_radius + 0.5)[:, None]
-        far = np.linalg.norm(near - self.pos[:, None], axis=-1) > reach
-        radii = np.where(far, -1.0, self._static_radius[:, None])
+        reach = (radius + self.max_speed[rows] * 1.0 + static_radius + 0.5)[:, None]
+        far = np.linalg.norm(near - pos[:, None], axis=-1) > reach
+        radii = np.where(far, -1.0, static_radius[:, None])
         return near, radii
 
-    def step(self, robot_xy, robot_vel, robot_radius: float, vehicles: Footprints | None = None) -> None:
+    def step(
+        self, robot_xy, robot_vel, robot_radius: float, vehicles: Footprints | None = None,
+        active: np.ndarray | None = None,
+    ) -> None:  # fmt: skip
         """Move everyone by one step of ``dt``, avoiding each other, the robot at ``robot_xy``
         (m) moving at ``robot_vel`` (m/s) with radius ``robot_radius`` (m), and the vehicles'
         ``vehicles`` footprints (never stepping into one, nor into the ground its next step
-        covers)."""
+        covers).
+
+        ``active`` (bool ``(N,)``, default everyone): the people who move. The others stand
+        where they are (velocity 0, target and arrivals kept) as obstacles that the moving
+        ones avoid the way they avoid the robot (ORCA's non-cooperative agents: full
+        responsibility) and never step into; with everyone active the step is the same to the
+        bit (the nudges are drawn for the moving people only)."""
         n = len(self.ids)
         if n == 0:
+            return
+        a = np.arange(n) if active is None else np.flatnonzero(active)
+        if not len(a):  # no one moves
+            self.vel = np.zeros_like(self.pos)
             return
         rxy = np.asarray(robot_xy, dtype=np.float64).reshape(2)
         rvel = np.asarray(robot_vel, dtype=np.float64).reshape(2)
         rrad = float(robot_radius)
-        arrived = np.linalg.norm(self.targets() - self.pos, axis=1) < np.maximum(ARRIVE, 0.5 * self.radius)
-        self.target = np.where(arrived, 1 - self.target, self.target)
-        self.arrivals += arrived
-        pref = self.preferred_velocities() + self._rng.normal(0.0, JITTER, (n, 2))
-        pts, radii = self._static()
-        # Non-cooperative agents: the robot, then the discs covering the vehicles near anyone.
-        vxy, vvel, vrad = self._vehicle_discs(vehicles)
-        m = 1 + len(vxy)
-        pos = np.concatenate([self.pos, rxy[None], vxy])
-        vel = np.concatenate([self.vel, rvel[None], vvel])
-        coop = np.arange(n + m) < n
+        arrived = np.linalg.norm(self.targets()[a] - self.pos[a], axis=1) < np.maximum(ARRIVE, 0.5 * self.radius[a])
+        self.target[a] = np.where(arrived, 1 - self.target[a], self.target[a])
+        self.arrivals[a] += arrived
+        pref = self.preferred_velocities(a) + self._rng.normal(0.0, JITTER, (len(a), 2))
+        pts, radii = self._static(a)
+        # Non-cooperative agents: the robot, the discs covering the vehicles near anyone, and
+        # the people standing (not active) near a moving one.
+        vxy, vvel, vrad = self._vehicle_discs(vehicles, a)
+        still = self._standing_near(a)
+        m = 1 + len(vxy) + len(still)
+        pos = np.concatenate([self.pos[a], rxy[None], vxy, self.pos[still]])
+        vel = np.concatenate([self.vel[a], rvel[None], vvel, np.zeros((len(still), 2))])
+        coop = np.arange(len(a) + m) < len(a)
         static = (
             np.concatenate([pts, np.full((m, pts.shape[1], 2), np.nan)]),
             np.concatenate([radii, np.full((m, radii.shape[1]), -1.0)]),
@@ -399,43 +418,64 @@ class Crowd:
         v = orca_velocities(
             pos,
             vel,
-            np.concatenate([pref, rvel[None], vvel]),
-            np.concatenate([self.radius, [rrad + ROBOT_MARGIN], vrad + ROBOT_MARGIN]),
+            np.concatenate([pref, rvel[None], vvel, np.zeros((len(still), 2))]),
+            np.concatenate([self.radius[a], [rrad + ROBOT_MARGIN], vrad + ROBOT_MARGIN, self.radius[still]]),
             np.concatenate(
-                [self.max_speed, [max(1.0, float(np.hypot(*rvel)))], np.maximum(1.0, np.hypot(*vvel.T))]
-            ),
+                [self.max_speed[a], [max(1.0, float(np.hypot(*rvel)))], np.maximum(1.0, np.hypot(*vvel.T)),
+                 np.ones(len(still))]
+            ),  # fmt: skip
             dt=self.dt,
             tau=self.tau,
             neighbor_dist=self.neighbor_dist,
             max_neighbors=self.max_neighbors,
             cooperative=coop,
             static=static,
-        )[:n]
-        new = self._safe(self.pos + v * self.dt, rxy, rvel, rrad, vehicles)
+        )[: len(a)]
+        cand = self.pos.copy()
+        cand[a] += v * self.dt
+        movable = None if active is None else np.asarray(active, dtype=bool)
+        new = self._safe(cand, rxy, rvel, rrad, vehicles, movable)
         self.vel = (new - self.pos) / self.dt
         self.pos = new
         moving = np.hypot(self.vel[:, 0], self.vel[:, 1]) > 0.05
         self._heading = np.where(moving, np.arctan2(self.vel[:, 1], self.vel[:, 0]), self._heading)
 
-    def _vehicle_discs(self, vehicles: Footprints | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _standing_near(self, rows: np.ndarray) -> np.ndarray:
+        """The people not in ``rows`` (standing) within a neighbour's reach of one of them."""
+        if len(rows) == len(self.ids):
+            return np.zeros(0, dtype=np.int64)
+        standing = np.ones(len(self.ids), dtype=bool)
+        standing[rows] = False
+        others = np.flatnonzero(standing)
+        reach = self.neighbor_dist + 2.0 * float(self.radius.max())
+        d = np.linalg.norm(self.pos[others][:, None] - self.pos[rows][None], axis=-1)
+        return others[np.min(d, axis=1) < reach]
+
+    def _vehicle_discs(
+        self, vehicles: Footprints | None, rows: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Centres, velocities and radii of the discs covering the vehicles
         (:func:`~citygen.runner.agents.footprints.covering_discs`) within a neighbour's reach
-        of someone."""
+        of someone of ``rows``."""
         if vehicles is None or not len(vehicles.pos):
             return np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0)
         xy, rad, vel = covering_discs(vehicles)
-        gap = np.min(np.linalg.norm(xy[:, None] - self.pos[None], axis=-1), axis=1) - rad
+        gap = np.min(np.linalg.norm(xy[:, None] - self.pos[rows][None], axis=-1), axis=1) - rad
         near = gap < self.neighbor_dist + float(self.radius.max())
         return xy[near], vel[near], rad[near]
 
     def _safe(
-        self, cand: np.ndarray, rxy: np.ndarray, rvel: np.ndarray, rrad: float, vehicles=None
-    ) -> np.ndarray:
+        self, cand: np.ndarray, rxy: np.ndarray, rvel: np.ndarray, rrad: float, vehicles=None,
+        movable: np.ndarray | None = None,
+    ) -> np.ndarray:  # fmt: skip
         """``cand`` made safe: on allowed ground (slide along the boundary, else stay), out of the
         robot's disc now and after its next step where the ground allows, no deeper into a
         vehicle's footprint (grown by its next step) than before, and no overlap between two
-        people larger than before (take steps back)."""
+        people larger than before (take steps back). ``movable`` (bool ``(N,)``, default
+        everyone): who may be moved; the others' ``cand`` is where they stand."""
         old = self.pos
+        if movable is None:
+            movable = np.ones(len(cand), dtype=bool)
 
         def in_vehicle(xy: np.ndarray, radius: np.ndarray) -> np.ndarray:
             if vehicles is None:
@@ -467,7 +507,7 @@ class Crowd:
             q = nearest(cand)
             away, _ = _unit(cand - q)
             out = q + away * (reach + 1e-3)[:, None]
-            fine = hit & ~in_robot(out) & self.allowed(out)
+            fine = hit & ~in_robot(out) & self.allowed(out) & movable
             cand = np.where(fine[:, None], out, cand)
         # Rare conflicts ORCA left (a person squeezed between the robot, others and a wall): each
         # conflicted person takes, of a few steps it could make, the one that overlaps least.
@@ -478,6 +518,7 @@ class Crowd:
                 | (depth(cand) > OVERLAP_SLACK)
                 | (in_vehicle(cand, self.radius) > vfloor + OVERLAP_SLACK)
             )
+            conflict = conflict[movable[conflict]]
             if not len(conflict):
                 break
             for i in conflict.tolist():

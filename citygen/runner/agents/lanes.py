@@ -105,7 +105,7 @@ def lane_path(vehicle: Vehicle, blocks) -> np.ndarray:
     route = [by_id[r] for r in vehicle.route if r in by_id]
     if not route or len(route) != len(vehicle.route):
         return np.stack([start, goal])
-    graph = road_graph(blocks)
+    graph = _road_graph(blocks)
     sockets = []
     for k, block in enumerate(route):
         if k == 0:
@@ -212,11 +212,22 @@ class DrivePath:
     passages: list[Passage]
 
 
+_GRAPH: list = [None, None]  # the blocks last asked for and their road graph
+
+
+def _road_graph(blocks):
+    """:func:`road_graph` of ``blocks``, kept for the last blocks asked for: a city's 30
+    vehicles' paths asked for it 30 times, 0.4 s of a city's reset from the on-disk store."""
+    if _GRAPH[0] is not blocks:
+        _GRAPH[:] = [blocks, road_graph(blocks)]
+    return _GRAPH[1]
+
+
 def _route_sockets(vehicle: Vehicle, blocks, by_id) -> list[tuple] | None:
     route = [by_id[r] for r in vehicle.route if r in by_id]
     if not route or len(route) != len(vehicle.route):
         return None
-    graph = road_graph(blocks)
+    graph = _road_graph(blocks)
     start, goal = np.asarray(vehicle.start, float), np.asarray(vehicle.goal, float)
 
     def nearest(block, xy, other=None):

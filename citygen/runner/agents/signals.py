@@ -151,16 +151,20 @@ class SignalCrowd:
     def __getattr__(self, name: str):
         return getattr(self._crowd, name)
 
-    def step(self, robot_xy, robot_vel, robot_radius: float, vehicles=None) -> None:
+    def step(self, robot_xy, robot_vel, robot_radius: float, vehicles=None, active=None) -> None:
+        """The crowd's step (``active``: who moves, :meth:`Crowd.step`), people held at the
+        edge of a crosswalk that does not show *walk*."""
         c = self._crowd
         old = c.pos.copy()
         was = self.crossings.crosswalk_at(old)
-        ahead = old + c.preferred_velocities() * 1.0  # where each is heading within a second
+        rows = np.arange(len(old)) if active is None else np.flatnonzero(active)
+        ahead = old.copy()  # where each is heading within a second (the standing: where they stand)
+        ahead[rows] += c.preferred_velocities(rows) * 1.0
         red = self.crossings.no_walk(ahead, self.t) & (was < 0)
         speed = c.speed.copy()
         c.speed[red] = 0.0  # stand at the edge
         try:
-            c.step(robot_xy, robot_vel, robot_radius, vehicles)
+            c.step(robot_xy, robot_vel, robot_radius, vehicles, active)
         finally:
             c.speed[:] = speed
         now = self.crossings.crosswalk_at(c.pos)

@@ -44,6 +44,11 @@ from citygen.spec import Scene
 
 #: Navigation episodes end after this many steps (the paper's horizon).
 NAV_HORIZON = 200
+#: Moving agents (people and vehicles) from which a scene's people move only near the robot
+#: (a city's 230; a town's 25 and the Urban-Nav squares' few all move): see :attr:`NavEnv.agents_near`.
+NEAR_FROM_AGENTS = 100
+#: Distance (m) from the robot within which people move in such a scene.
+PEOPLE_NEAR = 30.0
 
 
 def _yaw_rotate(vx: np.ndarray, vy: np.ndarray, yaw: float) -> tuple[np.ndarray, np.ndarray]:
@@ -89,6 +94,13 @@ class NavEnv(_CitygenEnv):
         self.crowd = None
         self.traffic = None
         self._agent_mocap: list[tuple] = []  # (group, its agents' mocap ids): _place_agents
+        self.agents_near: float | None = None
+        """Distance (m) from the robot beyond which people stand still (ORCA moves those
+        within it; they avoid the standing ones as they avoid the robot), or None: the
+        default, :data:`PEOPLE_NEAR` in a scene of more than :data:`NEAR_FROM_AGENTS` moving
+        agents (a city), everyone moving elsewhere. Set before :meth:`reset`; ``math.inf``:
+        everyone moves. Vehicles always drive."""
+        self._people_near: float | None = None  # in force this episode (_place_agents)
 
     # The goal of the current step (a traverse moves it along the route).
     def _goal(self) -> tuple[float, float]:
@@ -146,6 +158,7 @@ class NavEnv(_CitygenEnv):
     def _place_agents(self) -> None:
         self.crowd = self.traffic = None
         self._agent_mocap = []
+        self._people_near = None
         d = self.data
         if self._dynamic() and self.prepared.agent_bodies:
             from citygen.runner.agents.crowd import crowd_of
@@ -160,6 +173,11 @@ class NavEnv(_CitygenEnv):
                 self.traffic = Traffic(self.scene, dt=self.dt)
             if len(self.traffic.ids) == 0:
                 self.traffic = None
+            near = self.agents_near
+            if near is None and len(self.prepared.agent_bodies) > NEAR_FROM_AGENTS:
+                near = PEOPLE_NEAR
+            if self.crowd is not None and near is not None and math.isfinite(near):
+                self._people_near = float(near)
             bodies = self.prepared.agent_bodies
             self._agent_mocap = [
                 (group, np.array([bodies[a] for a in group.ids], dtype=np.int64))
@@ -172,16 +190,30 @@ class NavEnv(_CitygenEnv):
             for mocap in self.prepared.agent_bodies.values():
                 d.mocap_pos[mocap] = (0.0, 0.0, -100.0)
 
-    def _write_agents(self) -> None:
+    def _write_agents(self, people: np.ndarray | None = None) -> None:
         """Each agent's mocap body where the agent is, on the ground, facing its heading (one
-        array write per group; the quaternions by :mod:`math`, as one agent at a time had them)."""
+        array write per group; the quaternions by :mod:`math`, as one agent at a time had them);
+        of the crowd only the people ``people`` (indices; default everyone): the others stood."""
         d = self.data
         for group, mocap in self._agent_mocap:
-            z = height_at(self.scene, group.pos[:, 0], group.pos[:, 1])
+            pos = group.pos
             yaw = group.headings() if hasattr(group, "headings") else group.yaw
-            d.mocap_pos[mocap, :2] = group.pos
+            if people is not None and group is self.crowd:
+                if not len(people):
+                    continue
+                pos, yaw, mocap = pos[people], yaw[people], mocap[people]
+            z = height_at(self.scene, pos[:, 0], pos[:, 1])
+            d.mocap_pos[mocap, :2] = pos
             d.mocap_pos[mocap, 2] = z
             d.mocap_quat[mocap] = [(math.cos(h), 0.0, 0.0, math.sin(h)) for h in (yaw / 2).tolist()]
+
+    def _active_people(self, x: float, y: float) -> np.ndarray | None:
+        """Which people move this step (bool per person, those within :attr:`agents_near` of
+        the robot at ``(x, y)``), or None: everyone."""
+        if self._people_near is None:
+            return None
+        pos = self.crowd.pos
+        return np.hypot(pos[:, 0] - x, pos[:, 1] - y) <= self._people_near
 
     def others(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Positions, velocities and radii of the moving agents near the robot (people
@@ -208,9 +240,11 @@ class NavEnv(_CitygenEnv):
             vel = self.handle.velocity(self.data)
             c, s = math.cos(yaw), math.sin(yaw)
             robot_vel = np.array([c * vel[0] - s * vel[1], s * vel[0] + c * vel[1]])
+            active = None
             if self.crowd is not None:
                 cars = self.traffic.footprints() if self.traffic is not None else None
-                self.crowd.step(np.array([x, y]), robot_vel, self.robot.radius, cars)
+                active = self._active_people(x, y)
+                self.crowd.step(np.array([x, y]), robot_vel, self.robot.radius, cars, active)
             if self.traffic is not None:
                 obstacles = [np.array([[x, y]])]
                 radii = [np.array([self.robot.radius])]
@@ -218,7 +252,7 @@ class NavEnv(_CitygenEnv):
                     obstacles.append(self.crowd.pos)
                     radii.append(self.crowd.radius)
                 self.traffic.step(np.concatenate(obstacles), np.concatenate(radii))
-            self._write_agents()
+            self._write_agents(None if active is None else np.flatnonzero(active))
         with near(self._reach, self.data):  # a city's static geoms near the robot only
             if self.legs is not None:
                 self.legs.walk(v, w)

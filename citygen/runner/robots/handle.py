@@ -77,12 +77,45 @@ def compose(scene_mjcf: MJCF, robot: Robot, pose: tuple[float, float, float, flo
         scene.compiler.fusestatic = True
     frame = scene.worldbody.add_frame(pos=[x, y, z], quat=[math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])
     scene.attach(child, prefix=PREFIX, frame=frame)
+    if n > FUSE_FROM_GEOMS:
+        _still_world(scene, mujoco)
     try:
-        return compile_spec(scene)
+        model = compile_spec(scene)
     except ValueError as exc:
         raise ExportError(
             f"compose: MuJoCo rejected the scene with the {robot.name!r} robot: {exc}"
         ) from None
+    if n > FUSE_FROM_GEOMS:  # the robot's tree (any but the still body's) never sleeps
+        still = model.body_treeid[model.body(STILL_BODY).id]
+        keep = np.arange(model.ntree) != still
+        model.tree_sleep_policy[keep] = mujoco.mjtSleepPolicy.mjSLEEP_NEVER
+    return model
+
+
+#: Name of the body :func:`_still_world` adds to a town's or a city's model.
+STILL_BODY = "citygen:still"
+
+
+def _still_world(spec: Any, mujoco: Any) -> None:
+    """Keep MuJoCo from recomputing the static world's geoms at every physics step.
+
+    MuJoCo's kinematics places every geom of every body at every step (on a city 118,000 geoms,
+    20 times a control step: most of its physics) unless sleeping is enabled and some tree is
+    asleep: then bodies welded to the world (``mjS_STATIC``, the world body and its fused
+    geoms) are placed once, by ``mj_resetData`` (every new MjData), and skipped after. The
+    robot's tree is set never to sleep (by :func:`compose`, once compiled), the agents' mocap bodies are always awake, and one tree
+    that is asleep from the start and touches nothing (:data:`STILL_BODY`: a slider far below
+    the scene, collision bits 0, in the robot's hidden geom group) turns the filter on. The
+    robot's physics is the same to the bit: its dofs are stepped in the same order, its contacts
+    found against the same geom places (``tests/test_fuse_static.py``)."""
+    spec.option.enableflags |= mujoco.mjtEnableBit.mjENBL_SLEEP
+    still = spec.worldbody.add_body(name=STILL_BODY, pos=[0.0, 0.0, -1000.0])
+    still.sleep = mujoco.mjtSleepPolicy.mjSLEEP_INIT
+    still.add_joint(name=STILL_BODY, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0.0, 0.0, 1.0])
+    still.add_geom(
+        name=STILL_BODY, type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.01, 0.0, 0.0], mass=0.001,
+        contype=0, conaffinity=0, group=ROBOT_HIDDEN_GROUP,
+    )  # fmt: skip
 
 
 #: Geom group of a composed robot's geoms (the scene's are 0 ground, 1 objects, 2 agents) and
