@@ -179,3 +179,28 @@ def tiny_loco_run(tmp_path: Path, task: str, robot: str, grid: Path, config: str
         )
         assert r.returncode == 0, r.stderr
     return out, r.stdout
+
+
+def scripted_and_zero_residual(env, gait: str, steps: int = 100):
+    """``steps`` steps of ``env`` from ``reset(seed=0)`` twice, by the scripted gait
+    (``--policy trot``: the quadruped's trot, the humanoid's walk) and by a zero residual over
+    ``gait``, asserting neither falls: both runs' qpos, shape ``(2, steps, nq)``, and the
+    residual (to read its phase after the last step)."""
+    import numpy as np
+
+    from citygen.runner.learn.residual import GaitResidual
+    from citygen.runner.policies import make_policy
+
+    runs = []
+    for residual in (False, True):
+        obs, _ = env.reset(seed=0)
+        driver = GaitResidual(gait, 0.2) if residual else make_policy("trot")
+        driver.reset(env)
+        trail = []
+        for _ in range(steps):
+            a = driver.action(env, np.zeros(env.n_actions + 1)) if residual else driver.act(obs)
+            obs, _, fallen, _, _ = env.step(a)
+            assert not fallen
+            trail.append(env.data.qpos.copy())
+        runs.append(np.array(trail))
+    return np.array(runs), driver

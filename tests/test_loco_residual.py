@@ -13,10 +13,9 @@ import pytest
 from citygen.errors import SpecError
 from citygen.runner.bench import run_episode
 from citygen.runner.learn.config import load_config
-from citygen.runner.learn.residual import PHASE_KEY, GaitResidual
+from citygen.runner.learn.residual import PHASE_KEY
 from citygen.runner.make import make_env
-from citygen.runner.policies import make_policy
-from tests.conftest import TINY_LOCO, loco_grid, tiny_loco_run
+from tests.conftest import TINY_LOCO, loco_grid, scripted_and_zero_residual, tiny_loco_run
 
 GRID = loco_grid("flat", "humanoid")
 TINY = TINY_LOCO + 'gait = "walk"\ngait_max_speed = 0.6\n'
@@ -32,18 +31,7 @@ def grid(tmp_path_factory):
 def test_a_zero_residual_at_the_walks_speed_is_the_scripted_walk(grid):
     env = make_env("loco-flat", robot="humanoid", split=str(grid))
     try:
-        runs = []
-        for residual in (False, True):
-            obs, _ = env.reset(seed=0)
-            gait = GaitResidual("walk", 0.2) if residual else make_policy("trot")  # the biped walk
-            gait.reset(env)
-            trail = []
-            for _ in range(100):
-                a = gait.action(env, np.zeros(env.n_actions + 1)) if residual else gait.act(obs)
-                obs, _, fallen, _, _ = env.step(a)
-                assert not fallen
-                trail.append(env.data.qpos.copy())
-            runs.append(np.array(trail))
+        runs, _ = scripted_and_zero_residual(env, "walk")  # the humanoid's --policy trot is its walk
         assert runs[0].tobytes() == runs[1].tobytes()
         assert np.hypot(*(runs[0][-1, :2] - runs[0][0, :2])) > 0.3  # it walked
     finally:

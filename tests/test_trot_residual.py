@@ -18,8 +18,7 @@ from citygen.runner.bench import run_episode
 from citygen.runner.control.gaits import TrotController
 from citygen.runner.learn.residual import HEIGHT, PHASE_KEY, GaitResidual
 from citygen.runner.make import make_env
-from citygen.runner.policies import make_policy
-from tests.conftest import TINY_LOCO, loco_grid, tiny_loco_run
+from tests.conftest import TINY_LOCO, loco_grid, scripted_and_zero_residual, tiny_loco_run
 
 RISER = 0.15  # m: a riser of the test grid's middle rows (0.10-0.30 m)
 TINY = TINY_LOCO + 'gait = "trot"\n'
@@ -88,24 +87,13 @@ def test_the_trots_swing_clears_a_riser_it_steps_onto(grids):
 def test_a_zero_residual_at_the_trots_height_is_the_scripted_trot(grids):
     env = make_env("loco-flat", robot="quadruped", split=str(grids["flat"]))
     try:
-        runs = []
-        for residual in (False, True):
-            obs, _ = env.reset(seed=0)
-            gait = GaitResidual("trot", 0.2) if residual else make_policy("trot")
-            gait.reset(env)
-            trail = []
-            for _ in range(100):
-                a = gait.action(env, np.zeros(env.n_actions + 1)) if residual else gait.act(obs)
-                obs, _, fallen, _, _ = env.step(a)
-                assert not fallen
-                trail.append(env.data.qpos.copy())
-            runs.append(np.array(trail))
-            if residual:  # the phase: the trot's cycle (2.8 Hz for the quadruped) and its ramp
-                phase = gait.phase(env)
-                assert phase.shape == (3,) and phase[2] == 1.0
-                assert math.atan2(phase[0], phase[1]) == pytest.approx(
-                    math.remainder(2 * math.pi * 100 * env.dt * 2.8, 2 * math.pi), abs=1e-4
-                )
+        runs, gait = scripted_and_zero_residual(env, "trot")
+        # the phase: the trot's cycle (2.8 Hz for the quadruped) and its ramp
+        phase = gait.phase(env)
+        assert phase.shape == (3,) and phase[2] == 1.0
+        assert math.atan2(phase[0], phase[1]) == pytest.approx(
+            math.remainder(2 * math.pi * 100 * env.dt * 2.8, 2 * math.pi), abs=1e-4
+        )
         assert runs[0].tobytes() == runs[1].tobytes()
         assert np.hypot(*(runs[0][-1, :2] - runs[0][0, :2])) > 0.3  # it walked
         # the height action sets the swing height, within its bounds

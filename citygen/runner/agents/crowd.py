@@ -398,7 +398,8 @@ class Crowd:
         rxy = np.asarray(robot_xy, dtype=np.float64).reshape(2)
         rvel = np.asarray(robot_vel, dtype=np.float64).reshape(2)
         rrad = float(robot_radius)
-        arrived = np.linalg.norm(self.targets()[a] - self.pos[a], axis=1) < np.maximum(ARRIVE, 0.5 * self.radius[a])
+        gap = np.linalg.norm(self.targets()[a] - self.pos[a], axis=1)
+        arrived = gap < np.maximum(ARRIVE, 0.5 * self.radius[a])
         self.target[a] = np.where(arrived, 1 - self.target[a], self.target[a])
         self.arrivals[a] += arrived
         pref = self.preferred_velocities(a) + self._rng.normal(0.0, JITTER, (len(a), 2))
@@ -421,9 +422,13 @@ class Crowd:
             np.concatenate([pref, rvel[None], vvel, np.zeros((len(still), 2))]),
             np.concatenate([self.radius[a], [rrad + ROBOT_MARGIN], vrad + ROBOT_MARGIN, self.radius[still]]),
             np.concatenate(
-                [self.max_speed[a], [max(1.0, float(np.hypot(*rvel)))], np.maximum(1.0, np.hypot(*vvel.T)),
-                 np.ones(len(still))]
-            ),  # fmt: skip
+                [
+                    self.max_speed[a],
+                    [max(1.0, float(np.hypot(*rvel)))],
+                    np.maximum(1.0, np.hypot(*vvel.T)),
+                    np.ones(len(still)),
+                ]
+            ),
             dt=self.dt,
             tau=self.tau,
             neighbor_dist=self.neighbor_dist,

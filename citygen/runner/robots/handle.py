@@ -103,9 +103,10 @@ def _still_world(spec: Any, mujoco: Any) -> None:
     20 times a control step: most of its physics) unless sleeping is enabled and some tree is
     asleep: then bodies welded to the world (``mjS_STATIC``, the world body and its fused
     geoms) are placed once, by ``mj_resetData`` (every new MjData), and skipped after. The
-    robot's tree is set never to sleep (by :func:`compose`, once compiled), the agents' mocap bodies are always awake, and one tree
-    that is asleep from the start and touches nothing (:data:`STILL_BODY`: a slider far below
-    the scene, collision bits 0, in the robot's hidden geom group) turns the filter on. The
+    robot's tree is set never to sleep (by :func:`compose`, once compiled), the agents' mocap
+    bodies are always awake, and one tree that is asleep from the start and touches nothing
+    (:data:`STILL_BODY`: a slider far below the scene, collision bits 0, in the robot's hidden
+    geom group) turns the filter on. The
     robot's physics is the same to the bit: its dofs are stepped in the same order, its contacts
     found against the same geom places (``tests/test_fuse_static.py``)."""
     spec.option.enableflags |= mujoco.mjtEnableBit.mjENBL_SLEEP
