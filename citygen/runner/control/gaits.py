@@ -277,7 +277,7 @@ class TrotController(_FootController):
         stance_time = self.duty / freq
         feet = np.zeros((4, 3))
         stance = np.zeros(4, dtype=bool)
-        swing: dict[int, tuple[float, np.ndarray, np.ndarray]] = {}  # leg: (s, path, its heading)
+        swing: dict[int, tuple[float, np.ndarray, np.ndarray]] = {}  # leg: (s, path, its direction)
         for i in range(4):
             x, y = self._feet[i]
             phase = ((t - self._t0) * freq + _TROT_PHASE[i]) % 1.0
@@ -309,25 +309,30 @@ class TrotController(_FootController):
                 ahead = land + (1.0 - s) * swing_time * sweep
                 swing[i] = (s, np.vstack([path, ahead[None]]), land - start)
             feet[i, :2] = self._feet[i]
-        ground = self._ground(handle, data, self._world_xy(data, handle, feet))
-        for i, (s, path, ahead) in swing.items():
-            feet[i, 2] = self._swing_height(handle, data, i, s, path, ahead, feet[i, :2], ground[i], lift)
+        # one look-up for the feet and every swing's path and probe (the ground of each point
+        # is its own: the points' world positions and heights one by one)
+        points, probes = [feet[:, :2]], {}
+        for i, (_, path, ahead) in swing.items():
+            norm = float(np.hypot(*ahead))
+            xy = feet[i, :2]
+            probes[i] = xy + _PROBE[:, None] * (ahead / norm) if norm > 1e-6 else xy[None]
+            points += [path, probes[i]]
+        heights = self._ground(handle, data, self._world_xy(data, handle, np.vstack(points)))
+        ground, k = heights[:4], 4
+        for i, (s, path, _) in swing.items():
+            g, k = heights[k : k + len(path)], k + len(path)
+            edge, k = float(np.max(heights[k : k + len(probes[i])])), k + len(probes[i])
+            feet[i, 2] = self._swing_height(i, s, g, edge, ground[i], lift)
         return self._action(handle, data, feet, ground, stance, dt)
 
-    def _swing_height(self, handle: RobotHandle, data: Any, i: int, s: float, path: np.ndarray,
-                      ahead: np.ndarray, xy: np.ndarray, under: float, lift: float) -> float:  # fmt: skip
+    def _swing_height(self, i: int, s: float, g: np.ndarray, edge: float, under: float, lift: float) -> float:
         """Height (m, over the ground ``under`` the foot) of swing foot ``i`` at ``s`` (0 to 1)
-        of its swing along ``path`` (base frame: lift-off to landing, then the landing spot
-        where the ground under it will be at touchdown; ``ahead`` its direction), at ``xy``
-        now: up from the ground it left to ``lift`` over the highest ground of its path (a
-        riser's tread) by mid-swing, down to the ground it lands on, and never lower than
-        ``_CLEAR`` over the ground just ahead of it (a riser's edge it is about to cross).
-        On level ground, ``lift`` times ``sin^2(pi s)`` as before, to the bit."""
-        norm = float(np.hypot(*ahead))
-        probe = xy + _PROBE[:, None] * (ahead / norm) if norm > 1e-6 else xy[None]
-        # one look-up for the path and the probe (the points' world positions one by one)
-        both = self._ground(handle, data, self._world_xy(data, handle, np.vstack([path, probe])))
-        g, edge = both[: len(path)], float(np.max(both[len(path) :]))
+        of its swing, ``g`` the ground along its path (lift-off to landing, then the landing
+        spot where the ground under it will be at touchdown) and ``edge`` the highest just
+        ahead of it (:data:`_PROBE`): up from the ground it left to ``lift`` over the highest
+        ground of its path (a riser's tread) by mid-swing, down to the ground it lands on, and
+        never lower than ``_CLEAR`` over ``edge`` (a riser's edge it is about to cross). On
+        level ground, ``lift`` times ``sin^2(pi s)`` as before, to the bit."""
         start, land = float(self._lift_ground[i]), float(g[-1])
         high = max(float(np.max(g)), start)
         bump = 0.5 - 0.5 * math.cos(2 * math.pi * s)

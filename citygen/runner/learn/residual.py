@@ -157,12 +157,11 @@ class GaitResidual:
             walk.command = (self.speed, 0.0, walk.command[2])
         base = walk.act(env.handle, env.data, self.t)
         self.t += env.dt
-        out = np.zeros(env.action_space.shape, dtype=np.float32)  # as the scripted gaits' actions
-        full = np.zeros(out.shape[0])  # the gait's action: the legs', the wheels' at 0 (braked)
-        full[:n] = base[:n]
+        out = np.zeros(env.action_space.shape)  # the gait's action: the legs', the wheels' at 0 (braked)
+        out[:n] = base[:n]
         k = out.shape[0] if self.gait == "trot" else n  # the trot's residual reaches the wheels
-        out[:k] = full[:k] + self.scale * a[:k]
-        return out.clip(-1.0, 1.0)
+        out[:k] += self.scale * a[:k]
+        return out.astype(np.float32).clip(-1.0, 1.0)  # as the scripted gaits' actions
 
 
 class ResidualTraining(gymnasium.Wrapper):
