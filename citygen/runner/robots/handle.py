@@ -67,7 +67,8 @@ def compose(scene_mjcf: MJCF, robot: Robot, pose: tuple[float, float, float, flo
     # A city holds ~10^5 static geoms: MuJoCo's default arena is too small for its broadphase.
     # Counted in the text: MjSpec.geoms wraps every element in Python (minutes for a city).
     n = scene_mjcf.xml.count("<geom ")
-    if n > FUSE_FROM_GEOMS:
+    big = n > FUSE_FROM_GEOMS
+    if big:
         scene.memory = max(scene.memory, n * 16 * 1024)
         # The static objects' bodies (7,900 on a city) fused into the world: MuJoCo's passes
         # over bodies run at every physics step whatever the body, so a static body costs as
@@ -77,7 +78,7 @@ def compose(scene_mjcf: MJCF, robot: Robot, pose: tuple[float, float, float, flo
         scene.compiler.fusestatic = True
     frame = scene.worldbody.add_frame(pos=[x, y, z], quat=[math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])
     scene.attach(child, prefix=PREFIX, frame=frame)
-    if n > FUSE_FROM_GEOMS:
+    if big:
         _still_world(scene, mujoco)
     try:
         model = compile_spec(scene)
@@ -85,7 +86,7 @@ def compose(scene_mjcf: MJCF, robot: Robot, pose: tuple[float, float, float, flo
         raise ExportError(
             f"compose: MuJoCo rejected the scene with the {robot.name!r} robot: {exc}"
         ) from None
-    if n > FUSE_FROM_GEOMS:  # the robot's tree (any but the still body's) never sleeps
+    if big:  # the robot's tree (any but the still body's) never sleeps
         still = model.body_treeid[model.body(STILL_BODY).id]
         keep = np.arange(model.ntree) != still
         model.tree_sleep_policy[keep] = mujoco.mjtSleepPolicy.mjSLEEP_NEVER
@@ -106,9 +107,9 @@ def _still_world(spec: Any, mujoco: Any) -> None:
     robot's tree is set never to sleep (by :func:`compose`, once compiled), the agents' mocap
     bodies are always awake, and one tree that is asleep from the start and touches nothing
     (:data:`STILL_BODY`: a slider far below the scene, collision bits 0, in the robot's hidden
-    geom group) turns the filter on. The
-    robot's physics is the same to the bit: its dofs are stepped in the same order, its contacts
-    found against the same geom places (``tests/test_fuse_static.py``)."""
+    geom group) turns the filter on. The robot's physics is the same to the bit: its dofs are
+    stepped in the same order, its contacts found against the same geom places
+    (``tests/test_fuse_static.py``)."""
     spec.option.enableflags |= mujoco.mjtEnableBit.mjENBL_SLEEP
     still = spec.worldbody.add_body(name=STILL_BODY, pos=[0.0, 0.0, -1000.0])
     still.sleep = mujoco.mjtSleepPolicy.mjSLEEP_INIT
