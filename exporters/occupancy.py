@@ -329,12 +329,50 @@ def conservative(shape: shapely.Geometry, resolution: float) -> shapely.Geometry
     return shapely.union_all([shape, *np.concatenate(hulls).tolist()])
 
 
+def _convex_ring(shape: shapely.Geometry) -> np.ndarray | None:
+    """The exterior ring ``(n, 2)`` of a polygon without holes whose every corner turns the
+    same way or goes straight on (a convex polygon), else None."""
+    if not isinstance(shape, Polygon) or shape.interiors:
+        return None
+    ring = np.asarray(shape.exterior.coords)[:-1, :2]
+    e = np.roll(ring, -1, axis=0) - ring
+    turn = e[:, 0] * np.roll(e[:, 1], -1) - e[:, 1] * np.roll(e[:, 0], -1)
+    return ring if len(ring) >= 3 and (np.all(turn >= 0) or np.all(turn <= 0)) else None
+
+
+def conservative_all(shapes: list[shapely.Geometry], resolution: float) -> list[shapely.Geometry]:
+    """:func:`conservative` of each shape, the convex ones at once: a convex polygon's sum
+    with the cell's square is the convex hull of its corners moved to the square's four
+    corners (one vectorised hull for all of them, where the edge by edge union took a
+    city's 7,900 bases 3.8 s); the others by :func:`conservative`. Each paints the cells
+    :func:`conservative`'s does (``tests/test_export_occupancy.py``)."""
+    h = resolution / 2 * (1 - 1e-6)
+    corners = np.array([[-h, -h], [h, -h], [h, h], [-h, h]])
+    out: list[shapely.Geometry | None] = [None] * len(shapes)
+    points, owner = [], []
+    for k, shape in enumerate(shapes):
+        ring = _convex_ring(shape)
+        if ring is None:
+            out[k] = conservative(shape, resolution)
+            continue
+        points.append((ring[:, None, :] + corners[None]).reshape(-1, 2))
+        owner.append(np.full(4 * len(ring), len(owner)))
+    if points:
+        hulls = shapely.convex_hull(
+            shapely.multipoints(np.concatenate(points), indices=np.concatenate(owner))
+        )
+        it = iter(hulls.tolist())
+        out = [next(it) if g is None else g for g in out]
+    return out
+
+
 def _labels(scene: Scene, grid: Grid, bases: list[tuple[shapely.Geometry, int]]) -> np.ndarray:
     labels = np.full(grid.shape, GROUND, dtype=np.uint8)
     for zone, shape in zip(scene.zones, zone_polygons(scene), strict=True):
         paint(grid, labels, shape, ZONE_CLASS[zone.kind])
-    for shape, cls in bases:
-        paint(grid, labels, conservative(shape, grid.resolution), cls)
+    grown = conservative_all([shape for shape, _ in bases], grid.resolution)
+    for shape, (_, cls) in zip(grown, bases, strict=True):
+        paint(grid, labels, shape, cls)
     (x0, y0), (x1, y1) = scene.bounds.min, scene.bounds.max
     xs, ys = grid.xs(), grid.ys()
     labels[:, (xs < x0) | (xs > x1)] = OUT_OF_BOUNDS

@@ -479,3 +479,19 @@ def test_people_walk_round_vehicles_never_into_them():
         cars = cars._replace(pos=cars.pos + np.array([[0.0, 0.0], [0.0, DT * cars.speed[1]]]))
         assert footprint_depth(crowd.pos, crowd.radius, cars).max() <= 1e-3
     assert np.count_nonzero(crowd.arrivals >= 1) >= 15 and cars.pos[1, 1] > 0.0 and stops  # all moved
+
+
+@pytest.mark.parametrize("index", range(3))
+def test_paths_on_the_nodes_a_class_keeps_are_the_whole_grids(index):
+    """Crowd._hops runs Dijkstra on the path grid's nodes a clearance class keeps (and the
+    targets' nodes): every next hop is the one Dijkstra on the whole grid gives
+    (_hops_whole, the reference), ties broken alike; no hop from the nodes it leaves out."""
+    scene = citygen.generate("urban-nav-3-test", index=index)
+    crowd = Crowd(scene, occupancy(scene), rng=np.random.default_rng(0), dt=DT)
+    groups = np.floor(crowd.need / 0.05 + 1e-9) * 0.05
+    for need in np.unique(groups):
+        members = np.flatnonzero(groups == need)
+        src = crowd._node_of(np.concatenate([crowd.goal[members], crowd.start[members]]))
+        whole = crowd._hops_whole(need, src)
+        assert (whole >= 0).sum(axis=1).min() > 10  # paths through the square
+        assert np.array_equal(crowd._hop[members].swapaxes(0, 1).reshape(whole.shape), whole)

@@ -567,3 +567,30 @@ def test_every_object_occupies_a_cell_at_a_quarter_metre(seed):
     for shape, _ in base_shapes(scene, None):
         x, y = shape.representative_point().coords[0]
         assert m.label_at(x, y) in occ.OBSTACLE_CLASSES
+
+
+@pytest.mark.parametrize("resolution", [0.05, 0.4])
+def test_conservative_all_paints_the_cells_conservative_does(resolution):
+    """occupancy.conservative_all (convex bases as one vectorised hull each, the rest edge by
+    edge): the same cells as conservative shape by shape, on a street corner's bases (convex
+    and not) and a few shapes made to test the turn check."""
+    from citygen.exporters.occupancy import _bases, _convex_ring, conservative, conservative_all
+    from citygen.geometry.raster import paint
+
+    scene = load_scene(ROOT / "examples" / "street_corner.json")
+    shapes = [shape for shape, _ in _bases(scene, None)]
+    shapes += [
+        Polygon([(0, 0), (2, 0), (2, 1), (1, 1), (1, 2), (0, 2)]),  # an L: not convex
+        Polygon([(0, 0), (1, 0), (2, 0), (2, 1), (0, 1)]),  # a rectangle with a straight corner
+        shapely.affinity.rotate(box(0, 0, 0.03, 1.1), 33.0),  # a thin rotated post
+        box(0, 0, 3, 3).difference(box(1, 1, 2, 2)),  # a hole
+    ]
+    kinds = {_convex_ring(s) is not None for s in shapes}
+    assert kinds == {True, False}
+    grid = Grid.covering((-3.0, -3.0, 40.0, 40.0), resolution)
+    for shape, grown in zip(shapes, conservative_all(shapes, resolution), strict=True):
+        want = np.zeros(grid.shape, dtype=bool)
+        got = np.zeros(grid.shape, dtype=bool)
+        paint(grid, want, conservative(shape, resolution), True)
+        paint(grid, got, grown, True)
+        assert want.any() and np.array_equal(got, want)

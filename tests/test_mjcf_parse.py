@@ -1,15 +1,17 @@
 """Parsing a scene's MJCF in chunks (citygen.exporters.mjcf.parse): the compiled model is the
-one-piece parse's to the byte, the robot attached or not; small models are parsed whole."""
+one-piece parse's to the byte, the robot attached or not; small models are parsed whole. Its
+static bodies read as frames (a town's, a city's): MuJoCo's fused model to the byte."""
 
 from __future__ import annotations
 
 import warnings
+import xml.etree.ElementTree as ET
 
 import mujoco
 import pytest
 
 from citygen.exporters.mjcf import to_mjcf
-from citygen.exporters.mjcf.parse import compile_spec, scene_spec
+from citygen.exporters.mjcf.parse import compile_spec, scene_spec, static_frames
 from citygen.io import load_scene
 from citygen.runner.robots import compose, load_robot
 from citygen.runner.robots import handle as handle_module
@@ -42,6 +44,62 @@ def test_a_composed_scene_with_its_robot_is_the_same_parsed_in_chunks(monkeypatc
     mjcf, robot = to_mjcf(scene, apron=5.0), load_robot("quadruped")
     pose = (*scene.task.start.position, 0.0, scene.task.start.yaw)
     whole = compose(mjcf, robot, pose)
-    monkeypatch.setattr(handle_module, "scene_spec", lambda m: scene_spec(m, chunk=5))
+    monkeypatch.setattr(handle_module, "scene_spec", lambda m, **kw: scene_spec(m, chunk=5, **kw))
     parts = compose(mjcf, robot, pose)
     assert _bytes(parts, tmp_path) == _bytes(whole, tmp_path)
+
+
+def _fused(spec):
+    spec.compiler.fusestatic = True
+    return compile_spec(spec)
+
+
+@pytest.mark.parametrize("name", SCENES)
+@pytest.mark.parametrize("chunk", [7, 4000])
+def test_static_bodies_read_as_frames_make_the_fused_model_to_the_byte(name, chunk, tmp_path):
+    """scene_spec(frames=True): the objects' bodies read as frames of the world compile to
+    what MuJoCo's fusestatic makes of them, in chunks or whole."""
+    mjcf = to_mjcf(load_scene(ROOT / "examples" / name), apron=5.0)
+    assert static_frames(ET.fromstring(mjcf.xml)) >= 3  # the objects' bodies
+    fused = _fused(mujoco.MjSpec.from_string(mjcf.xml, assets=dict(mjcf.assets)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        framed = _fused(scene_spec(mjcf, chunk=chunk, frames=True))
+    assert framed.nbody == fused.nbody
+    assert _bytes(framed, tmp_path) == _bytes(fused, tmp_path)
+
+
+def test_a_composed_town_reads_its_static_bodies_as_frames(monkeypatch, tmp_path):
+    """compose on a scene of town size (FUSE_FROM_GEOMS): the same model to the byte as
+    MuJoCo fusing the bodies itself, the robot's own static bodies fused as before."""
+    scene = load_scene(ROOT / "examples" / "street_corner.json")
+    mjcf, robot = to_mjcf(scene, apron=5.0), load_robot("quadruped")
+    pose = (*scene.task.start.position, 0.0, scene.task.start.yaw)
+    monkeypatch.setattr(handle_module, "FUSE_FROM_GEOMS", 0)
+    calls = []
+    monkeypatch.setattr(handle_module, "scene_spec", lambda m, **kw: calls.append(kw) or scene_spec(m, **kw))
+    framed = compose(mjcf, robot, pose)
+    monkeypatch.setattr(handle_module, "scene_spec", lambda m, **kw: scene_spec(m))
+    fused = compose(mjcf, robot, pose)
+    assert calls == [{"frames": True}]
+    assert _bytes(framed, tmp_path) == _bytes(fused, tmp_path)
+
+
+def test_frames_leave_moving_and_referenced_bodies_as_they_are():
+    """Only a static body of geoms alone becomes a frame, placed after the world's own geoms;
+    a model whose other sections could name a body is left whole."""
+    xml = (
+        '<mujoco><worldbody><body name="a" pos="1 0 0"><geom size="1"/></body>'
+        '<geom name="g" size="1"/><body name="m" mocap="true"><geom size="1"/></body>'
+        '<body name="j"><joint/><geom size="1"/></body><body name="s"><site/><geom size="1"/></body>'
+        '<body name="e"/></worldbody></mujoco>'
+    )
+    root = ET.fromstring(xml)
+    assert static_frames(root) == 1
+    assert [(el.tag, el.get("name")) for el in root.find("worldbody")] == [
+        ("geom", "g"), ("frame", None), ("body", "m"), ("body", "j"), ("body", "s"), ("body", "e"),
+    ]  # fmt: skip
+    assert root.find("worldbody/frame").get("pos") == "1 0 0"
+    exclude = '<contact><exclude body1="a" body2="m"/></contact></mujoco>'
+    referring = ET.fromstring(xml.replace("</mujoco>", exclude))
+    assert static_frames(referring) == 0

@@ -85,3 +85,42 @@ def test_quaternions_are_the_roll_pitch_yaw_rotations():
     wxyz = rpy_quat(rpy)
     xyzw = Rotation.from_euler("xyz", rpy).as_quat()
     np.testing.assert_allclose(np.abs((wxyz[:, [1, 2, 3, 0]] * xyzw).sum(axis=1)), 1.0, atol=1e-12)
+
+
+def test_as_rectangle_is_its_numpy_reference_to_the_bit():
+    """convex.as_rectangle (plain Python) gives as_rectangle_numpy's centre, sides and yaw to
+    the bit, and None alike: rotated and axis-aligned rectangles, rounded corners, slightly
+    skewed ones, flat and empty ones, signed zeros."""
+    import math
+    import warnings
+
+    from citygen.geometry.convex import as_rectangle, as_rectangle_numpy
+
+    rng = np.random.default_rng(0)
+    for k in range(3000):
+        c, (length, width), yaw = rng.uniform(-500, 500, 2), rng.uniform(0, 20, 2), rng.uniform(-4, 4)
+        if k % 5 == 0:
+            yaw = int(rng.integers(-4, 5)) * math.pi / 2
+        if k % 7 == 0:
+            width = 0.0
+        if k % 11 == 0:
+            length = width = 0.0
+        half = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * np.array([length, width]) / 2
+        ring = half @ np.array([[math.cos(yaw), math.sin(yaw)], [-math.sin(yaw), math.cos(yaw)]]) + c
+        if k % 3 == 0:
+            ring = np.round(ring, 4)
+        if k % 13 == 0:
+            ring[1] += rng.normal(0, 1e-6, 2)
+        if k % 17 == 0:
+            ring = -ring * 0.0
+        ring = np.roll(ring, int(rng.integers(4)), axis=0)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # numpy's 0/0 on a flat ring
+            got, want = as_rectangle(ring), as_rectangle_numpy(ring)
+        assert (got is None) == (want is None)
+        if got is not None:
+            assert got[0].tobytes() == want[0].tobytes()
+            assert [(v, math.copysign(1, v)) for v in got[1:]] == [
+                (float(v), math.copysign(1, float(v))) for v in want[1:]
+            ]
+    assert as_rectangle(np.zeros((3, 2))) is None

@@ -380,3 +380,15 @@ def test_a_request_beyond_the_room_is_one_error_naming_the_numbers() -> None:
     text = str(err.value)
     assert "\n" not in text and "of the 150 objects asked for (placement.count = 150" in text
     assert "600 candidates for the next found no room" in text
+
+
+def test_erode_by_shifts_is_the_distance_transforms_to_the_cell():
+    """raster.erode shifts the grid by a small disc's offsets: the same cells as erode_edt
+    (the distance transform of the whole grid) on random grids, for radii on and off the
+    distances between cell centres (1, sqrt 2, 2, sqrt 5), none, negative and wide."""
+    rng = np.random.default_rng(0)
+    radii = (0.0, 0.3, 0.99, 1.0, 1.2, math.sqrt(2), 1.5, 2.0, math.sqrt(5), 2.5, 3.0, -0.1, 7.3)
+    for _ in range(150):
+        free = rng.random(tuple(rng.integers(1, 30, 2))) < rng.uniform(0.5, 1.0)
+        for r in radii:
+            assert np.array_equal(raster.erode(free, r), raster.erode_edt(free, r)), r

@@ -157,7 +157,38 @@ def convex_pieces(poly: Polygon) -> list[np.ndarray]:
 
 
 def as_rectangle(ring: np.ndarray) -> tuple[np.ndarray, float, float, float] | None:
-    """``(centre, length, width, yaw)`` when a convex ring is a rectangle, else None."""
+    """``(centre, length, width, yaw)`` when a convex ring is a rectangle, else None.
+
+    In plain Python on the ring's four corners: the same operations in the same order as
+    :func:`as_rectangle_numpy` (the reference), so the same floats to the bit, where numpy's
+    calls on a 4 x 2 array cost 30 us a ring (the city's 49,000 ground slabs: 1.4 s)."""
+    if len(ring) != 4:
+        return None
+    pts = np.asarray(ring, dtype=np.float64).tolist()
+    ex = [pts[(i + 1) % 4][0] - pts[i][0] for i in range(4)]
+    ey = [pts[(i + 1) % 4][1] - pts[i][1] for i in range(4)]
+    lengths = [math.sqrt(ex[i] * ex[i] + ey[i] * ey[i]) for i in range(4)]
+    for i in range(4):
+        j = (i + 1) % 4
+        dot = abs(ex[i] * ex[j] + ey[i] * ey[j])
+        den = lengths[i] * lengths[j]
+        if den == 0.0:  # numpy's 0/0 is nan (not > 1e-9); anything else over 0, inf
+            if dot > 0.0:
+                return None
+        elif dot / den > 1e-9:
+            return None
+    quarter = math.atan2(ey[0], ex[0]) / (math.pi / 2)
+    turns = math.ceil(quarter - 0.5)
+    length, width = (lengths[0], lengths[1]) if turns % 2 == 0 else (lengths[1], lengths[0])
+    yaw = (quarter - turns) * (math.pi / 2)
+    (x0, y0), (x1, y1), (x2, y2), (x3, y3) = pts
+    # numpy sums a mean from 0.0 (so a sum of -0.0 is 0.0), in order below 8 terms
+    centre = np.array([((((0.0 + x0) + x1) + x2) + x3) / 4, ((((0.0 + y0) + y1) + y2) + y3) / 4])
+    return centre, length, width, yaw
+
+
+def as_rectangle_numpy(ring: np.ndarray) -> tuple[np.ndarray, float, float, float] | None:
+    """:func:`as_rectangle` in numpy: the plain reference."""
     if len(ring) != 4:
         return None
     e = np.roll(ring, -1, axis=0) - ring

@@ -247,9 +247,48 @@ def shortest_path(free: np.ndarray, start: Cell, goal: Cell) -> list[Cell] | Non
     return [(int(cells[k][0]), int(cells[k][1])) for k in reversed(path)]
 
 
+#: Most cells of the disc :func:`erode` shifts the grid by; a wider disc takes the distance
+#: transform.
+ERODE_SHIFTS = 25
+
+
 def erode(free: np.ndarray, radius_cells: float) -> np.ndarray:
-    """Cells at least ``radius_cells`` (in cells, Euclidean between centres) from any non-free
-    cell and from the grid's edge: where a disc of that radius centred on the cell fits."""
+    """Cells more than ``radius_cells`` (in cells, Euclidean between centres) from any non-free
+    cell and from the grid's edge: where a disc of that radius centred on the cell fits.
+
+    A small disc (at most :data:`ERODE_SHIFTS` cells: a city's map of 0.4 m cells under a
+    robot of 0.3 m is one cell) is the free grid shifted by each of its offsets, ANDed: the
+    offsets whose distance, computed as the distance transform computes it, is not above
+    ``radius_cells``, so the same cells as :func:`erode_edt` (the reference), without the
+    distance transform of the whole grid (a city's 9 million cells: 1 s)."""
+    free = np.asarray(free, dtype=bool)
+    reach = math.floor(radius_cells) if radius_cells >= 0 else -1
+    if reach < 0:
+        return np.ones(free.shape, dtype=bool)
+    if (2 * reach + 1) ** 2 > ERODE_SHIFTS:
+        return erode_edt(free, radius_cells)
+    rows, cols = free.shape
+    padded = np.pad(free, reach + 1, constant_values=False)
+    out = free.copy()
+    for di in range(-reach, reach + 1):
+        for dj in range(-reach, reach + 1):
+            if (di or dj) and np.sqrt(np.float64(di * di + dj * dj)) <= radius_cells:
+                r0, c0 = reach + 1 + di, reach + 1 + dj
+                out &= padded[r0 : r0 + rows, c0 : c0 + cols]
+    # the grid's edge is one cell beyond it: the distance to it is the row's or column's
+    edge = (
+        np.minimum.outer(
+            np.minimum(np.arange(rows), np.arange(rows)[::-1]),
+            np.minimum(np.arange(cols), np.arange(cols)[::-1]),
+        )
+        + 1
+    )
+    out &= edge > radius_cells
+    return out
+
+
+def erode_edt(free: np.ndarray, radius_cells: float) -> np.ndarray:
+    """:func:`erode` by the distance transform of the whole grid: the plain reference."""
     padded = np.pad(free, 1, constant_values=False)
     distance = scipy.ndimage.distance_transform_edt(padded)[1:-1, 1:-1]
     return distance > radius_cells

@@ -281,24 +281,52 @@ class Crowd:
             self._paths = hop  # as a plain array: a memmap's own indexing cost a city's step 1 ms
             self._hop = np.asarray(hop)
             return
-        # Every row is written below (each person is in one clearance class): no fill first,
-        # which on a city's table (200 people x 2 x 262,144 nodes, 0.4 GB) cost seconds.
-        self._hop = np.empty((n, 2, n_nodes), dtype=np.int32)
+        # -1 (no next hop) wherever a person's Dijkstra run does not reach: every node off
+        # the few its clearance class keeps (a city's table: 200 people x 2 x 250,000 nodes).
+        self._hop = np.full((n, 2, n_nodes), -1, dtype=np.int32)
         # One graph per clearance class (5 cm): people of like size share their Dijkstra run.
         groups = np.floor(self.need / 0.05 + 1e-9) * 0.05
         for need in np.unique(groups):
             members = np.flatnonzero(groups == need)
-            graph = self._graph(need)
             targets = np.concatenate([self.goal[members], self.start[members]])
-            src = self._node_of(targets)
-            _, pred = scipy.sparse.csgraph.dijkstra(
-                graph, directed=False, indices=src, return_predecessors=True
-            )
-            np.maximum(pred, -1, out=pred)  # no predecessor (-9999): -1
+            nodes, hops = self._hops(need, self._node_of(targets))
             m = len(members)
-            self._hop[members, 0] = pred[:m]
-            self._hop[members, 1] = pred[m:]
+            for k, i in enumerate(members.tolist()):
+                self._hop[i, 0, nodes] = hops[k]
+                self._hop[i, 1, nodes] = hops[m + k]
         self._paths = self._hop
+
+    def _hops(self, need: float, src: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The next hop (node, or -1) towards each node of ``src`` for people keeping ``need``
+        (m), from the nodes that clear it and the sources (``nodes``, ascending): ``(nodes,
+        hops)``, ``hops`` ``(len(src), len(nodes))``; from every other node there is none.
+
+        Dijkstra runs on those nodes alone (on a city a fifth of the grid's; scipy's
+        Dijkstra sets up every node of its graph for each source), numbered in the grid's
+        order: every node's neighbours are listed in the same order, so the runs relax the
+        same edges in the same order and find the same predecessors as on the whole grid
+        (``tests/test_crowd.py``), which :meth:`_hops_whole` keeps as the reference."""
+        rows, cols = self._shape
+        keep = (self._node_clear >= need).ravel()
+        keep[src] = True
+        nodes = np.flatnonzero(keep)
+        index = np.full(rows * cols, -1, dtype=np.int64)
+        index[nodes] = np.arange(nodes.size)
+        s, d = self._edges(need)
+        w = np.linalg.norm(self._node_xy[s] - self._node_xy[d], axis=1) + 1e-9
+        graph = scipy.sparse.csr_matrix((w, (index[s], index[d])), shape=(nodes.size, nodes.size))
+        _, pred = scipy.sparse.csgraph.dijkstra(
+            graph, directed=False, indices=index[src], return_predecessors=True
+        )
+        return nodes, np.where(pred >= 0, nodes.astype(np.int32)[np.maximum(pred, 0)], -1)
+
+    def _hops_whole(self, need: float, src: np.ndarray) -> np.ndarray:
+        """:meth:`_hops` by Dijkstra on the whole grid: the plain reference."""
+        _, pred = scipy.sparse.csgraph.dijkstra(
+            self._graph(need), directed=False, indices=src, return_predecessors=True
+        )
+        np.maximum(pred, -1, out=pred)  # no predecessor (-9999): -1
+        return pred
 
     def tables(self) -> dict[str, np.ndarray]:
         """What the constructor computes from the scene and its map alone, the costly part
@@ -310,7 +338,9 @@ class Crowd:
         row, col = self._cells(xy)
         return (row // self._f) * self._shape[1] + col // self._f
 
-    def _graph(self, need: float) -> scipy.sparse.csr_matrix:
+    def _edges(self, need: float) -> tuple[np.ndarray, np.ndarray]:
+        """The path grid's edges for people keeping ``need`` (m): both ends clear it
+        (diagonals also both orthogonal nodes beside them), node ids ``(from, to)``."""
         rows, cols = self._shape
         ok = self._node_clear >= need
         ids = np.arange(rows * cols).reshape(rows, cols)
@@ -325,7 +355,12 @@ class Crowd:
                 )
             src.append(ids[: rows - dr, max(0, -dc) : cols - max(0, dc)][both])
             dst.append(ids[dr:, max(0, dc) : cols + min(0, dc)][both])
-        s, d = np.concatenate(src), np.concatenate(dst)
+        return np.concatenate(src), np.concatenate(dst)
+
+    def _graph(self, need: float) -> scipy.sparse.csr_matrix:
+        """The whole path grid as a graph (edges :meth:`_edges`, weighted by length, m)."""
+        rows, cols = self._shape
+        s, d = self._edges(need)
         w = np.linalg.norm(self._node_xy[s] - self._node_xy[d], axis=1) + 1e-9
         return scipy.sparse.csr_matrix((w, (s, d)), shape=(rows * cols, rows * cols))
 

@@ -46,8 +46,14 @@ def compose(scene_mjcf: MJCF, robot: Robot, pose: tuple[float, float, float, flo
     """
     mujoco = import_mujoco()
     x, y, z, yaw = (float(v) for v in pose)
+    # A city holds ~10^5 static geoms: MuJoCo's default arena is too small for its broadphase.
+    # Counted in the text: MjSpec.geoms wraps every element in Python (minutes for a city).
+    n = scene_mjcf.xml.count("<geom ")
+    big = n > FUSE_FROM_GEOMS
     try:
-        scene = scene_spec(scene_mjcf)  # a city's in chunks: MuJoCo's parser is quadratic
+        # A city's in chunks (MuJoCo's parser is quadratic); a town's or a city's static
+        # bodies read as frames, what fusing them would make of them, at none of its cost
+        scene = scene_spec(scene_mjcf, frames=big)
         child = mujoco.MjSpec.from_string(robot.xml, assets=dict(robot.assets))
     except ValueError as exc:
         raise ExportError(f"compose: MuJoCo rejected the {robot.name!r} robot or the scene: {exc}") from None
@@ -64,17 +70,14 @@ def compose(scene_mjcf: MJCF, robot: Robot, pose: tuple[float, float, float, flo
         spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
         spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
         spec.option.impratio = IMPRATIO
-    # A city holds ~10^5 static geoms: MuJoCo's default arena is too small for its broadphase.
-    # Counted in the text: MjSpec.geoms wraps every element in Python (minutes for a city).
-    n = scene_mjcf.xml.count("<geom ")
-    big = n > FUSE_FROM_GEOMS
     if big:
         scene.memory = max(scene.memory, n * 16 * 1024)
         # The static objects' bodies (7,900 on a city) fused into the world: MuJoCo's passes
         # over bodies run at every physics step whatever the body, so a static body costs as
-        # a moving one. Their geoms keep their names, places and contact parameters. MuJoCo's
-        # fusing is slow: 24 s of CPU of a city's compile (28 -> 51 s), paid once per scene
-        # and code version with the on-disk store; its steps' physics went 44 -> 29 ms.
+        # a moving one; its steps' physics went 44 -> 29 ms. Their geoms keep their names,
+        # places and contact parameters. scene_spec has already read them as frames of the
+        # world (MuJoCo's fusing took 17 s of CPU of a city's compile); fusestatic is kept for
+        # what is left, the robot's static bodies, so that the model is the same to the byte.
         scene.compiler.fusestatic = True
     frame = scene.worldbody.add_frame(pos=[x, y, z], quat=[math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])
     scene.attach(child, prefix=PREFIX, frame=frame)
