@@ -62,7 +62,7 @@ def compose(scene_mjcf: MJCF, robot: Robot, pose: tuple[float, float, float, flo
     for spec in (scene, child):  # equal options, so attaching has nothing to reconcile
         spec.option.timestep = robot.timestep
         spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-        spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+        spec.option.cone = getattr(mujoco.mjtCone, f"mjCONE_{robot.cone.upper()}")
         spec.option.impratio = IMPRATIO
     # A city holds ~10^5 static geoms: MuJoCo's default arena is too small for its broadphase.
     # Counted in the text: MjSpec.geoms wraps every element in Python (minutes for a city).
