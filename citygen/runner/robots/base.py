@@ -372,7 +372,7 @@ def _stand(legs: tuple[Leg, ...], pose: tuple[float, ...]) -> float:
 
 
 def lowest_point(model: Any, data: Any, geom: int) -> float:
-    """Lowest z (m) of a geom in the current pose (exact for spheres, capsules,
+    """Lowest z (m) of a geom in the current pose (exact for spheres, capsules, ellipsoids,
     cylinders and boxes; the oriented bounding box otherwise)."""
     R = data.geom_xmat[geom].reshape(3, 3)
     z = data.geom_xpos[geom][2]
@@ -382,6 +382,8 @@ def lowest_point(model: Any, data: Any, geom: int) -> float:
         return float(z - size[0])
     if kind == 3:  # capsule
         return float(z - abs(R[2, 2]) * size[1] - size[0])
+    if kind == 4:  # ellipsoid: its support along -z
+        return float(z - math.sqrt(float(np.sum((size * R[2]) ** 2))))
     if kind == 5:  # cylinder
         return float(z - abs(R[2, 2]) * size[1] - size[0] * math.sqrt(max(0.0, 1 - R[2, 2] ** 2)))
     centre = data.geom_xpos[geom] + R @ model.geom_aabb[geom][:3]
