@@ -68,11 +68,29 @@ def test_builtin_compiles_alone_and_in_a_generated_scene(name):
     assert set(model.geom_contype[handle.geom_ids]) <= {0, 2}
     assert set(model.geom_conaffinity[handle.geom_ids]) <= {0, 5}
     assert model.opt.timestep == robot.timestep  # each robot its own (5 ms built in)
+    assert model.opt.cone == getattr(mujoco.mjtCone, f"mjCONE_{robot.cone.upper()}")
     for _ in range(100):
         handle.drive(data, 0.0, 0.0)
         mujoco.mj_step(model, data)
     assert np.all(np.isfinite(data.qpos))
     assert abs(handle.pose(data)[2] - (z + robot.stand_height)) < 0.05  # still standing where put
+
+
+def test_lowest_point_of_a_spinning_ellipsoid_tyre_is_its_lowest_surface_point():
+    """The wheeled robot's tyres are ellipsoids: their lowest point wherever the wheel has
+    turned to (a bounding box's corner would be up to 41 % of the radius too low)."""
+    model = mujoco.MjModel.from_xml_string(load_robot("wheeled").xml)
+    data = mujoco.MjData(model)
+    tyre = model.geom("left_wheel").id
+    assert model.geom_type[tyre] == mujoco.mjtGeom.mjGEOM_ELLIPSOID
+    a, b = np.meshgrid(np.linspace(0, np.pi, 181), np.linspace(0, 2 * np.pi, 361))
+    unit = np.stack([np.sin(a) * np.cos(b), np.sin(a) * np.sin(b), np.cos(a)], -1).reshape(-1, 3)
+    for turn in (0.0, 0.4, math.pi / 4, 2.0):
+        data.qpos[model.jnt_qposadr[model.joint("left_wheel").id]] = turn
+        data.qpos[3:7] = (math.cos(0.1), math.sin(0.1), 0.0, 0.0)  # the base rolled a little
+        mujoco.mj_kinematics(model, data)
+        surface = data.geom_xpos[tyre] + (unit * model.geom_size[tyre]) @ data.geom_xmat[tyre].reshape(3, 3).T
+        assert robots.lowest_point(model, data, tyre) == pytest.approx(surface[:, 2].min(), abs=2e-4)
 
 
 SIZES = {  # name: (length range, width range, mass range) in m, m, kg

@@ -29,7 +29,7 @@ class _Source:
 
 
 class _Robot:
-    name, timestep, xml = "stub", 0.005, "<robot/>"
+    name, timestep, cone, xml = "stub", 0.005, "elliptic", "<robot/>"
 
 
 def test_the_cache_keeps_what_its_budget_holds_and_always_the_scene_in_use(monkeypatch):

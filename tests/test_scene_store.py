@@ -5,6 +5,8 @@ an error; the store keeps to its budget."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import json
 import os
 import subprocess
@@ -65,6 +67,9 @@ def test_entries_are_keyed_by_the_scenes_the_robots_and_the_codes_content(tmp_pa
     )
     key = SceneSource(scene=SCENE).content_key(0)
     assert scene_store.entry_key(key, wheeled) != scene_store.entry_key(key, quadruped)
+    # the same robot with another friction cone compiles another model
+    elliptic = dataclasses.replace(wheeled, cone="elliptic")
+    assert scene_store.entry_key(key, elliptic) != scene_store.entry_key(key, wheeled)
     # the same scene in another file is the same entry; an edited one is not
     text = json.loads(SCENE.read_text())
     (tmp_path / "a.json").write_text(json.dumps(text))

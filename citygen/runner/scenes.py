@@ -435,7 +435,7 @@ class SceneCache:
 
     def get(self, source: SceneSource, index: int, robot: Any, terrain: str = "heightfield") -> Prepared:
         digest = hashlib.sha256(robot.xml.encode()).hexdigest()
-        key = (source.key(index), robot.name, robot.timestep, digest, terrain)
+        key = (source.key(index), robot.name, robot.timestep, robot.cone, digest, terrain)
         hit = self._items.get(key)
         if hit is not None:
             self.hits += 1

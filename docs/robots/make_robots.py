@@ -16,6 +16,7 @@ import numpy as np
 from PIL import Image
 
 from citygen.runner.robots import BUILTIN, RobotHandle, compose, flat_ground, load_robot
+from citygen.runner.robots.handle import render_option
 
 OUT = Path(__file__).resolve().parent
 SIZE = (480, 400)  # width, height in pixels
@@ -51,7 +52,7 @@ def render(name: str) -> Path:
     camera.distance = 1.6 * float(np.max(hi - lo)) + 0.3
     camera.azimuth, camera.elevation = 150.0, -18.0
     with mujoco.Renderer(model, SIZE[1], SIZE[0]) as renderer:
-        renderer.update_scene(data, camera)
+        renderer.update_scene(data, camera, scene_option=render_option())  # the robot's geom group too
         pixels = renderer.render()
     path = OUT / f"{name}.png"
     Image.fromarray(pixels).save(path, optimize=True)

@@ -49,12 +49,15 @@ navigation drive (it is not precise enough to track a planner's commands).
 
 **Control timing**: each robot's :attr:`Robot.timestep` physics step (5 ms for the built-in
 robots; :data:`TIMESTEP`, 2 ms, for a user's robot), implicit-fast
-integrator. Most of a wheeled robot's step is its wheels' contacts: a cylinder on flat
-ground makes two. Tyres of one contact each were measured (2026-11-28, planner on 256
-urban-nav-2-test NavStatic episodes, 96.09 % with cylinders): an ellipsoid of the wheel's
-radius and width took a third off the physics and lost 2.3 points (93.75 %, 8 episodes lost
-and 2 gained, where perturbing the timestep by 1e-6 flips 3 and 4), a sphere 9 points (its
-bulge hits what the wheel passes); neither was kept.
+integrator. Most of a wheeled robot's step is its wheels' contacts: a cylinder on the
+ground's boxes is a general convex collision making two. The wheeled robot's tyres are
+ellipsoids of the wheel's radius and width (one contact each) and its model uses MuJoCo's
+pyramidal friction cone (:attr:`Robot.cone`; the legged robots keep the elliptic one):
+together a third off its physics and 42 % more steps per second in one NavStatic
+environment (1,419 -> 2,014 steps/s measured back to back, 2026-11-30), planner NavStatic success 96.09 %
+on 256 urban-nav-2-test episodes before and after (3 episodes lost, 3 gained). Measured
+before (2026-11-28): the ellipsoid alone 93.75 %, a sphere 9 points lost (its bulge hits
+what the wheel passes).
 :meth:`RobotHandle.drive` reads the base's state and is a feedback loop: the environments
 run a wheel drive and the ideal-locomotion servo at :data:`DRIVE_DT` (100 Hz, every
 :attr:`RobotHandle.drive_substeps` physics steps, its outputs held in between, as a real

@@ -143,6 +143,11 @@ class Robot:
     timestep: float = TIMESTEP
     """Physics step (s) of a model with this robot: the longest its drive, servo and contacts
     behave the same at (planner success unchanged), since the step's cost is its physics."""
+    cone: str = "elliptic"
+    """MuJoCo's friction cone of a model with this robot: ``"elliptic"`` (with
+    :data:`IMPRATIO`: friction hard against slip; legs' contacts) or ``"pyramidal"`` (cheaper
+    in MuJoCo's solver; the wheeled robot's, whose drive tolerates it: planner success as
+    with the elliptic cone)."""
     assets: tuple[tuple[str, bytes], ...] = field(default=(), repr=False)
 
     @property
@@ -217,15 +222,21 @@ class _Doc:
         mass: float,
         kv: float,
         torque: float,
+        tyre: str = "cylinder",
     ) -> None:
+        """A driven wheel on a hinge about y with a velocity actuator; ``tyre`` its contact
+        shape: a ``"cylinder"`` (two contacts on flat ground, a general convex collision
+        against a box) or an ``"ellipsoid"`` of the wheel's radius and width (one contact,
+        cheaper; the rim rounded off)."""
         body = ET.SubElement(parent, "body", name=name, pos=_v(*pos))
         ET.SubElement(body, "joint", name=name, type="hinge", axis="0 1 0", damping="0.01", armature="0.01")
+        shape = {"cylinder": _v(radius, width / 2), "ellipsoid": _v(radius, radius, width / 2)}[tyre]
         self.geom(
             body,
             name,
             mass,
-            type="cylinder",
-            size=_v(radius, width / 2),
+            type=tyre,
+            size=shape,
             zaxis="0 1 0",
             rgba="0.15 0.15 0.15 1",
             condim="3",
@@ -361,7 +372,7 @@ def _stand(legs: tuple[Leg, ...], pose: tuple[float, ...]) -> float:
 
 
 def lowest_point(model: Any, data: Any, geom: int) -> float:
-    """Lowest z (m) of a geom in the current pose (exact for spheres, capsules,
+    """Lowest z (m) of a geom in the current pose (exact for spheres, capsules, ellipsoids,
     cylinders and boxes; the oriented bounding box otherwise)."""
     R = data.geom_xmat[geom].reshape(3, 3)
     z = data.geom_xpos[geom][2]
@@ -371,6 +382,8 @@ def lowest_point(model: Any, data: Any, geom: int) -> float:
         return float(z - size[0])
     if kind == 3:  # capsule
         return float(z - abs(R[2, 2]) * size[1] - size[0])
+    if kind == 4:  # ellipsoid: its support along -z
+        return float(z - math.sqrt(float(np.sum((size * R[2]) ** 2))))
     if kind == 5:  # cylinder
         return float(z - abs(R[2, 2]) * size[1] - size[0] * math.sqrt(max(0.0, 1 - R[2, 2] ** 2)))
     centre = data.geom_xpos[geom] + R @ model.geom_aabb[geom][:3]

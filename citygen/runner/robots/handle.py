@@ -68,7 +68,7 @@ def compose(scene_mjcf: MJCF, robot: Robot, pose: tuple[float, float, float, flo
     for spec in (scene, child):  # equal options, so attaching has nothing to reconcile
         spec.option.timestep = robot.timestep
         spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-        spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+        spec.option.cone = getattr(mujoco.mjtCone, f"mjCONE_{robot.cone.upper()}")
         spec.option.impratio = IMPRATIO
     if big:
         scene.memory = max(scene.memory, n * 16 * 1024)

@@ -20,7 +20,7 @@ def _wheeled() -> Robot:
     for name, x in (("front_caster", 0.27), ("rear_caster", -0.27)):
         _caster(doc, name, (x, 0, 0.05 - h), 0.05, 0.5)
     for name, y in (("left_wheel", track / 2), ("right_wheel", -track / 2)):
-        doc.wheel(doc.base, name, (0, y, 0), r, 0.06, 2.0, kv=8.0, torque=30.0)
+        doc.wheel(doc.base, name, (0, y, 0), r, 0.06, 2.0, kv=8.0, torque=30.0, tyre="ellipsoid")
     return Robot(
         name="wheeled",
         xml=doc.xml(),
@@ -37,5 +37,6 @@ def _wheeled() -> Robot:
         wheel_radius=r,
         track_width=track,
         timestep=0.005,  # s: planner success as at 2 ms (10 ms loses 3-4 points: contacts)
+        cone="pyramidal",
         foot_geoms=("left_wheel", "right_wheel", "front_caster", "rear_caster"),
     )
