@@ -68,18 +68,28 @@ def test_a_tiny_residual_run_exports_a_policy_that_rides_on_the_walk(tmp_path, g
     assert result["balance"] == 100.0 and result["x_displacement"] > 1.0, result
 
 
-def test_a_gait_is_for_locomotion_and_the_walk_for_a_biped(tmp_path, grid):
-    from citygen.errors import CitygenError
-    from citygen.runner.learn.residual import ResidualTraining
-
+def test_a_gait_is_for_locomotion(tmp_path):
     config = tmp_path / "nav.toml"
     config.write_text('task = "nav-static"\ngait = "walk"\n')
     with pytest.raises(SpecError, match=r"gait.*locomotion task"):
         load_config(config)
-    env = make_env("loco-flat", robot="quadruped", split=str(grid))
+
+
+@pytest.mark.parametrize(
+    "gait, robot, message",
+    [
+        ("walk", "quadruped", "needs a biped, not 'quadruped'"),
+        ("trot", "humanoid", "needs a four-legged robot, not 'humanoid'"),
+    ],
+)
+def test_the_walk_is_for_a_biped_and_the_trot_for_a_four_legged_robot(grid, gait, robot, message):
+    from citygen.errors import CitygenError
+    from citygen.runner.learn.residual import ResidualTraining
+
+    env = make_env("loco-flat", robot=robot, split=str(grid))
     try:
-        with pytest.raises(CitygenError, match="needs a biped, not 'quadruped'"):
-            ResidualTraining(env, gait="walk", scale=0.2)
+        with pytest.raises(CitygenError, match=message):
+            ResidualTraining(env, gait=gait, scale=0.2)
     finally:
         env.close()
 

@@ -6,7 +6,6 @@ an error; the store keeps to its budget."""
 from __future__ import annotations
 
 import dataclasses
-
 import json
 import os
 import subprocess

@@ -154,17 +154,3 @@ def test_a_tiny_trot_run_on_stairs_exports_a_policy_that_rides_on_the_trot(tmp_p
     finally:
         env.close()
     assert result["balance"] == 100.0 and result["x_displacement"] > 1.0, result
-
-
-def test_the_trot_is_for_a_four_legged_robot(grids):
-    from citygen.errors import CitygenError
-    from citygen.runner.learn.residual import ResidualTraining
-
-    path = grids["flat"].parent / "humanoid.toml"
-    path.write_text(loco_grid("flat", "humanoid"))
-    env = make_env("loco-flat", robot="humanoid", split=str(path))
-    try:
-        with pytest.raises(CitygenError, match="needs a four-legged robot, not 'humanoid'"):
-            ResidualTraining(env, gait="trot", scale=0.2)
-    finally:
-        env.close()

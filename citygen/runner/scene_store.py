@@ -99,7 +99,8 @@ def code_digest() -> str:
 def entry_key(scene_key: str, robot: Any, terrain: str = "heightfield") -> str:
     """The key of a scene (its content key, see :meth:`SceneSource.content_key`) with a robot,
     its terrain compiled as ``terrain`` says (:data:`citygen.runner.scenes.TERRAIN_OPTIONS`)."""
-    robot_key = f"{robot.name} {robot.timestep!r} {robot.cone} {hashlib.sha256(robot.xml.encode()).hexdigest()} {terrain}"
+    xml = hashlib.sha256(robot.xml.encode()).hexdigest()
+    robot_key = f"{robot.name} {robot.timestep!r} {robot.cone} {xml} {terrain}"
     return hashlib.sha256(f"{code_digest()}\n{scene_key}\n{robot_key}".encode()).hexdigest()
 
 

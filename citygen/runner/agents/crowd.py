@@ -312,8 +312,7 @@ class Crowd:
         nodes = np.flatnonzero(keep)
         index = np.full(rows * cols, -1, dtype=np.int64)
         index[nodes] = np.arange(nodes.size)
-        s, d = self._edges(need)
-        w = np.linalg.norm(self._node_xy[s] - self._node_xy[d], axis=1) + 1e-9
+        s, d, w = self._edges(need)
         graph = scipy.sparse.csr_matrix((w, (index[s], index[d])), shape=(nodes.size, nodes.size))
         _, pred = scipy.sparse.csgraph.dijkstra(
             graph, directed=False, indices=index[src], return_predecessors=True
@@ -338,9 +337,10 @@ class Crowd:
         row, col = self._cells(xy)
         return (row // self._f) * self._shape[1] + col // self._f
 
-    def _edges(self, need: float) -> tuple[np.ndarray, np.ndarray]:
+    def _edges(self, need: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The path grid's edges for people keeping ``need`` (m): both ends clear it
-        (diagonals also both orthogonal nodes beside them), node ids ``(from, to)``."""
+        (diagonals also both orthogonal nodes beside them), node ids ``(from, to)`` and
+        their lengths (m; a hair more, so that none is 0)."""
         rows, cols = self._shape
         ok = self._node_clear >= need
         ids = np.arange(rows * cols).reshape(rows, cols)
@@ -355,13 +355,13 @@ class Crowd:
                 )
             src.append(ids[: rows - dr, max(0, -dc) : cols - max(0, dc)][both])
             dst.append(ids[dr:, max(0, dc) : cols + min(0, dc)][both])
-        return np.concatenate(src), np.concatenate(dst)
+        s, d = np.concatenate(src), np.concatenate(dst)
+        return s, d, np.linalg.norm(self._node_xy[s] - self._node_xy[d], axis=1) + 1e-9
 
     def _graph(self, need: float) -> scipy.sparse.csr_matrix:
         """The whole path grid as a graph (edges :meth:`_edges`, weighted by length, m)."""
         rows, cols = self._shape
-        s, d = self._edges(need)
-        w = np.linalg.norm(self._node_xy[s] - self._node_xy[d], axis=1) + 1e-9
+        s, d, w = self._edges(need)
         return scipy.sparse.csr_matrix((w, (s, d)), shape=(rows * cols, rows * cols))
 
     # state
