@@ -221,7 +221,9 @@ def test_a_big_model_is_kept_beside_its_entry_in_mujocos_format_and_reads_the_sa
     assert saved(again.model) == saved(fresh.model)
     model_file.write_bytes(model_file.read_bytes()[:1000])  # truncated: a miss, written again
     writes = store.writes
+    monkeypatch.chdir(store.root)
     assert SceneCache().get(source, 0, robot).model.ngeom == fresh.model.ngeom
+    assert not (store.root / "MUJOCO_LOG.TXT").exists(), "MuJoCo was handed the truncated file"
     assert store.writes == writes + 1 and saved(mujoco.MjModel.from_binary_path(str(model_file))) == saved(
         fresh.model
     )

@@ -56,8 +56,9 @@ BUDGET_MB = 2048
 #: Entries written between two checks of the budget.
 CHECK_EVERY = 64
 #: Bumped when an entry's layout changes (4: the scene pickled after the prepared scene
-#: without it, so that a caller holding the scene does not unpickle it, 0.4 s on a city).
-FORMAT = 4
+#: without it, so that a caller holding the scene does not unpickle it, 0.4 s on a city; 5:
+#: an entry whose model is kept apart records the ``.mjb``'s length, checked before MuJoCo reads it).
+FORMAT = 5
 #: Pickles of more bytes than this are stored as they are, smaller ones compressed (zlib):
 #: decompressing a city's entry (360 MB, 89 MB compressed) cost 1.3 s of a reset from the
 #: store and compressing it 1.2 s of the first; an Urban-Nav scene's stays ~200 KB.
@@ -136,9 +137,13 @@ class SceneStore:
             if scene is None:
                 scene = pickle.load(stream)
             model = prepared.model
-            if model is None:  # kept beside the entry (MJB_FROM)
+            if isinstance(model, _Apart):  # kept beside the entry (MJB_FROM)
                 import mujoco
 
+                # checked here: MuJoCo warns of a truncated file into MUJOCO_LOG.TXT in the
+                # user's working folder
+                if model_path.stat().st_size != model.nbytes:
+                    raise ValueError(f"{model_path}: truncated")
                 model = mujoco.MjModel.from_binary_path(str(model_path))
         except Exception:  # truncated, or written by another version: a miss, written again
             self.misses += 1
@@ -155,14 +160,16 @@ class SceneStore:
     def save(self, key: str, prepared: Any) -> None:
         """Store ``prepared`` under ``key`` (atomically; nothing when the folder is unwritable)."""
         model = prepared.model
-        apart = int(model.nbuffer) >= MJB_FROM
-        if apart:  # the model first: an entry is only read with its model there
+        apart = None
+        if int(model.nbuffer) >= MJB_FROM:  # the model first: an entry is only read with its model there
             import mujoco
 
-            self._write(self.model_path(key), lambda f: f.write(_model_bytes(mujoco, model)), check=False)
+            data = _model_bytes(mujoco, model)
+            self._write(self.model_path(key), lambda f: f.write(data), check=False)
+            apart = _Apart(data.nbytes)
         kept = dataclasses.replace(
             prepared, scene=None, robot=None, store_key=None, _fields={}, _routes={},
-            model=None if apart else model,
+            model=model if apart is None else apart,
         )  # fmt: skip
         blob = pickle.dumps(kept, protocol=pickle.HIGHEST_PROTOCOL)
         blob += pickle.dumps(prepared.scene, protocol=pickle.HIGHEST_PROTOCOL)
@@ -244,6 +251,13 @@ class SceneStore:
             with contextlib.suppress(OSError):
                 path.unlink()
                 total -= size
+
+
+@dataclasses.dataclass(frozen=True)
+class _Apart:
+    """In a stored entry, in place of its model: kept in the ``.mjb`` beside it, ``nbytes`` long."""
+
+    nbytes: int
 
 
 def _model_bytes(mujoco: Any, model: Any) -> np.ndarray:
