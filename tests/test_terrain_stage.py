@@ -321,12 +321,12 @@ def test_loc_configs_carry_the_papers_ranges():
     train, test = loc_config("train"), loc_config("test")
     assert (train.step_height, train.slope_angle, train.roughness_amplitude) == (
         (0.05, 0.23),
-        (0.0, 0.4),
+        (0.0, 0.3805),  # grades 0-0.4, as Isaac Lab's slope_range
         (0.02, 0.10),
     )
     assert (test.step_height, test.slope_angle, test.roughness_amplitude) == (
         (0.10, 0.30),
-        (0.05, 0.80),
+        (0.05, 0.6747),  # grades 0.05-0.8
         (0.05, 0.20),
     )
     assert (train.grid, test.grid) == ((30, 30), (16, 16))
@@ -353,8 +353,12 @@ def test_curriculum_rows_rise_in_difficulty_and_regions_meet_level(split):
         if kind in field:
             name, (lo, hi) = field[kind]
             values = [getattr(t.tile(r, c), name) for r in range(rows)]
-            assert values[0] == lo and values[-1] == hi
+            assert values[0] == pytest.approx(lo, abs=1e-12) and values[-1] == pytest.approx(hi, abs=1e-12)
             assert all(a < b for a, b in itertools.pairwise(values)), values
+            if kind == "slope":  # linear in grade, as Isaac Lab's slope_range, not in angle
+                steps = np.diff(np.tan(values))
+                assert steps == pytest.approx(np.full(rows - 1, steps.mean()), abs=3e-4)  # angles to 1e-4
+                assert np.diff(values) != pytest.approx(np.full(rows - 1, np.diff(values).mean()), rel=1e-3)
     fixed = {"stair": "step_count", "rough": "scale"}  # widths do not scale with difficulty
     for c in range(cols):
         name = fixed.get(t.tile(0, c).kind)

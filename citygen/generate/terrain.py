@@ -47,8 +47,10 @@ Every pin admits flat ground at level 0, so the stage's WFC always has a solutio
 
 **Locomotion curriculum** (``layout="curriculum"``, :func:`build_curriculum`), as Isaac
 Lab's terrain generator lays it out: ``cfg.grid = [rows, cols]`` regions of one tile each;
-row ``r`` has difficulty ``d = r / (rows - 1)``, and the slope angle, the step height and
-the roughness amplitude are ``low + d * (high - low)`` of their configured ranges; the step
+row ``r`` has difficulty ``d = r / (rows - 1)``, and the step height and the roughness
+amplitude are ``low + d * (high - low)`` of their configured ranges, the slope's grade (rise
+over run, ``tan`` of its angle) likewise of the range's grades, as Isaac Lab's
+``pyramid_sloped_terrain`` grows its slope; the step
 count and the roughness wavelength stay at the middle of theirs (Isaac Lab too scales
 only heights and inclinations with difficulty, not step widths or noise steps); columns cycle
 through the kinds in proportion to the mix weights (smooth weighted round robin). Slopes
@@ -530,6 +532,16 @@ def _at(lo_hi: Sequence[float], d: float) -> float:
     return lo_hi[0] + d * (lo_hi[1] - lo_hi[0])
 
 
+def _grade_at(angles: Sequence[float], d: float) -> float:
+    """The angle whose grade is ``d`` of the way between the grades of ``angles``."""
+    return math.atan(_at((math.tan(angles[0]), math.tan(angles[1])), d))
+
+
+def _grade(g: float) -> float:
+    """The angle (rad) of a slope of grade ``g`` (rise over run), as the spec rounds it."""
+    return quantize(math.atan(g))
+
+
 def build_curriculum(
     cfg: TerrainConfig, rng: np.random.Generator, origin: tuple[float, float] = (0.0, 0.0)
 ) -> Terrain:
@@ -593,7 +605,7 @@ _MAKERS: dict[type, _Maker] = {
         # tan(0.7854) = 1.0000036: one level, to the rounding in _socket
         symbolic=lambda level, ascent: SlopeTile(kind="slope", height=level, angle=0.7854, ascent=ascent),
         curriculum=lambda cfg, d, shape, seed: SlopeTile(
-            kind="slope", angle=_at(cfg.slope_angle, d), shape=shape
+            kind="slope", angle=_grade_at(cfg.slope_angle, d), shape=shape
         ),
         level=lambda h, b, ascent: SlopeTile(kind="slope", height=h, angle=b.angle, ascent=ascent),
     ),
@@ -621,17 +633,22 @@ _MAKERS: dict[type, _Maker] = {
 }
 
 
-#: The paper's Urban-Loc ranges: stair step height, slope, roughness amplitude, regions.
+#: The paper's Urban-Loc ranges: stair step height, slope, roughness amplitude, regions. The
+#: paper's slope figures (0-0.4 train, 0.05-0.8 test) are grades, rise over run: they are
+#: Isaac Lab's ``slope_range`` (its rough-terrain config's is the same 0-0.4), which its
+#: ``pyramid_sloped_terrain`` turns into heights as ``slope * width``, though its docstring
+#: says radians; read as radians, the test grid's last rows (to 46 degrees) are steeper
+#: than a friction of 1 holds a standing robot on.
 LOC_RANGES: dict[str, dict] = {
     "train": {
         "step_height": (0.05, 0.23),
-        "slope_angle": (0.0, 0.4),
+        "slope_angle": (_grade(0.0), _grade(0.4)),
         "roughness_amplitude": (0.02, 0.10),
         "grid": (30, 30),
     },
     "test": {
         "step_height": (0.10, 0.30),
-        "slope_angle": (0.05, 0.80),
+        "slope_angle": (_grade(0.05), _grade(0.8)),
         "roughness_amplitude": (0.05, 0.20),
         "grid": (16, 16),
     },
@@ -649,7 +666,7 @@ def loc_config(
     (``kind`` keeps one tile kind, as the LocoFlat/LocoSlope/LocoStair/LocoRough tasks do).
 
     >>> loc_config("train", "slope").slope_angle, loc_config("train").grid
-    ((0.0, 0.4), (30, 30))
+    ((0.0, 0.3805), (30, 30))
     """
     if split not in LOC_RANGES:
         raise ValueError(f"split must be 'train' or 'test', got {split!r}")
