@@ -133,7 +133,7 @@ def _farthest_visible(free: np.ndarray, grid: Grid, a: np.ndarray, pts: np.ndarr
 
 def region_path_length(
     free: np.ndarray, grid: Grid, distance: np.ndarray, start_xy: Sequence[float], goal_xy: Sequence[float],
-    tolerance: float,
+    tolerance: float, *, reference: bool = False,
 ) -> float:  # fmt: skip
     """Length (m) of an any-angle path from ``start_xy`` to the goal region along
     :func:`region_distance`'s ``distance``: steepest descent over the cells, pulled taut
@@ -141,10 +141,22 @@ def region_path_length(
     moved to the corner of its cell that shortens it most, the last leg ending on the disc.
     A path the robot could drive, so never shorter than the geodesic (to the quarter cell
     its legs are checked at); it removes the fast-marching excess at corners. ``inf`` when
-    the start's cell cannot reach the region."""
+    the start's cell cannot reach the region. ``reference``: the plain form below instead of
+    its compiled twin (:mod:`citygen.runner.control.regions_kernel`, the same steps)."""
     cell = grid.cell(float(start_xy[0]), float(start_xy[1]))
     if not np.isfinite(distance[cell]):
         return math.inf
+    if not reference:
+        from citygen.runner.control import regions_kernel
+
+        free_ = np.ascontiguousarray(free, dtype=np.bool_)
+        dist_ = np.ascontiguousarray(distance, dtype=np.float64)
+        x0, y0, res = float(grid.x0), float(grid.y0), float(grid.resolution)
+        start, goal = (float(start_xy[0]), float(start_xy[1])), (float(goal_xy[0]), float(goal_xy[1]))
+        length = regions_kernel.path_length(
+            free_, x0, y0, res, dist_, cell[0], cell[1], *start, *goal, float(tolerance), _REACH
+        )
+        return float(length)
     rows, cols = distance.shape
     cells = [cell]
     seen = {cell}
