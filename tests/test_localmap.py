@@ -278,3 +278,27 @@ def test_the_vectorised_local_map_is_its_definition_cell_by_cell():
         got, want = m(layers, pose, ground), _reference_local_map(layers, pose, ground)
         # Sub-samples on a cell's edge may round either way: allow a handful of cells.
         assert np.count_nonzero(got != want) <= 4, pose
+
+
+def test_the_compiled_gather_is_the_numpy_reference_to_the_bit():
+    """localmap_kernel.gather against LocalMap(...)(..., reference=True): random poses over a
+    test scene's pooled layers (objects, kerbs, a crossable mask) and people about, every
+    channel."""
+    env = make_env("nav-static", split="urban-nav-2-test", robot="wheeled")
+    env.reset(seed=0, options={"index": 5})
+    layers = localmap._layers_of(env.unwrapped)
+    assert layers.crossable is not None and not layers.walkable.all() and np.ptp(layers.elevation) > 0.3
+    env.close()
+    m, rng = LocalMap(), np.random.default_rng(0)
+    rows, cols = layers.elevation.shape
+    x0, y0 = layers.x0 + 5, layers.y0 + 5  # inside the 5 m margin
+    x1, y1 = layers.x0 + layers.cell * cols - 5, layers.y0 + layers.cell * rows - 5
+    for k in range(200):
+        pose = (rng.uniform(x0, x1), rng.uniform(y0, y1), rng.uniform(-2 * math.pi, 2 * math.pi))
+        agents = (rng.uniform((x0, y0), (x1, y1), (6, 2)), rng.uniform(0.2, 0.5, 6), rng.normal(size=(6, 2)))
+        agents[0][:2] = np.array(pose[:2]) + rng.uniform(-2, 2, (2, 2))  # two in the window
+        kw = {"agents": agents if k % 2 else None, "crossable": k % 3 != 0, "motion": k % 2 == 1}
+        ground = float(rng.uniform(-0.2, 0.4))
+        fast = m(layers, pose, ground, **kw)
+        ref = m(layers, pose, ground, reference=True, **kw)
+        assert fast.dtype == ref.dtype and np.array_equal(fast, ref), (k, pose)

@@ -152,6 +152,10 @@ def _all_samples(mask: np.ndarray, flat: np.ndarray) -> np.ndarray:
     return out
 
 
+#: The kernel's stand-in for a missing crossable layer.
+_NO_LAYER = np.zeros((0, 0), dtype=bool)
+
+
 class LocalMap:
     """Samples :class:`StaticLayers` (with a margin, :func:`with_margin`) around a pose (see
     the module docstring)."""
@@ -177,6 +181,7 @@ class LocalMap:
         agents: tuple[np.ndarray, ...] | None = None,
         crossable: bool = False,
         motion: bool = False,
+        reference: bool = False,
     ) -> np.ndarray:
         """The ``(2, H, W)`` map at ``pose = (x, y, yaw)``; elevations relative to ``ground``
         (m); ``agents`` are ``(xy (n, 2), radius (n,))`` of moving people and vehicles, or
@@ -184,29 +189,23 @@ class LocalMap:
         :meth:`crossable`'s layer, from the same samples. With ``motion``, two more after
         it: the velocity (m/s, robot frame: forward, leftward) of the agent whose disc
         covers the cell (the one whose centre is deepest inside, where discs overlap), 0
-        elsewhere (``local_map_motion``)."""
+        elsewhere (``local_map_motion``). ``reference``: the static layers sampled by the
+        plain-numpy gather below instead of its compiled twin
+        (:mod:`citygen.runner.localmap_kernel`, the same maps to the bit)."""
         x, y, yaw = pose
         c, s = math.cos(yaw), math.sin(yaw)
         su, sv = self._sub
         inv = 1.0 / layers.cell
-        cols = layers.elevation.shape[1]
-        # Row-major flat indices of the sub-samples; inside the margin of static_layers they
-        # are never negative (astype truncates). Fewest passes over the 4 x H x W samples.
-        col = su * (c * inv)
-        col += (x - layers.x0) * inv
-        col -= sv * (s * inv)
-        row = su * (s * inv)
-        row += (y - layers.y0) * inv
-        row += sv * (c * inv)
-        flat = row.astype(np.int64)
-        flat *= cols
-        flat += col.astype(np.int64)
-        e = np.take(layers.elevation, flat, mode="clip").reshape(4, -1)
-        elev = np.maximum(e[0], e[1])
-        np.maximum(elev, e[2], out=elev)
-        np.maximum(elev, e[3], out=elev)
-        elev -= np.float32(ground)
-        walk = _all_samples(layers.walkable, flat)
+        if reference:
+            elev, walk, cross = self._gather_reference(layers, x, y, c, s, inv, ground, crossable)
+        else:
+            from citygen.runner import localmap_kernel
+
+            cross_layer = layers.crossable if crossable and layers.crossable is not None else _NO_LAYER
+            elev, walk, cross = localmap_kernel.gather(
+                layers.elevation, layers.walkable, cross_layer, su, sv, c * inv, s * inv,
+                (x - layers.x0) * inv, (y - layers.y0) * inv, np.float32(ground),
+            )  # fmt: skip
         out = np.empty((2 + crossable + 2 * motion, *self.shape), dtype=np.float32)
         flat_out = out.reshape(len(out), -1)
         if motion:
@@ -232,8 +231,37 @@ class LocalMap:
         np.minimum(flat_out[0], MAX_ELEVATION, out=flat_out[0])
         flat_out[1] = walk
         if crossable:
-            flat_out[2] = walk if layers.crossable is None else walk & _all_samples(layers.crossable, flat)
+            flat_out[2] = walk if layers.crossable is None else walk & cross
         return out
+
+    def _gather_reference(
+        self, layers: StaticLayers, x: float, y: float, c: float, s: float, inv: float, ground: float,
+        crossable: bool,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:  # fmt: skip
+        """The plain-numpy form of :func:`citygen.runner.localmap_kernel.gather`."""
+        su, sv = self._sub
+        cols = layers.elevation.shape[1]
+        # Row-major flat indices of the sub-samples; inside the margin of static_layers they
+        # are never negative (astype truncates). Fewest passes over the 4 x H x W samples.
+        col = su * (c * inv)
+        col += (x - layers.x0) * inv
+        col -= sv * (s * inv)
+        row = su * (s * inv)
+        row += (y - layers.y0) * inv
+        row += sv * (c * inv)
+        flat = row.astype(np.int64)
+        flat *= cols
+        flat += col.astype(np.int64)
+        e = np.take(layers.elevation, flat, mode="clip").reshape(4, -1)
+        elev = np.maximum(e[0], e[1])
+        np.maximum(elev, e[2], out=elev)
+        np.maximum(elev, e[3], out=elev)
+        elev -= np.float32(ground)
+        walk = _all_samples(layers.walkable, flat)
+        cross = None
+        if crossable and layers.crossable is not None:
+            cross = _all_samples(layers.crossable, flat)
+        return elev, walk, cross
 
     def crossable(
         self,
