@@ -356,32 +356,37 @@ class RobotHandle:
         rv, rw = self._ref
         iv, iw = self._integral
         b, qa, da = self.base_id, self.qadr, self.dadr
-        qpos, qvel, xmat = data.qpos, data.qvel, data.xmat[b]
-        radius, kturn = r.wheel_radius, r.nav_mode == "ackermann"
+        # views bound once: MuJoCo's arrays stay where they are between steps
+        quat, vel, xmat = data.qpos[qa + 3 : qa + 7], data.qvel[da : da + 6], data.xmat[b]
+        radius, kturn, half_track = r.wheel_radius, r.nav_mode == "ackermann", r.track_width / 2
+        max_accel, max_yaw_accel = r.max_accel, r.max_yaw_accel
+        left_ids, right_ids, steer = self._left_ids, self._right_ids, bool(self._steer_ids)
+        atan2, cos, sin, mj_step = math.atan2, math.cos, math.sin, mj.mj_step
         for m in periods:
             dt = m * h
             # the reference approaches the command at the robot's acceleration limits
-            rv += _clamp(v - rv, dt * r.max_accel)
-            rw += _clamp(w - rw, dt * r.max_yaw_accel)
+            rv += _clamp(v - rv, dt * max_accel)
+            rw += _clamp(w - rw, dt * max_yaw_accel)
             drive_v = self._kturn(rv, rw, dt) if kturn else rv
-            qw, qx, qy, qz = qpos[qa + 3 : qa + 7].tolist()
-            lx, ly, _, ax, ay, az = qvel[da : da + 6].tolist()
+            qw, qx, qy, qz = quat.tolist()
+            lx, ly, _, ax, ay, az = vel.tolist()
             _, _, _, _, _, _, r6, r7, r8 = xmat.tolist()  # the free joint's spin is local
-            yaw = math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
-            ev = drive_v - (math.cos(yaw) * lx + math.sin(yaw) * ly)
+            yaw = atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
+            ev = drive_v - (cos(yaw) * lx + sin(yaw) * ly)
             ew = rw - (r6 * ax + r7 * ay + r8 * az)
             iv, iw = _clamp(iv + ev * dt, 1.0), _clamp(iw + ew * dt, 1.0)
             vc = drive_v + _WHEEL_P * ev + _WHEEL_I * iv
             wc = rw + _WHEEL_P * ew + _WHEEL_I * iw
-            half = wc * r.track_width / 2
-            if self._steer_ids:
+            half = wc * half_track
+            if steer:
                 self._steer(ctrl, vc, wc)
-            for a in self._left_ids:
-                ctrl[a] = (vc - half) / radius
-            for a in self._right_ids:
-                ctrl[a] = (vc + half) / radius
+            left, right = (vc - half) / radius, (vc + half) / radius
+            for a in left_ids:
+                ctrl[a] = left
+            for a in right_ids:
+                ctrl[a] = right
             if step:
-                mj.mj_step(model, data, nstep=m)
+                mj_step(model, data, nstep=m)
         self._ref, self._integral = (rv, rw), (iv, iw)
 
     def _servo(
