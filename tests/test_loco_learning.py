@@ -172,6 +172,31 @@ def test_the_fall_share_the_foot_clearance_and_the_turn_progress_change_only_the
             e.close()
 
 
+def test_base_height_costs_only_a_base_lower_than_standing():
+    """``base_height`` pays its weight times the squared shortfall of the base's height under
+    the robot's standing height, as a share of it: nothing standing, the most sitting down."""
+    kws = ({}, {"base_height": 3.0})
+    envs = [LocoTraining(make_env("loco-flat", robot="quadruped"), seed=0, rank=0, **kw) for kw in kws]
+    try:
+        for e in envs:
+            e.reset(seed=4, options={"command": (0.0, 0.0, 0.0)})
+        u = envs[1].unwrapped
+        stand = u.robot.stand_height
+        crouch = np.array([0.0, 0.6, -1.0] * 4)  # knees folded: it sits down
+        costs = []
+        for a in [np.zeros(12)] * 5 + [crouch] * 40:
+            (_, plain, end, *_), (_, height, *_) = [e.step(a) for e in envs]
+            assert not end
+            x, y, z = u.data.qpos[u.handle.qadr : u.handle.qadr + 3].tolist()
+            short = max(stand - (z - u.prepared.ground_at(x, y)), 0.0)
+            assert height == pytest.approx(plain - 3.0 * (short / stand) ** 2, abs=1e-9)
+            costs.append(plain - height)
+        assert costs[0] < 1e-3 and costs[-1] > 0.1, costs
+    finally:
+        for e in envs:
+            e.close()
+
+
 def test_heading_progress_pays_the_speed_along_the_held_heading_in_the_world():
     """``heading_progress`` adds its weight times the share of the commanded speed made good
     along the held heading in the world (a robot driving in circles earns it on one half of the

@@ -237,6 +237,13 @@ class TrainConfig(BaseModel):
         "policy learns to turn in place (the 0.25 rad/s tracking kernel pays a standing robot "
         "almost nothing for a 1 rad/s turn).",
     )
+    base_height: Annotated[float, Field(ge=0, le=100)] = Field(
+        0.0,
+        description="Locomotion, training only: weight of a base-height term (a base lower than "
+        "the robot's standing height over the ground under it pays the square of the shortfall "
+        "as a share of that height; citygen.runner.learn.loco), so that a policy asked to back "
+        "up and turn does not learn to sit down.",
+    )
     heading_progress: Annotated[float, Field(ge=0, le=10)] = Field(
         0.0,
         description="Locomotion, training only: weight of a heading-progress term (where the "

@@ -229,6 +229,7 @@ def make_training_env(cfg: TrainConfig) -> Sb3VecEnv:
                 "foot_clearance": cfg.foot_clearance,
                 "turn_progress": cfg.turn_progress,
                 "heading_progress": cfg.heading_progress,
+                "base_height": cfg.base_height,
             },
             cfg.locomotion,
             (cfg.gait, cfg.gait_scale, cfg.gait_max_speed) if cfg.gait else None,
