@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from citygen.io import load_scene
-from citygen.runner.envs.legs import free_damping
+from citygen.runner.envs.legs import BACK_AND_TURN, free_damping
 from citygen.runner.learn import shipped_models
 from citygen.runner.learn.export import write_policy
 from citygen.runner.learn.loco import COMMANDS
@@ -118,10 +118,17 @@ def test_the_locomotion_model_sees_what_locoenv_would_in_the_same_state(general)
         [0.8 * env.robot.max_speed, 0.0, 0.3 * env.robot.max_yaw_rate]
     )
     # a command past what the model was trained on is clipped into its ranges
-    env.step(np.array([-1.0, -1.0]))
+    env.step(np.array([-1.0, 0.0]))
     (v_lo, _), _, (w_lo, _) = COMMANDS
     assert -env.robot.max_speed < v_lo and -env.robot.max_yaw_rate < w_lo
-    assert env.legs.command.tolist() == [v_lo, 0.0, w_lo]
+    assert env.legs.command.tolist() == [v_lo, 0.0, 0.0]
+    # backing up while turning (which seats the quadruped's model) turns in place
+    env.step(np.array([-1.0, -1.0]))
+    assert env.legs.command.tolist() == [0.0, 0.0, w_lo]
+    turn = BACK_AND_TURN / env.robot.max_yaw_rate
+    env.step(np.array([-0.5, 0.99 * turn]))  # a slight turn still backs up
+    v, _, w = env.legs.command.tolist()
+    assert v == pytest.approx(-0.5 * env.robot.max_speed) and 0 < w < BACK_AND_TURN
 
 
 def test_a_fall_ends_the_navigation_episode_as_a_failure(general):
