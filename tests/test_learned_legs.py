@@ -125,10 +125,10 @@ def test_the_locomotion_model_sees_what_locoenv_would_in_the_same_state(general)
     # backing up while turning (which seats the quadruped's model) turns in place
     env.step(np.array([-1.0, -1.0]))
     assert env.legs.command.tolist() == [0.0, 0.0, w_lo]
-    turn = BACK_AND_TURN / env.robot.max_yaw_rate
+    turn = BACK_AND_TURN["quadruped"] / env.robot.max_yaw_rate
     env.step(np.array([-0.5, 0.99 * turn]))  # a slight turn still backs up
     v, _, w = env.legs.command.tolist()
-    assert v == pytest.approx(-0.5 * env.robot.max_speed) and 0 < w < BACK_AND_TURN
+    assert v == pytest.approx(-0.5 * env.robot.max_speed) and 0 < w < BACK_AND_TURN["quadruped"]
 
 
 def test_a_fall_ends_the_navigation_episode_as_a_failure(general):

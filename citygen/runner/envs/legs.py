@@ -9,8 +9,8 @@ action, the velocity ``(v, w)`` the servo would track, becomes the velocity comm
 ``(vx, vy, wz) = (v, 0, w)`` of the robot's general locomotion model, clipped into the
 ranges it was trained on (:data:`citygen.runner.learn.loco.COMMANDS`: the quadruped's servo
 backs up at 1 m/s and turns at 1.5 rad/s, the model learnt at most 0.5 and 1), and a
-command that backs up while it turns (at :data:`BACK_AND_TURN` rad/s or more) turning in
-place instead: asked to do both, the quadruped's general model sits down and stays there
+quadruped's command that backs up while it turns (at :data:`BACK_AND_TURN` rad/s or more)
+turning in place instead: asked to do both, its general model sits down and stays there
 (:func:`citygen.runner.learn.shipped_models.general_locomotion`), which sets the joints'
 targets every :data:`~citygen.runner.envs.loco.LOCO_DT` s (50 Hz; several times per
 navigation step) from what :class:`~citygen.runner.envs.loco.LocoEnv` would observe in the
@@ -27,6 +27,7 @@ shipped terrain models between two navigation steps (the traverse's Human-AI-Mod
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
@@ -39,13 +40,16 @@ from citygen.runner.learn.loco import COMMANDS
 
 #: The name of the robot's general locomotion model among :attr:`LearnedLegs.files`.
 GENERAL = "general"
-#: Yaw rate (rad/s) from which a command backing up turns in place instead: the quadruped's
-#: general model, asked (-0.5 m/s, -1 rad/s) or (-0.25, -1), sits down (its base 0.18 m high
-#: against 0.30) and no longer moves; turning in place (0.86 and -1.19 rad/s asked +-1) and
-#: backing up straight (-0.22 m/s asked -0.5) it does. The servo's NavStatic policy asks both
-#: at once when its goal is behind it: on learned legs 13 of its first 32 episodes ended at
-#: their start, seated (success 28.1 % of 64 episodes, 48.4 % with this rule).
-BACK_AND_TURN = 0.3
+#: Per robot, the yaw rate (rad/s) from which a command backing up turns in place instead.
+#: The quadruped's general model, asked (-0.5 m/s, -1 rad/s) or (-0.25, -1), sits down (its
+#: base 0.18 m high against 0.30) and no longer moves; turning in place (0.86 and -1.19 rad/s
+#: asked +-1) and backing up straight (-0.22 m/s asked -0.5) it does. The servo's NavStatic
+#: policy asks both at once when its goal is behind it: on learned legs 13 of its first 32
+#: episodes ended at their start, seated (success 28.1 % of 64 episodes, 48.4 % with this
+#: rule). The wheeled-legged robot's model backs up under both (-0.26 m/s) and barely turns in
+#: place (0.28 rad/s asked 1): the rule would halve its NavStatic success (12.5 -> 6.3 % of
+#: 32), so it has none.
+BACK_AND_TURN: dict[str, float] = {"quadruped": 0.3}
 
 #: Values of the ``locomotion`` option: the ideal servo on the base (the default, with which
 #: the shipped navigation results were measured) or the robot's learned general model.
@@ -200,7 +204,7 @@ class LearnedLegs:
 
     def walk(self, v: float, w: float) -> None:
         """One navigation step: the command ``(v, 0, w)`` (m/s, rad/s; clipped into the
-        model's training ranges, ``v`` 0 where it backs up while turning at
+        model's training ranges; ``v`` 0 where it backs up while turning at the robot's
         :data:`BACK_AND_TURN` or more) to the locomotion model, which sets the joints' targets
         every :data:`LOCO_DT` s (:attr:`repeats` times) as in LocoEnv's step; stops at a
         fall (:attr:`fell`)."""
@@ -211,7 +215,7 @@ class LearnedLegs:
         m, d, h = env.model, env.data, env.handle
         (v_lo, v_hi), _, (w_lo, w_hi) = COMMANDS
         v, w = min(max(v, v_lo), v_hi), min(max(w, w_lo), w_hi)
-        if v < 0.0 and abs(w) >= BACK_AND_TURN:
+        if v < 0.0 and abs(w) >= BACK_AND_TURN.get(env.robot.name, math.inf):
             v = 0.0
         self.command[:] = (v, 0.0, w)
         m.dof_damping[h.dadr : h.dadr + 6] = self._free_damping  # no servo's (free_damping)
