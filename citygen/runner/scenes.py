@@ -345,9 +345,10 @@ def map_resolution(scene: Scene) -> float:
 
 
 def _scene_mjcf(scene: Scene, terrain: str = "heightfield") -> Any:
-    """The scene's MJCF, its heightfields sampled every 0.1 m, or coarser where a city's
-    terrain would exceed the exporter's sample budget; ``terrain`` is the exporter's option
-    (:data:`TERRAIN_OPTIONS`)."""
+    """The scene's MJCF as a tree (:func:`citygen.exporters.mjcf.to_tree`: the model the
+    exported file compiles to, without its text), its heightfields sampled every 0.1 m, or
+    coarser where a city's terrain would exceed the exporter's sample budget; ``terrain`` is
+    the exporter's option (:data:`TERRAIN_OPTIONS`)."""
     from citygen.errors import ExportError
     from citygen.exporters import ExportWarning, mjcf
 
@@ -358,7 +359,7 @@ def _scene_mjcf(scene: Scene, terrain: str = "heightfield") -> Any:
                 # Per-tile friction approximations and the like: the exporter's notes to a
                 # user writing files, not news to an environment on every scene it samples.
                 warnings.simplefilter("ignore", ExportWarning)
-                return mjcf.to_mjcf(scene, apron=5.0, resolution=resolution, terrain=terrain)
+                return mjcf.to_tree(scene, apron=5.0, resolution=resolution, terrain=terrain)
         except ExportError as exc:
             if "coarser resolution" not in str(exc) or resolution >= 1.0:
                 raise
