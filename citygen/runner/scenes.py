@@ -366,42 +366,65 @@ def _scene_mjcf(scene: Scene, terrain: str = "heightfield") -> Any:
             resolution *= 2
 
 
-def prepare(scene: Scene, robot: Any, terrain: str = "heightfield") -> Prepared:
+def prepare(
+    scene: Scene,
+    robot: Any,
+    terrain: str = "heightfield",
+    people: bool = False,
+    process: bool | None = None,
+    store: tuple[Any, str] | None = None,
+) -> Prepared:
     """Compile ``scene`` with ``robot`` at the task's start (its slopes and rough tiles as
-    ``terrain`` says, :data:`TERRAIN_OPTIONS`) and rasterise its maps."""
+    ``terrain`` says, :data:`TERRAIN_OPTIONS`) and rasterise its maps; ``people``: make its
+    crowd's path tables too when the maps are made in a second process (kept for
+    :func:`~citygen.runner.agents.crowd.crowd_of` as ``_crowd_tables``). ``process``: make the
+    maps in a second process while this one builds the model
+    (:class:`~citygen.runner.scene_maps.MapsProcess`; default: for a scene of
+    :data:`~citygen.runner.scene_maps.PROCESS_FROM_CELLS` map cells or more), the same maps;
+    ``store``: the on-disk store's folder and the scene's key there, where that process keeps
+    the crowd's tables."""
     from citygen.exporters import mjcf
-    from citygen.exporters.occupancy import occupancy
     from citygen.geometry.terrain import height_at
     from citygen.runner.robots import compose
+    from citygen.runner.scene_maps import MapsProcess, build_maps, worth_a_process
 
-    start = scene.task.start if scene.task is not None else None
-    x, y = start.position if start is not None else scene.bounds.min
-    yaw = start.yaw if start is not None else 0.0
-    z = float(height_at(scene, x, y))
-    model = compose(_scene_mjcf(scene, terrain), robot, (x, y, z, yaw))
-    occ = occupancy(scene, map_resolution(scene))
-    labels = mjcf.geom_labels(model)
-    # Objects, buildings' solids and agents stand in the way; the rest is ground.
-    obstacle = np.array([lab is not None and lab[0] in ("object", "solid", "agent") for lab in labels])
-    ground = np.array([lab is not None and lab[0] not in ("object", "solid", "agent") for lab in labels])
-    # Unnamed static geoms of the scene (none today) and the apron count as ground.
-    agents = {}
-    for a in scene.agents:
-        body = model.body(f"agent:{a.id}")
-        agents[a.id] = int(model.body_mocapid[body.id])
-    crossable = crossable_cells(occ, robot, scene.terrain)
-    return Prepared(
+    if process is None:
+        process = worth_a_process(scene)
+    second = MapsProcess(scene, robot, people, store) if process else None
+    try:
+        start = scene.task.start if scene.task is not None else None
+        x, y = start.position if start is not None else scene.bounds.min
+        yaw = start.yaw if start is not None else 0.0
+        z = float(height_at(scene, x, y))
+        model = compose(_scene_mjcf(scene, terrain), robot, (x, y, z, yaw))
+        labels = mjcf.geom_labels(model)
+        # Objects, buildings' solids and agents stand in the way; the rest is ground.
+        obstacle = np.array([lab is not None and lab[0] in ("object", "solid", "agent") for lab in labels])
+        ground = np.array([lab is not None and lab[0] not in ("object", "solid", "agent") for lab in labels])
+        # Unnamed static geoms of the scene (none today) and the apron count as ground.
+        agents = {}
+        for a in scene.agents:
+            body = model.body(f"agent:{a.id}")
+            agents[a.id] = int(model.body_mocapid[body.id])
+        maps = second.result() if second is not None else build_maps(scene, robot)
+    finally:
+        if second is not None:
+            second.close()
+    out = Prepared(
         scene=scene,
         robot=robot,
         model=model,
-        occupancy=occ,
-        free=free_cells(occ, robot, crossable=crossable),
-        crossable=crossable,
-        walkable=occ.walkable_mask(),
+        occupancy=maps.occupancy,
+        free=maps.free,
+        crossable=maps.crossable,
+        walkable=maps.walkable,
         obstacle_geoms=obstacle,
         ground_geoms=ground,
         agent_bodies=agents,
     )
+    if maps.tables is not None:
+        out._crowd_tables = maps.tables
+    return out
 
 
 def cache_budget() -> int:
@@ -434,7 +457,11 @@ class SceneCache:
         self.hits = 0
         self.misses = 0
 
-    def get(self, source: SceneSource, index: int, robot: Any, terrain: str = "heightfield") -> Prepared:
+    def get(
+        self, source: SceneSource, index: int, robot: Any, terrain: str = "heightfield", people: bool = False
+    ) -> Prepared:
+        """The scene ``index`` of ``source`` prepared for ``robot`` (from this cache, the
+        on-disk store, or :func:`prepare`); ``people``: its crowd will run (:func:`prepare`'s)."""
         digest = hashlib.sha256(robot.xml.encode()).hexdigest()
         key = (source.key(index), robot.name, robot.timestep, robot.cone, digest, terrain)
         hit = self._items.get(key)
@@ -449,7 +476,8 @@ class SceneCache:
             stored = scene_store.entry_key(source.content_key(index), robot, terrain)
             item = disk.load(stored, robot, source._scene)  # a scene held: not read again
         if item is None:
-            item = prepare(source.scene(index), robot, terrain)
+            where = None if disk is None else (disk.root, stored)
+            item = prepare(source.scene(index), robot, terrain, people, store=where)
             if disk is not None:
                 disk.save(stored, item)
         if disk is not None:
