@@ -5,6 +5,7 @@ raised here, and small scenes made in this process."""
 
 from __future__ import annotations
 
+import functools
 import os
 import signal
 
@@ -107,9 +108,48 @@ def test_a_second_process_that_dies_is_a_clear_error(scene, robot):
 
 def test_only_a_town_or_a_city_is_worth_a_second_process(scene):
     assert not worth_a_process(scene)  # an Urban-Nav square: 200 x 200 cells
+    assert worth_a_process(_town())
+
+
+@functools.cache
+def _town():
     from citygen.generate import generate
     from citygen.generate.splits import town_config
     from citygen.seeding import scene_seed
 
-    town = generate(town_config(), scene_seed(2025, "urban-tra-city", 0))
+    return generate(town_config(), scene_seed(2025, "urban-tra-city", 0))
+
+
+def test_a_daemonic_process_makes_its_maps_itself(monkeypatch):
+    """A vector environment's worker (daemonic: it may not start processes) on a town."""
+    from citygen.runner import scene_maps
+
+    town = _town()
     assert worth_a_process(town)
+
+    class Daemon:
+        daemon = True
+
+    monkeypatch.setattr(scene_maps.mp, "current_process", lambda: Daemon())
+    assert not worth_a_process(town)
+
+
+def test_the_second_process_does_not_run_the_main_script_again(tmp_path):
+    """A script without a ``__main__`` guard: spawn would import it again in the second
+    process (and start it again there); it runs once."""
+    import subprocess
+    import sys
+
+    script = tmp_path / "script.py"
+    runs = tmp_path / "runs.txt"
+    script.write_text(
+        "import citygen\n"
+        "from citygen.runner.robots import load_robot\n"
+        "from citygen.runner.scene_maps import MapsProcess\n"
+        f"open({str(runs)!r}, 'a').write('run\\n')\n"
+        "scene = citygen.generate('urban-nav-3-test', index=2)\n"
+        "MapsProcess(scene, load_robot('quadruped')).result()\n"
+    )
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    subprocess.run([sys.executable, str(script)], check=True, env=env, timeout=300)
+    assert runs.read_text() == "run\n"

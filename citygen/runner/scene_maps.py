@@ -92,9 +92,12 @@ def build_maps(scene: Scene, robot: Any, people: bool = False) -> Maps:
 
 
 def worth_a_process(scene: Scene) -> bool:
-    """Whether ``scene``'s map has :data:`PROCESS_FROM_CELLS` cells or more."""
+    """Whether ``scene``'s map has :data:`PROCESS_FROM_CELLS` cells or more and this process
+    may start one (a daemonic process may not: a vector environment's worker)."""
     from citygen.runner.scenes import map_resolution
 
+    if mp.current_process().daemon:
+        return False
     res = map_resolution(scene)
     (x0, y0), (x1, y1) = scene.bounds.min, scene.bounds.max
     return (x1 - x0) * (y1 - y0) / (res * res) >= PROCESS_FROM_CELLS
