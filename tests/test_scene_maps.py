@@ -17,7 +17,7 @@ from citygen.runner.agents.crowd import TABLES_ENTRY, crowd_of
 from citygen.runner.robots import load_robot
 from citygen.runner.scene_maps import MapsProcess, Mover, build_maps, worth_a_process
 from citygen.runner.scene_store import SceneStore
-from citygen.runner.scenes import prepare
+from citygen.runner.scenes import map_resolution, prepare
 
 
 @pytest.fixture(scope="module")
@@ -31,8 +31,13 @@ def robot():
 
 
 @pytest.fixture(scope="module")
-def serial(scene, robot):
-    return build_maps(scene, robot, people=True)
+def res(scene):
+    return map_resolution(scene)
+
+
+@pytest.fixture(scope="module")
+def serial(scene, robot, res):
+    return build_maps(scene, robot, res, people=True)
 
 
 def _same_maps(a, b) -> None:
@@ -52,17 +57,17 @@ def _same_tables(a: dict, b: dict) -> None:
         assert a[name].dtype == b[name].dtype and np.array_equal(a[name], b[name]), name
 
 
-def test_maps_made_in_a_second_process_are_the_same(scene, robot, serial):
+def test_maps_made_in_a_second_process_are_the_same(scene, robot, res, serial):
     assert serial.tables is not None and len(serial.tables["paths"]) > 0
-    apart = MapsProcess(scene, robot, people=True).result()
+    apart = MapsProcess(scene, robot, res, people=True).result()
     _same_maps(serial, apart)
     _same_tables(serial.tables, apart.tables)
-    assert build_maps(scene, Mover.of(robot)).tables is None  # no people asked for
+    assert build_maps(scene, Mover.of(robot), res).tables is None  # no people asked for
 
 
-def test_the_second_process_keeps_the_crowd_tables_in_the_store(scene, robot, serial, tmp_path):
+def test_the_second_process_keeps_the_crowd_tables_in_the_store(scene, robot, res, serial, tmp_path):
     key = "ab" * 32
-    apart = MapsProcess(scene, robot, people=True, store=(tmp_path, key)).result()
+    apart = MapsProcess(scene, robot, res, people=True, store=(tmp_path, key)).result()
     _same_maps(serial, apart)
     assert apart.tables is None  # not sent: kept in the store
     disk = SceneStore(tmp_path)
@@ -88,27 +93,28 @@ def test_a_prepared_scene_is_the_same_either_way_and_its_crowd_too(scene, robot,
     assert np.array_equal(crowds[0].pos, crowds[1].pos) and np.array_equal(crowds[0].vel, crowds[1].vel)
 
 
-def test_an_error_in_the_second_process_is_raised_here(scene):
+def test_an_error_in_the_second_process_is_raised_here(scene, res):
     """The same exception, with the second process's traceback as a note."""
     bad = Mover("quadruped", float("inf"), 0.1)  # erode cannot take an infinite radius
     with pytest.raises(OverflowError) as info:
-        MapsProcess(scene, bad).result()
+        MapsProcess(scene, bad, res).result()
     notes = "\n".join(getattr(info.value, "__notes__", []))
     assert "In the process making the scene's maps" in notes and "erode" in notes
     with pytest.raises(OverflowError):
-        build_maps(scene, bad)  # as here
+        build_maps(scene, bad, res)  # as here
 
 
-def test_a_second_process_that_dies_is_a_clear_error(scene, robot):
-    maps = MapsProcess(scene, robot, people=True)
+def test_a_second_process_that_dies_is_a_clear_error(scene, robot, res):
+    maps = MapsProcess(scene, robot, res, people=True)
     os.kill(maps._proc.pid, signal.SIGKILL)
     with pytest.raises(RuntimeError, match=r"ended with exit code -9 before sending them"):
         maps.result()
 
 
 def test_only_a_town_or_a_city_is_worth_a_second_process(scene):
-    assert not worth_a_process(scene)  # an Urban-Nav square: 200 x 200 cells
-    assert worth_a_process(_town())
+    assert not worth_a_process(scene, map_resolution(scene))  # an Urban-Nav square: 200 x 200 cells
+    town = _town()
+    assert worth_a_process(town, map_resolution(town))
 
 
 @functools.cache
@@ -125,13 +131,13 @@ def test_a_daemonic_process_makes_its_maps_itself(monkeypatch):
     from citygen.runner import scene_maps
 
     town = _town()
-    assert worth_a_process(town)
+    assert worth_a_process(town, map_resolution(town))
 
     class Daemon:
         daemon = True
 
     monkeypatch.setattr(scene_maps.mp, "current_process", lambda: Daemon())
-    assert not worth_a_process(town)
+    assert not worth_a_process(town, map_resolution(town))
 
 
 def test_the_second_process_does_not_run_the_main_script_again(tmp_path):
@@ -148,7 +154,7 @@ def test_the_second_process_does_not_run_the_main_script_again(tmp_path):
         "from citygen.runner.scene_maps import MapsProcess\n"
         f"open({str(runs)!r}, 'a').write('run\\n')\n"
         "scene = citygen.generate('urban-nav-3-test', index=2)\n"
-        "MapsProcess(scene, load_robot('quadruped')).result()\n"
+        "MapsProcess(scene, load_robot('quadruped'), 0.05).result()\n"
     )
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
     subprocess.run([sys.executable, str(script)], check=True, env=env, timeout=300)

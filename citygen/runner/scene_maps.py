@@ -1,6 +1,7 @@
 """A scene's maps for the runner (:class:`Maps`): its occupancy map, the cells a robot can
-cross and those its centre may occupy, and, for a scene with people, their crowd's path
-tables (:meth:`~citygen.runner.agents.crowd.Crowd.tables`), made in this process
+cross (:func:`crossable_cells`) and those its centre may occupy (:func:`free_cells`), and,
+for a scene with people, their crowd's path tables
+(:meth:`~citygen.runner.agents.crowd.Crowd.tables`), made in this process
 (:func:`build_maps`, the plain reference) or, for a scene of :data:`PROCESS_FROM_CELLS` map
 cells or more, in a second process while this one builds and compiles the scene's MuJoCo
 model (:class:`MapsProcess`).
@@ -17,6 +18,8 @@ the same exception with the second process's traceback as a note.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
+import math
 import multiprocessing as mp
 import pickle
 import sys
@@ -29,6 +32,8 @@ import numpy as np
 
 from citygen.spec import Scene
 from citygen.spec.agents import Person
+from citygen.spec.task import ROBOTS, Mobility
+from citygen.spec.terrain import Terrain
 
 #: Map cells (rows x cols) from which a scene's maps are made in a second process: a town's
 #: (16 M cells at 0.1 m: 4 s of CPU) and a city's (9 M at 0.4 m, with 200 people's path
@@ -39,9 +44,9 @@ PROCESS_FROM_CELLS = 1 << 22
 
 @dataclass(frozen=True)
 class Mover:
-    """What the maps need of a robot (:func:`~citygen.runner.scenes.mobility_of` and
-    :func:`~citygen.runner.scenes.free_cells`): its name, radius (m) and highest step (m);
-    a robot itself, with its model and assets, need not travel to the second process."""
+    """What the maps need of a robot (:func:`mobility_of` and :func:`free_cells`): its name,
+    radius (m) and highest step (m); a robot itself, with its model and assets, need not
+    travel to the second process."""
 
     name: str
     radius: float
@@ -68,13 +73,13 @@ def has_people(scene: Scene) -> bool:
     return any(isinstance(a, Person) for a in scene.agents)
 
 
-def build_maps(scene: Scene, robot: Any, people: bool = False) -> Maps:
-    """The maps of ``scene`` for ``robot`` (a robot or a :class:`Mover`), in this process;
+def build_maps(scene: Scene, robot: Any, resolution: float, people: bool = False) -> Maps:
+    """The maps of ``scene`` for ``robot`` (a robot or a :class:`Mover`) with cells of
+    ``resolution`` m (:func:`~citygen.runner.scenes.map_resolution`), in this process;
     ``people``: the crowd's path tables too, when the scene has people."""
     from citygen.exporters.occupancy import occupancy
-    from citygen.runner.scenes import crossable_cells, free_cells, map_resolution
 
-    occ = occupancy(scene, map_resolution(scene))
+    occ = occupancy(scene, resolution)
     crossable = crossable_cells(occ, robot, scene.terrain)
     maps = Maps(
         occupancy=occ,
@@ -91,16 +96,61 @@ def build_maps(scene: Scene, robot: Any, people: bool = False) -> Maps:
     return maps
 
 
-def worth_a_process(scene: Scene) -> bool:
-    """Whether ``scene``'s map has :data:`PROCESS_FROM_CELLS` cells or more and this process
-    may start one (a daemonic process may not: a vector environment's worker)."""
-    from citygen.runner.scenes import map_resolution
-
+def worth_a_process(scene: Scene, resolution: float) -> bool:
+    """Whether ``scene``'s map of ``resolution`` m cells has :data:`PROCESS_FROM_CELLS` cells
+    or more and this process may start one (a daemonic process may not: a vector
+    environment's worker)."""
     if mp.current_process().daemon:
         return False
-    res = map_resolution(scene)
     (x0, y0), (x1, y1) = scene.bounds.min, scene.bounds.max
-    return (x1 - x0) * (y1 - y0) / (res * res) >= PROCESS_FROM_CELLS
+    return (x1 - x0) * (y1 - y0) / (resolution * resolution) >= PROCESS_FROM_CELLS
+
+
+def step_edges(heights: np.ndarray, max_step: float) -> np.ndarray:
+    """Cells next to a rise of more than ``max_step`` (m) to a 4-neighbour: stair risers,
+    curbs, terrain a robot cannot drive or walk over."""
+    out = np.zeros(heights.shape, dtype=bool)
+    dy = np.abs(np.diff(heights, axis=0)) > max_step
+    dx = np.abs(np.diff(heights, axis=1)) > max_step
+    out[1:] |= dy
+    out[:-1] |= dy
+    out[:, 1:] |= dx
+    out[:, :-1] |= dx
+    return out
+
+
+def mobility_of(robot: Any) -> Mobility:
+    """What ground ``robot`` crosses: a built-in embodiment's :data:`~citygen.spec.task.ROBOTS`
+    entry (with the robot's own radius and highest step); a user's robot climbs whatever its
+    ``max_step`` allows (stairs and slopes limited only by the edges they make)."""
+    base = ROBOTS.get(robot.name)
+    if base is None:
+        return Mobility(radius=robot.radius, max_step=robot.max_step, max_slope=math.pi / 2, stairs=True)
+    return dataclasses.replace(base, radius=robot.radius, max_step=robot.max_step)
+
+
+def crossable_cells(occ: Any, robot: Any, terrain: Terrain | None = None) -> np.ndarray:
+    """The ground ``robot`` can cross: walkable cells off every edge higher than its
+    :attr:`~citygen.runner.robots.Robot.max_step` and off the tiles of ``terrain`` it cannot
+    cross (stairs for wheels, slopes steeper than it climbs, rough ground too bumpy:
+    :func:`citygen.geometry.traversable.tile_crossable`)."""
+    from citygen.geometry.traversable import blocked_cells
+
+    ok = occ.walkable_mask() & ~step_edges(occ.heights, robot.max_step)
+    if terrain is not None:
+        ok &= ~blocked_cells(terrain, mobility_of(robot), occ.grid.xs(), occ.grid.ys())
+    return ok
+
+
+def free_cells(
+    occ: Any, robot: Any, terrain: Terrain | None = None, crossable: np.ndarray | None = None
+) -> np.ndarray:
+    """Where the robot's centre may be: :func:`crossable_cells` (given, or computed) at
+    least its radius from anything else."""
+    from citygen.geometry.raster import erode
+
+    ok = crossable_cells(occ, robot, terrain) if crossable is None else crossable
+    return erode(ok, robot.radius / occ.resolution)
 
 
 class MapsProcess:
@@ -112,7 +162,14 @@ class MapsProcess:
     sending them here to be written there (a second of this process's time); they are sent
     only when it cannot write them."""
 
-    def __init__(self, scene: Scene, robot: Any, people: bool = False, store: tuple[Any, str] | None = None):
+    def __init__(
+        self,
+        scene: Scene,
+        robot: Any,
+        resolution: float,
+        people: bool = False,
+        store: tuple[Any, str] | None = None,
+    ):
         ctx = mp.get_context("spawn")
         self._conn, child = ctx.Pipe(duplex=True)
         self._proc = ctx.Process(target=_child, args=(child,), daemon=True, name="citygen-maps")
@@ -121,7 +178,8 @@ class MapsProcess:
         child.close()
         # The request after the start, by a thread: the pipe takes it as the new interpreter
         # reads it, a second or more after its start, which this process does not wait for.
-        blob = pickle.dumps((scene, Mover.of(robot), people, store), protocol=pickle.HIGHEST_PROTOCOL)
+        request = (scene, Mover.of(robot), resolution, people, store)
+        blob = pickle.dumps(request, protocol=pickle.HIGHEST_PROTOCOL)
         self._sender = threading.Thread(target=_send, args=(self._conn, blob), daemon=True)
         self._sender.start()
 
@@ -171,8 +229,8 @@ def _child(conn: Any) -> None:
     (protocol 5's out-of-band buffers: no copy of a city's path tables into a pickle on
     either side); or the error, with its traceback's text."""
     try:
-        scene, robot, people, store = pickle.loads(conn.recv_bytes())
-        maps = build_maps(scene, robot, people)
+        scene, robot, resolution, people, store = pickle.loads(conn.recv_bytes())
+        maps = build_maps(scene, robot, resolution, people)
         if maps.tables is not None and store is not None:
             from citygen.runner.agents.crowd import TABLES_ENTRY
             from citygen.runner.scene_store import SceneStore
@@ -222,5 +280,6 @@ def _no_main():
 
 
 __all__ = [
-    "PROCESS_FROM_CELLS", "Maps", "MapsProcess", "Mover", "build_maps", "has_people", "worth_a_process",
+    "PROCESS_FROM_CELLS", "Maps", "MapsProcess", "Mover", "build_maps", "crossable_cells", "free_cells",
+    "has_people", "mobility_of", "step_edges", "worth_a_process",
 ]  # fmt: skip

@@ -11,7 +11,6 @@ compiles each scene once (asynchronous scene sampling).
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import hashlib
 import json
@@ -28,10 +27,11 @@ import numpy as np
 from citygen.errors import Problem, SpecError
 from citygen.io import load_scene
 from citygen.runner import scene_store
+
+# The map functions, long this module's: imported from here by callers and docs.
+from citygen.runner.scene_maps import crossable_cells, free_cells, mobility_of, step_edges  # noqa: F401
 from citygen.spec import Scene
 from citygen.spec.base import to_jsonable
-from citygen.spec.task import ROBOTS, Mobility
-from citygen.spec.terrain import Terrain
 
 #: Occupancy-map cell side (m) for walkability, the planner and the route metrics.
 MAP_RESOLUTION = 0.05
@@ -287,53 +287,6 @@ class Prepared:
         return length
 
 
-def step_edges(heights: np.ndarray, max_step: float) -> np.ndarray:
-    """Cells next to a rise of more than ``max_step`` (m) to a 4-neighbour: stair risers,
-    curbs, terrain a robot cannot drive or walk over."""
-    out = np.zeros(heights.shape, dtype=bool)
-    dy = np.abs(np.diff(heights, axis=0)) > max_step
-    dx = np.abs(np.diff(heights, axis=1)) > max_step
-    out[1:] |= dy
-    out[:-1] |= dy
-    out[:, 1:] |= dx
-    out[:, :-1] |= dx
-    return out
-
-
-def mobility_of(robot: Any) -> Mobility:
-    """What ground ``robot`` crosses: a built-in embodiment's :data:`~citygen.spec.task.ROBOTS`
-    entry (with the robot's own radius and highest step); a user's robot climbs whatever its
-    ``max_step`` allows (stairs and slopes limited only by the edges they make)."""
-    base = ROBOTS.get(robot.name)
-    if base is None:
-        return Mobility(radius=robot.radius, max_step=robot.max_step, max_slope=math.pi / 2, stairs=True)
-    return dataclasses.replace(base, radius=robot.radius, max_step=robot.max_step)
-
-
-def crossable_cells(occ: Any, robot: Any, terrain: Terrain | None = None) -> np.ndarray:
-    """The ground ``robot`` can cross: walkable cells off every edge higher than its
-    :attr:`~citygen.runner.robots.Robot.max_step` and off the tiles of ``terrain`` it cannot
-    cross (stairs for wheels, slopes steeper than it climbs, rough ground too bumpy:
-    :func:`citygen.geometry.traversable.tile_crossable`)."""
-    from citygen.geometry.traversable import blocked_cells
-
-    ok = occ.walkable_mask() & ~step_edges(occ.heights, robot.max_step)
-    if terrain is not None:
-        ok &= ~blocked_cells(terrain, mobility_of(robot), occ.grid.xs(), occ.grid.ys())
-    return ok
-
-
-def free_cells(
-    occ: Any, robot: Any, terrain: Terrain | None = None, crossable: np.ndarray | None = None
-) -> np.ndarray:
-    """Where the robot's centre may be: :func:`crossable_cells` (given, or computed) at
-    least its radius from anything else."""
-    from citygen.geometry.raster import erode
-
-    ok = crossable_cells(occ, robot, terrain) if crossable is None else crossable
-    return erode(ok, robot.radius / occ.resolution)
-
-
 def map_resolution(scene: Scene) -> float:
     """:data:`MAP_RESOLUTION`, doubled until the map has at most :data:`MAX_MAP_CELLS` cells
     (a 1.2 km city is mapped at 0.4 m)."""
@@ -388,9 +341,10 @@ def prepare(
     from citygen.runner.robots import compose
     from citygen.runner.scene_maps import MapsProcess, build_maps, worth_a_process
 
+    res = map_resolution(scene)
     if process is None:
-        process = worth_a_process(scene)
-    second = MapsProcess(scene, robot, people, store) if process else None
+        process = worth_a_process(scene, res)
+    second = MapsProcess(scene, robot, res, people, store) if process else None
     try:
         start = scene.task.start if scene.task is not None else None
         x, y = start.position if start is not None else scene.bounds.min
@@ -406,7 +360,7 @@ def prepare(
         for a in scene.agents:
             body = model.body(f"agent:{a.id}")
             agents[a.id] = int(model.body_mocapid[body.id])
-        maps = second.result() if second is not None else build_maps(scene, robot)
+        maps = second.result() if second is not None else build_maps(scene, robot, res)
     finally:
         if second is not None:
             second.close()
