@@ -28,8 +28,16 @@ from citygen.errors import Problem, SpecError
 from citygen.io import load_scene
 from citygen.runner import scene_store
 
-# The map functions, long this module's: imported from here by callers and docs.
-from citygen.runner.scene_maps import crossable_cells, free_cells, mobility_of, step_edges  # noqa: F401
+# crossable_cells, free_cells, mobility_of and step_edges, long this module's: imported from here.
+from citygen.runner.scene_maps import (  # noqa: F401
+    MapsProcess,
+    build_maps,
+    crossable_cells,
+    free_cells,
+    mobility_of,
+    step_edges,
+    worth_a_process,
+)
 from citygen.spec import Scene
 from citygen.spec.base import to_jsonable
 
@@ -339,7 +347,6 @@ def prepare(
     from citygen.exporters import mjcf
     from citygen.geometry.terrain import height_at
     from citygen.runner.robots import compose
-    from citygen.runner.scene_maps import MapsProcess, build_maps, worth_a_process
 
     res = map_resolution(scene)
     if process is None:
