@@ -3,7 +3,10 @@ urban-tra-city's config (its streets, signals, people and vehicles on a ninth of
 400 m x 400 m, 22 people, 3 vehicles, a 300 m route) and, with ``--city``, on the 1.2 km city
 itself; the quadruped on the ideal-locomotion servo, driving ahead.
 
-Figures: the first reset (the scene prepared: MJCF, compile, maps; no on-disk store), a
+Figures: the first reset (the scene prepared: MJCF, compile, maps; no on-disk store; a
+town's and a city's maps and crowd path tables made in a second process meanwhile,
+:mod:`citygen.runner.scene_maps`, so on two cores the figure is the model's time), with
+its CPU time in this process (``*_cpu_s``) and in that second one (``*_second_cpu_s``), a
 reset from the on-disk store of prepared scenes (a second process's first visit), the
 environment's step (ms, 0.1 s of simulated time), its real-time factor, and the baselines
 measured in the same run: ``mj_step`` alone for the same 0.1 s of the same model (what
@@ -35,6 +38,14 @@ import numpy as np
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 
+def _children_cpu() -> float:
+    """CPU time (s) of this process's ended children: a first reset's second process."""
+    import resource
+
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
 def measure(label: str, scene, steps: int, robot: str) -> dict:
     """Reset (cold, then from the on-disk store) and step figures of Traverse on ``scene``."""
     import mujoco
@@ -53,9 +64,11 @@ def measure(label: str, scene, steps: int, robot: str) -> dict:
             # kept per scene object (the terrain features' index) starts empty
             here = scene if kind == "cold" else type(scene).model_validate_json(scene.model_dump_json())
             env = make_env("traverse", scene=here, robot=robot)
-            t = time.perf_counter()
+            t, cpu, child = time.perf_counter(), time.process_time(), _children_cpu()
             env.reset(seed=0)
             out[f"{label}_reset_{kind}_s"] = time.perf_counter() - t
+            out[f"{label}_reset_{kind}_cpu_s"] = time.process_time() - cpu
+            out[f"{label}_reset_{kind}_second_cpu_s"] = _children_cpu() - child
             if kind == "cold":
                 env.close()
     u = env.unwrapped
@@ -141,6 +154,11 @@ def main() -> None:
             f"({figures[f'{label}_realtime_factor']:.1f}x real time; mj_step "
             f"{figures[f'{label}_mj_step_ms']:.1f} ms; with rays {figures[f'{label}_rays_step_ms']:.1f} ms; "
             f"every static geom collidable {figures[f'{label}_whole_step_ms']:.1f} ms)",
+            flush=True,
+        )
+        print(
+            f"{label}: cold reset's CPU {figures[f'{label}_reset_cold_cpu_s']:.1f} s in this process, "
+            f"{figures[f'{label}_reset_cold_second_cpu_s']:.1f} s in a second one",
             flush=True,
         )
     print(json.dumps({k: round(v, 4) if isinstance(v, float) else v for k, v in figures.items()}))

@@ -1,16 +1,18 @@
 """Parsing a scene's MJCF in chunks (citygen.exporters.mjcf.parse): the compiled model is the
 one-piece parse's to the byte, the robot attached or not; small models are parsed whole. Its
-static bodies read as frames (a town's, a city's): MuJoCo's fused model to the byte."""
+static bodies read as frames (a town's, a city's): MuJoCo's fused model to the byte. The
+runner's tree with heightfields as arrays (to_tree): the text's model to the byte."""
 
 from __future__ import annotations
 
+import functools
 import warnings
 import xml.etree.ElementTree as ET
 
 import mujoco
 import pytest
 
-from citygen.exporters.mjcf import to_mjcf
+from citygen.exporters.mjcf import to_mjcf, to_tree
 from citygen.exporters.mjcf.parse import compile_spec, scene_spec, static_frames
 from citygen.io import load_scene
 from citygen.runner.robots import compose, load_robot
@@ -103,3 +105,60 @@ def test_frames_leave_moving_and_referenced_bodies_as_they_are():
     exclude = '<contact><exclude body1="a" body2="m"/></contact></mujoco>'
     referring = ET.fromstring(xml.replace("</mujoco>", exclude))
     assert static_frames(referring) == 0
+
+
+@functools.cache
+def _terrain_scene(split: str):
+    from citygen.runner.scenes import SceneSource
+
+    return SceneSource(split=split).scene(0)
+
+
+def _tree_cases():
+    """A street corner (objects' bodies, no terrain), a rough grid and a slope grid
+    (heightfields), by name -> scene."""
+    return {
+        "street_corner": lambda: load_scene(ROOT / "examples" / "street_corner.json"),
+        "rough": lambda: _terrain_scene("urban-loc-4-test"),
+        "slope": lambda: _terrain_scene("urban-loc-2-test"),
+    }
+
+
+@pytest.mark.parametrize("name", ["street_corner", "rough", "slope"])
+@pytest.mark.parametrize("terrain", ["heightfield", "hybrid"])
+@pytest.mark.parametrize(("chunk", "frames"), [(100000, False), (7, False), (7, True), (4000, True)])
+def test_a_tree_with_heightfield_arrays_is_the_text_model_to_the_byte(name, terrain, chunk, frames, tmp_path):
+    """to_tree (the runner's: the XML as a tree, heightfields' samples as arrays) reads into
+    the model to_mjcf's text does, whole, in chunks or its bodies as frames; the tree
+    is left as it was (read twice, the same model)."""
+    scene = _tree_cases()[name]()
+    text = to_mjcf(scene, apron=5.0, terrain=terrain)
+    tree = to_tree(scene, apron=5.0, terrain=terrain)
+    hfields = text.xml.count("<hfield ")
+    assert sum(1 for _ in tree.root.iter("hfield")) == hfields
+    assert len(tree.hfields) == hfields and dict(tree.assets) == dict(text.assets)
+    assert (hfields > 0) == (name == "rough" or (name == "slope" and terrain == "heightfield"))
+    assert "elevation" not in tree.xml
+    compile_ = _fused if frames else compile_spec
+    want = compile_(scene_spec(text, chunk=chunk, frames=frames))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        got = compile_(scene_spec(tree, chunk=chunk, frames=frames))
+        again = compile_(scene_spec(tree, chunk=chunk, frames=frames))
+    assert got.nhfield == hfields and got.nhfielddata == want.nhfielddata
+    assert _bytes(got, tmp_path) == _bytes(want, tmp_path)
+    assert _bytes(again, tmp_path) == _bytes(want, tmp_path)
+
+
+def test_a_composed_tree_is_the_composed_text_and_steps_alike(tmp_path):
+    """compose on the tree and on the text: the same model to the byte, the same steps."""
+    scene = _terrain_scene("urban-loc-4-test")
+    robot = load_robot("quadruped")
+    pose = (*scene.task.start.position, 0.5, scene.task.start.yaw)
+    a = compose(to_mjcf(scene, apron=5.0, terrain="hybrid"), robot, pose)
+    b = compose(to_tree(scene, apron=5.0, terrain="hybrid"), robot, pose)
+    assert _bytes(a, tmp_path) == _bytes(b, tmp_path)
+    da, db = mujoco.MjData(a), mujoco.MjData(b)
+    mujoco.mj_step(a, da, nstep=50)
+    mujoco.mj_step(b, db, nstep=50)
+    assert (da.qpos == db.qpos).all() and (da.qvel == db.qvel).all()

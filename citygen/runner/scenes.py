@@ -11,7 +11,6 @@ compiles each scene once (asynchronous scene sampling).
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import hashlib
 import json
@@ -28,10 +27,19 @@ import numpy as np
 from citygen.errors import Problem, SpecError
 from citygen.io import load_scene
 from citygen.runner import scene_store
+
+# crossable_cells, free_cells, mobility_of and step_edges, long this module's: imported from here.
+from citygen.runner.scene_maps import (  # noqa: F401
+    MapsProcess,
+    build_maps,
+    crossable_cells,
+    free_cells,
+    mobility_of,
+    step_edges,
+    worth_a_process,
+)
 from citygen.spec import Scene
 from citygen.spec.base import to_jsonable
-from citygen.spec.task import ROBOTS, Mobility
-from citygen.spec.terrain import Terrain
 
 #: Occupancy-map cell side (m) for walkability, the planner and the route metrics.
 MAP_RESOLUTION = 0.05
@@ -287,53 +295,6 @@ class Prepared:
         return length
 
 
-def step_edges(heights: np.ndarray, max_step: float) -> np.ndarray:
-    """Cells next to a rise of more than ``max_step`` (m) to a 4-neighbour: stair risers,
-    curbs, terrain a robot cannot drive or walk over."""
-    out = np.zeros(heights.shape, dtype=bool)
-    dy = np.abs(np.diff(heights, axis=0)) > max_step
-    dx = np.abs(np.diff(heights, axis=1)) > max_step
-    out[1:] |= dy
-    out[:-1] |= dy
-    out[:, 1:] |= dx
-    out[:, :-1] |= dx
-    return out
-
-
-def mobility_of(robot: Any) -> Mobility:
-    """What ground ``robot`` crosses: a built-in embodiment's :data:`~citygen.spec.task.ROBOTS`
-    entry (with the robot's own radius and highest step); a user's robot climbs whatever its
-    ``max_step`` allows (stairs and slopes limited only by the edges they make)."""
-    base = ROBOTS.get(robot.name)
-    if base is None:
-        return Mobility(radius=robot.radius, max_step=robot.max_step, max_slope=math.pi / 2, stairs=True)
-    return dataclasses.replace(base, radius=robot.radius, max_step=robot.max_step)
-
-
-def crossable_cells(occ: Any, robot: Any, terrain: Terrain | None = None) -> np.ndarray:
-    """The ground ``robot`` can cross: walkable cells off every edge higher than its
-    :attr:`~citygen.runner.robots.Robot.max_step` and off the tiles of ``terrain`` it cannot
-    cross (stairs for wheels, slopes steeper than it climbs, rough ground too bumpy:
-    :func:`citygen.geometry.traversable.tile_crossable`)."""
-    from citygen.geometry.traversable import blocked_cells
-
-    ok = occ.walkable_mask() & ~step_edges(occ.heights, robot.max_step)
-    if terrain is not None:
-        ok &= ~blocked_cells(terrain, mobility_of(robot), occ.grid.xs(), occ.grid.ys())
-    return ok
-
-
-def free_cells(
-    occ: Any, robot: Any, terrain: Terrain | None = None, crossable: np.ndarray | None = None
-) -> np.ndarray:
-    """Where the robot's centre may be: :func:`crossable_cells` (given, or computed) at
-    least its radius from anything else."""
-    from citygen.geometry.raster import erode
-
-    ok = crossable_cells(occ, robot, terrain) if crossable is None else crossable
-    return erode(ok, robot.radius / occ.resolution)
-
-
 def map_resolution(scene: Scene) -> float:
     """:data:`MAP_RESOLUTION`, doubled until the map has at most :data:`MAX_MAP_CELLS` cells
     (a 1.2 km city is mapped at 0.4 m)."""
@@ -345,9 +306,10 @@ def map_resolution(scene: Scene) -> float:
 
 
 def _scene_mjcf(scene: Scene, terrain: str = "heightfield") -> Any:
-    """The scene's MJCF, its heightfields sampled every 0.1 m, or coarser where a city's
-    terrain would exceed the exporter's sample budget; ``terrain`` is the exporter's option
-    (:data:`TERRAIN_OPTIONS`)."""
+    """The scene's MJCF as a tree (:func:`citygen.exporters.mjcf.to_tree`: the model the
+    exported file compiles to, without its text), its heightfields sampled every 0.1 m, or
+    coarser where a city's terrain would exceed the exporter's sample budget; ``terrain`` is
+    the exporter's option (:data:`TERRAIN_OPTIONS`)."""
     from citygen.errors import ExportError
     from citygen.exporters import ExportWarning, mjcf
 
@@ -358,49 +320,72 @@ def _scene_mjcf(scene: Scene, terrain: str = "heightfield") -> Any:
                 # Per-tile friction approximations and the like: the exporter's notes to a
                 # user writing files, not news to an environment on every scene it samples.
                 warnings.simplefilter("ignore", ExportWarning)
-                return mjcf.to_mjcf(scene, apron=5.0, resolution=resolution, terrain=terrain)
+                return mjcf.to_tree(scene, apron=5.0, resolution=resolution, terrain=terrain)
         except ExportError as exc:
             if "coarser resolution" not in str(exc) or resolution >= 1.0:
                 raise
             resolution *= 2
 
 
-def prepare(scene: Scene, robot: Any, terrain: str = "heightfield") -> Prepared:
+def prepare(
+    scene: Scene,
+    robot: Any,
+    terrain: str = "heightfield",
+    people: bool = False,
+    process: bool | None = None,
+    store: tuple[Any, str] | None = None,
+) -> Prepared:
     """Compile ``scene`` with ``robot`` at the task's start (its slopes and rough tiles as
-    ``terrain`` says, :data:`TERRAIN_OPTIONS`) and rasterise its maps."""
+    ``terrain`` says, :data:`TERRAIN_OPTIONS`) and rasterise its maps; ``people``: make its
+    crowd's path tables too when the maps are made in a second process (kept for
+    :func:`~citygen.runner.agents.crowd.crowd_of` as ``_crowd_tables``). ``process``: make the
+    maps in a second process while this one builds the model
+    (:class:`~citygen.runner.scene_maps.MapsProcess`; default: for a scene of
+    :data:`~citygen.runner.scene_maps.PROCESS_FROM_CELLS` map cells or more), the same maps;
+    ``store``: the on-disk store's folder and the scene's key there, where that process keeps
+    the crowd's tables."""
     from citygen.exporters import mjcf
-    from citygen.exporters.occupancy import occupancy
     from citygen.geometry.terrain import height_at
     from citygen.runner.robots import compose
 
-    start = scene.task.start if scene.task is not None else None
-    x, y = start.position if start is not None else scene.bounds.min
-    yaw = start.yaw if start is not None else 0.0
-    z = float(height_at(scene, x, y))
-    model = compose(_scene_mjcf(scene, terrain), robot, (x, y, z, yaw))
-    occ = occupancy(scene, map_resolution(scene))
-    labels = mjcf.geom_labels(model)
-    # Objects, buildings' solids and agents stand in the way; the rest is ground.
-    obstacle = np.array([lab is not None and lab[0] in ("object", "solid", "agent") for lab in labels])
-    ground = np.array([lab is not None and lab[0] not in ("object", "solid", "agent") for lab in labels])
-    # Unnamed static geoms of the scene (none today) and the apron count as ground.
-    agents = {}
-    for a in scene.agents:
-        body = model.body(f"agent:{a.id}")
-        agents[a.id] = int(model.body_mocapid[body.id])
-    crossable = crossable_cells(occ, robot, scene.terrain)
-    return Prepared(
+    res = map_resolution(scene)
+    if process is None:
+        process = worth_a_process(scene, res)
+    second = MapsProcess(scene, robot, res, people, store) if process else None
+    try:
+        start = scene.task.start if scene.task is not None else None
+        x, y = start.position if start is not None else scene.bounds.min
+        yaw = start.yaw if start is not None else 0.0
+        z = float(height_at(scene, x, y))
+        model = compose(_scene_mjcf(scene, terrain), robot, (x, y, z, yaw))
+        labels = mjcf.geom_labels(model)
+        # Objects, buildings' solids and agents stand in the way; the rest is ground.
+        obstacle = np.array([lab is not None and lab[0] in ("object", "solid", "agent") for lab in labels])
+        ground = np.array([lab is not None and lab[0] not in ("object", "solid", "agent") for lab in labels])
+        # Unnamed static geoms of the scene (none today) and the apron count as ground.
+        agents = {}
+        for a in scene.agents:
+            body = model.body(f"agent:{a.id}")
+            agents[a.id] = int(model.body_mocapid[body.id])
+        maps = second.result() if second is not None else build_maps(scene, robot, res)
+    finally:
+        if second is not None:
+            second.close()
+    out = Prepared(
         scene=scene,
         robot=robot,
         model=model,
-        occupancy=occ,
-        free=free_cells(occ, robot, crossable=crossable),
-        crossable=crossable,
-        walkable=occ.walkable_mask(),
+        occupancy=maps.occupancy,
+        free=maps.free,
+        crossable=maps.crossable,
+        walkable=maps.walkable,
         obstacle_geoms=obstacle,
         ground_geoms=ground,
         agent_bodies=agents,
     )
+    if maps.tables is not None:
+        out._crowd_tables = maps.tables
+    return out
 
 
 def cache_budget() -> int:
@@ -433,7 +418,11 @@ class SceneCache:
         self.hits = 0
         self.misses = 0
 
-    def get(self, source: SceneSource, index: int, robot: Any, terrain: str = "heightfield") -> Prepared:
+    def get(
+        self, source: SceneSource, index: int, robot: Any, terrain: str = "heightfield", people: bool = False
+    ) -> Prepared:
+        """The scene ``index`` of ``source`` prepared for ``robot`` (from this cache, the
+        on-disk store, or :func:`prepare`); ``people``: its crowd will run (:func:`prepare`'s)."""
         digest = hashlib.sha256(robot.xml.encode()).hexdigest()
         key = (source.key(index), robot.name, robot.timestep, robot.cone, digest, terrain)
         hit = self._items.get(key)
@@ -448,7 +437,8 @@ class SceneCache:
             stored = scene_store.entry_key(source.content_key(index), robot, terrain)
             item = disk.load(stored, robot, source._scene)  # a scene held: not read again
         if item is None:
-            item = prepare(source.scene(index), robot, terrain)
+            where = None if disk is None else (disk.root, stored)
+            item = prepare(source.scene(index), robot, terrain, people, store=where)
             if disk is not None:
                 disk.save(stored, item)
         if disk is not None:

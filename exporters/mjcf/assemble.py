@@ -12,7 +12,7 @@ from types import MappingProxyType
 import numpy as np
 
 from citygen.exporters.mjcf.builder import Builder
-from citygen.exporters.mjcf.contract import AGENT_BIT, MJCF, STATIC_BIT, arena_mb
+from citygen.exporters.mjcf.contract import AGENT_BIT, MJCF, STATIC_BIT, MJCFTree, arena_mb
 from citygen.exporters.mjcf.ground import add_ground
 from citygen.exporters.mjcf.objects import add_objects, add_solids
 from citygen.exporters.mjcf.text import num, nums
@@ -179,6 +179,22 @@ def _cameras(b: Builder, visual: ET.Element) -> None:
 
 def assemble(b: Builder, name: str) -> MJCF:
     """The model named ``name``: its XML text and the asset files it names."""
+    root = build_tree(b, name)
+    ET.indent(root, space="  ")
+    xml = ET.tostring(root, encoding="unicode") + "\n"
+    return MJCF(xml, MappingProxyType(dict(sorted(b.files.items()))))
+
+
+def assemble_tree(b: Builder, name: str) -> MJCFTree:
+    """The model named ``name`` as an element tree, the files it names and its heightfields'
+    samples as arrays (``b.binary_hfields`` is set here), for a reader in this process."""
+    b.binary_hfields = True
+    root = build_tree(b, name)
+    return MJCFTree(root, MappingProxyType(dict(sorted(b.files.items()))), MappingProxyType(b.hfields))
+
+
+def build_tree(b: Builder, name: str) -> ET.Element:
+    """The model named ``name``'s root element, not indented."""
     b.root = root = ET.Element("mujoco", model=name)
     ET.SubElement(root, "compiler", angle="radian", autolimits="true")
     size = ET.SubElement(root, "size")
@@ -218,6 +234,4 @@ def assemble(b: Builder, name: str) -> MJCF:
     stat = root.find("statistic")
     root.remove(stat)
     root.insert(list(root).index(b.asset), stat)
-    ET.indent(root, space="  ")
-    xml = ET.tostring(root, encoding="unicode") + "\n"
-    return MJCF(xml, MappingProxyType(dict(sorted(b.files.items()))))
+    return root

@@ -10,6 +10,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
 
+import numpy as np
+
 from citygen.exporters import ZONE_COLORS
 from citygen.exporters.mjcf.text import num, nums
 from citygen.geometry.pieces import ROUGH_TOLERANCE
@@ -65,6 +67,10 @@ class Builder:
     customs: ET.Element | None = None
     top: float = 0.0
     bottom: float = 0.0
+    #: Heightfields' samples as arrays in :attr:`hfields` (:class:`~citygen.exporters.mjcf.contract.MJCFTree`)
+    #: rather than ``elevation`` text.
+    binary_hfields: bool = False
+    hfields: dict[str, np.ndarray] = field(default_factory=dict)
 
     def material(self, name: str, rgba: tuple[float, ...]) -> str:
         if name not in self.materials:

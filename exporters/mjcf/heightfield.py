@@ -226,11 +226,15 @@ def shaped_tiles(
             span = max(int(steps.max()), 1) * HFIELD_UNIT
             b.samples += steps.size
             name = f"terrain:{len(hfields)}"
-            ET.SubElement(
-                b.asset, "hfield", name=name, nrow=str(cells + 1), ncol=str(cells + 1),
-                size=nums((s / 2, s / 2, span, HFIELD_BASE)),
-                elevation=ints(steps[::-1]),
-            )  # fmt: skip
+            size = nums((s / 2, s / 2, span, HFIELD_BASE))
+            shape = {"nrow": str(cells + 1), "ncol": str(cells + 1), "size": size}
+            if b.binary_hfields and int(steps.max()) < 1 << 24:  # whole numbers float32 holds
+                # The samples as MuJoCo's parser reads the text into the heightfield's
+                # userdata (the text's rows reversed), to the bit: the same model.
+                b.hfields[name] = steps.astype(np.float32).ravel()
+                ET.SubElement(b.asset, "hfield", name=name, **shape)
+            else:
+                ET.SubElement(b.asset, "hfield", name=name, **shape, elevation=ints(steps[::-1]))
             hfields[key] = (name, lo)
         name, lo = hfields[key]
         stiff = {"solref": nums((HYBRID_HFIELD_TIMECONST, 1.0))} if b.terrain == "hybrid" else {}

@@ -34,7 +34,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Iterator
 from typing import Any
 
-from citygen.exporters.mjcf.contract import MJCF, import_mujoco
+from citygen.exporters.mjcf.contract import MJCF, MJCFTree, import_mujoco
 
 #: Elements (geoms, bodies, ...) of a model parsed in one piece; a bigger model's worldbody
 #: is parsed in chunks of about this many. Parsing a chunk costs its size squared (6,000
@@ -50,26 +50,38 @@ _SHARED = ("compiler", "default")
 _EMPTY_PREFIX = "Attaching a spec with an empty prefix"
 
 
-def scene_spec(mjcf: MJCF, chunk: int = CHUNK_ELEMENTS, frames: bool = False) -> Any:
+def elements(mjcf: MJCF | MJCFTree, tag: str) -> int:
+    """How many ``tag`` elements (``"geom"``, ``"body"``) the model has: counted in its text,
+    or in its tree (MjSpec.geoms wraps every element in Python: minutes for a city)."""
+    if isinstance(mjcf, MJCFTree):
+        return sum(1 for _ in mjcf.root.iter(tag))
+    return mjcf.xml.count(f"<{tag} ")
+
+
+def scene_spec(mjcf: MJCF | MJCFTree, chunk: int = CHUNK_ELEMENTS, frames: bool = False) -> Any:
     """``mujoco.MjSpec.from_string(mjcf.xml, assets=...)``, in chunks of ``chunk`` elements
     when the model has more, its static bodies read as frames if ``frames`` (see the module
-    docstring: for a model compiled with ``fusestatic``). Raises ValueError as MuJoCo does."""
+    docstring: for a model compiled with ``fusestatic``). Raises ValueError as MuJoCo does.
+    An :class:`~citygen.exporters.mjcf.contract.MJCFTree` is read from its tree (which
+    this changes), not parsed from text."""
     mujoco = import_mujoco()
     assets = dict(mjcf.assets)
-    small = mjcf.xml.count("<geom ") + mjcf.xml.count("<body ") <= chunk
+    tree = isinstance(mjcf, MJCFTree)
+    hfields = mjcf.hfields if tree else {}
+    small = elements(mjcf, "geom") + elements(mjcf, "body") <= chunk
     if small and not frames:
-        return mujoco.MjSpec.from_string(mjcf.xml, assets=assets)
-    root = ET.fromstring(mjcf.xml)
+        return _filled(mujoco.MjSpec.from_string(mjcf.xml, assets=assets), hfields)
+    root = _shallow(mjcf.root) if tree else ET.fromstring(mjcf.xml)
     world = root.find("worldbody")
     if world is None or len(world.attrib):
-        return mujoco.MjSpec.from_string(mjcf.xml, assets=assets)
+        return _filled(mujoco.MjSpec.from_string(mjcf.xml, assets=assets), hfields)
     if frames:
         static_frames(root)
     if small:
-        return mujoco.MjSpec.from_string(ET.tostring(root, encoding="unicode"), assets=assets)
+        text = ET.tostring(root, encoding="unicode")
+        return _filled(mujoco.MjSpec.from_string(text, assets=assets), hfields)
     children = list(world)
-    for child in children:
-        world.remove(child)
+    del world[:]
     name = root.get("model", "scene")
     shared = [el for el in root if el.tag in _SHARED]
     own = root.find("asset")  # read last (see the module docstring)
@@ -90,7 +102,7 @@ def scene_spec(mjcf: MJCF, chunk: int = CHUNK_ELEMENTS, frames: bool = False) ->
             part.extend(shared)
             part.append(own)
             piece = mujoco.MjSpec.from_string(ET.tostring(part, encoding="unicode"), assets=assets)
-            spec.attach(piece, prefix="", frame=spec.worldbody.add_frame())
+            spec.attach(_filled(piece, hfields), prefix="", frame=spec.worldbody.add_frame())
     finally:
         mujoco.set_mju_user_warning(previous)
     return spec
@@ -132,10 +144,42 @@ def static_frames(root: ET.Element) -> int:
     if any(k < last for k, el in enumerate(children) if id(el) in keep):
         rest = [el for el in children if id(el) not in keep]
         at = rest.index(children[last]) + 1
-        for el in children:
-            world.remove(el)
+        del world[:]
         world.extend(rest[:at] + turned + rest[at:])
     return len(turned)
+
+
+def _filled(spec: Any, hfields: Any) -> Any:
+    """``spec`` with the samples of its heightfields named in ``hfields`` set (an
+    :class:`~citygen.exporters.mjcf.contract.MJCFTree`'s, as the text's parse sets them)."""
+    if hfields:
+        for hfield in spec.hfields:
+            data = hfields.get(hfield.name)
+            if data is not None:
+                hfield.userdata = memoryview(data)  # a buffer: 3 times faster than an array
+    return spec
+
+
+def _shallow(root: ET.Element) -> ET.Element:
+    """A copy of ``root`` that :func:`scene_spec` may change: new elements for the root, its
+    worldbody and the worldbody's bodies (what :func:`static_frames` and the chunks change),
+    sharing every other element with ``root``, which stays as it was."""
+    out = ET.Element(root.tag, dict(root.attrib))
+    for child in root:
+        if child.tag == "worldbody":
+            world = ET.SubElement(out, child.tag, dict(child.attrib))
+            world.extend(_copy(el) if el.tag == "body" else el for el in child)
+        else:
+            out.append(child)
+    return out
+
+
+def _copy(el: ET.Element) -> ET.Element:
+    """``el`` alone copied: its tag and attributes; its children shared."""
+    out = ET.Element(el.tag, dict(el.attrib))
+    out.text, out.tail = el.text, el.tail
+    out.extend(el)
+    return out
 
 
 def compile_spec(spec: Any) -> Any:

@@ -107,13 +107,23 @@ def crowd_of(prepared, scene: Scene, *, rng: np.random.Generator, dt: float) -> 
     (its constructor draws nothing from ``rng``). On a town they took 6 of a 10 s reset. Its
     :meth:`Crowd.tables` are kept in the on-disk store too, beside the scene's entry
     (:meth:`~citygen.runner.scene_store.SceneStore.load_array`): on a city their distance
-    transform and Dijkstra runs were most of a reset from the store."""
+    transform and Dijkstra runs were most of a reset from the store. On a first visit to a
+    town or a city they come made, with the scene's maps, from :func:`~citygen.runner.scenes.prepare`'s
+    second process (:mod:`citygen.runner.scene_maps`)."""
     have = getattr(prepared, "_crowd", None)
     if have is None or have[0] is not scene or have[1] != dt:
         disk, key = _store_of(prepared)
         tables = None if disk is None else _load_tables(disk, key, scene, prepared.occupancy)
+        # Made beside the model in a second process (citygen.runner.scene_maps) on a first
+        # visit to a town or a city: taken once, then kept by the crowd as a stored table is.
+        made_apart = getattr(prepared, "_crowd_tables", None)
+        if made_apart is not None:
+            del prepared._crowd_tables
+        fresh = tables is None
+        if fresh:
+            tables = made_apart
         made = Crowd(scene, prepared.occupancy, rng=rng, dt=dt, tables=tables)
-        if disk is not None and tables is None and len(made.ids):
+        if disk is not None and fresh and len(made.ids):
             for name, array in made.tables().items():
                 disk.save_array(key, f"{TABLES_ENTRY}-{name}", array)
         have = (scene, dt, made)

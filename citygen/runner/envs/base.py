@@ -115,8 +115,12 @@ class _CitygenEnv(Sensors, gymnasium.Env):
 
     # --- scenes and the model ------------------------------------------------------------
 
+    def _dynamic(self) -> bool:
+        """Whether the scene's people and vehicles move (NavDynamic and Traverse)."""
+        return False
+
     def _load(self, index: int) -> None:
-        prepared = process_cache().get(self.source, index, self.robot, self.terrain)
+        prepared = process_cache().get(self.source, index, self.robot, self.terrain, people=self._dynamic())
         if prepared is not self.prepared:
             # A scene this environment ran lately keeps its MjData and robot handle: coming
             # back to it swaps a few references instead of allocating them again.

@@ -9,8 +9,8 @@ from typing import Any
 import numpy as np
 
 from citygen.errors import CitygenError, ExportError
-from citygen.exporters.mjcf.contract import MJCF, ROBOT_BIT, ROBOT_CONAFFINITY, import_mujoco
-from citygen.exporters.mjcf.parse import compile_spec, scene_spec
+from citygen.exporters.mjcf.contract import MJCF, ROBOT_BIT, ROBOT_CONAFFINITY, MJCFTree, import_mujoco
+from citygen.exporters.mjcf.parse import compile_spec, elements, scene_spec
 from citygen.runner.robots.base import _GRAVITY, HOVER_CLEARANCE, IMPRATIO, PREFIX, Robot, _v
 
 
@@ -34,7 +34,7 @@ def flat_ground(size: float = 40.0, friction: float = 0.75) -> MJCF:
 FUSE_FROM_GEOMS = 2000
 
 
-def compose(scene_mjcf: MJCF, robot: Robot, pose: tuple[float, float, float, float]) -> Any:
+def compose(scene_mjcf: MJCF | MJCFTree, robot: Robot, pose: tuple[float, float, float, float]) -> Any:
     """The scene with the robot in it, compiled: a ``mujoco.MjModel``.
 
     ``pose = (x, y, ground_z, yaw)`` in m and rad: the robot stands there (its base
@@ -47,8 +47,8 @@ def compose(scene_mjcf: MJCF, robot: Robot, pose: tuple[float, float, float, flo
     mujoco = import_mujoco()
     x, y, z, yaw = (float(v) for v in pose)
     # A city holds ~10^5 static geoms: MuJoCo's default arena is too small for its broadphase.
-    # Counted in the text: MjSpec.geoms wraps every element in Python (minutes for a city).
-    n = scene_mjcf.xml.count("<geom ")
+    # Counted in the text or tree: MjSpec.geoms wraps every element in Python (minutes for a city).
+    n = elements(scene_mjcf, "geom")
     big = n > FUSE_FROM_GEOMS
     try:
         # A city's in chunks (MuJoCo's parser is quadratic); a town's or a city's static
