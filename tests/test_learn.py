@@ -495,6 +495,34 @@ def test_progress_shaping_pays_for_geodesic_progress_and_only_in_training():
         assert total - base == pytest.approx(2.0 * gained, rel=1e-6, abs=1e-6)
 
 
+def test_the_lean_term_charges_only_a_base_leaning_past_twenty_degrees():
+    """``tilt``: ``tilt x ((a - TILT_FREE) / TILT_SPAN)^2`` a step for a lean ``a`` past
+    TILT_FREE, nothing under it; the environment's own reward unchanged."""
+    import mujoco
+
+    from citygen.runner.learn.shaping import TILT_FREE, TILT_SPAN, ProgressReward
+    from citygen.runner.make import make_env
+
+    plain = make_env("nav-clear", split="urban-nav-1-train", robot="wheeled")
+    shaped = ProgressReward(make_env("nav-clear", split="urban-nav-1-train", robot="wheeled"), 0.0, tilt=3.0)
+    charged = []
+    for roll in (0.1, 0.42, 0.47):
+        for env in (plain, shaped):
+            env.reset(seed=3, options={"index": 0})
+            u = env.unwrapped
+            q = u.data.qpos[u.handle.qadr + 3 : u.handle.qadr + 7]
+            q[:] = (np.cos(roll / 2), np.sin(roll / 2), 0.0, 0.0)  # leaning sideways
+            mujoco.mj_forward(u.model, u.data)
+        lean = np.arccos(shaped.unwrapped.data.xmat[shaped.unwrapped.handle.base_id][8])
+        assert lean == pytest.approx(roll, abs=1e-9)
+        assert shaped.lean_cost() == pytest.approx(max(roll - TILT_FREE, 0) ** 2 / TILT_SPAN**2, abs=1e-9)
+        a = np.array([0.0, 0.0])
+        (_, base, *_), (_, total, *_) = plain.step(a), shaped.step(a)
+        assert total == pytest.approx(base - 3.0 * shaped.lean_cost(), abs=1e-9)
+        charged.append(total < base - 1e-6)
+    assert not charged[0] and charged[-1]  # upright: nothing; still leaning past 20 degrees: charged
+
+
 def test_driving_backwards_costs_what_it_moves_so_reversing_to_the_goal_earns_nothing():
     """The shaping's ``reverse`` term: reversing straight at the goal (the goal behind the
     robot) gains the geodesic progress and gives the same metres back; driving forwards

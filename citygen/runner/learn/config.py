@@ -185,6 +185,13 @@ class TrainConfig(BaseModel):
         "1.0 progress in reverse earns nothing, so policies drive forwards as their sensors face); "
         "not on a step that starts in collision, so backing off an obstacle is free.",
     )
+    tilt: Annotated[float, Field(ge=0, le=100)] = Field(
+        0.0,
+        description="Navigation, training only: weight of a lean term (a base leaning past 20 "
+        "degrees pays the square of the excess over 8.6 degrees a step; citygen.runner.learn."
+        "shaping), so that a wheeled robot learns to slow its turns on a hillside before it "
+        "rolls over.",
+    )
     gait_shaping: Annotated[float, Field(ge=0, le=100)] = Field(
         1.0,
         description="Locomotion, training only: weight of the gait shaping terms (broad velocity "

@@ -67,7 +67,7 @@ def _sub_env(
     task: str, split: str, robot: str, scenes: int | None, sampling: str, seed: int, rank: int, period: int,
     progress: float = 0.0, gamma: float = 0.99, reverse: float = 0.0, keys: tuple[str, ...] | None = None,
     loco: dict[str, Any] | None = None, locomotion: str = "servo",
-    gait: tuple[str, float, float] | None = None, max_steps: int | None = None,
+    gait: tuple[str, float, float] | None = None, max_steps: int | None = None, tilt: float = 0.0,
 ) -> gymnasium.Env:  # fmt: skip
     import multiprocessing
     import signal
@@ -84,10 +84,10 @@ def _sub_env(
     limit = {} if max_steps is None else {"max_steps": max_steps}  # else the task's horizon
     # Only the keys the policy reads.
     env = make_env(task, split=split, robot=robot, observations=keys, **walk, **limit)
-    if (progress or reverse) and task.startswith("nav"):
+    if (progress or reverse or tilt) and task.startswith("nav"):
         from citygen.runner.learn.shaping import ProgressReward
 
-        env = ProgressReward(env, progress, gamma, reverse)
+        env = ProgressReward(env, progress, gamma, reverse, tilt)
     if task.startswith("loco"):
         from citygen.runner.learn.loco import LocoTraining
 
@@ -234,6 +234,7 @@ def make_training_env(cfg: TrainConfig) -> Sb3VecEnv:
             cfg.locomotion,
             (cfg.gait, cfg.gait_scale, cfg.gait_max_speed) if cfg.gait else None,
             cfg.max_steps,
+            cfg.tilt,
         )
         for rank in range(cfg.envs)
     ]
