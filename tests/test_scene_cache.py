@@ -33,7 +33,10 @@ class _Robot:
 
 
 def test_the_cache_keeps_what_its_budget_holds_and_always_the_scene_in_use(monkeypatch):
-    monkeypatch.setattr(scenes, "prepare", lambda scene, robot, terrain: _Stub(10 + scene))
+    def prepare(scene, robot, terrain, people=False, store=None):  # prepare's signature
+        return _Stub(10 + scene)
+
+    monkeypatch.setattr(scenes, "prepare", prepare)
     cache = scenes.SceneCache(budget=34)
     source, robot = _Source(), _Robot()
     for i in range(4):
