@@ -3,6 +3,7 @@ terrain curriculum, gait shaping; training only), and a tiny run that ``citygen 
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 
@@ -122,24 +123,30 @@ def test_only_positive_rewards_clip_a_step_at_zero_and_keep_the_fall():
         raw.close()
 
 
+@contextlib.contextmanager
+def _trainings(robot: str, kws, seed: int, command, **common):
+    """One training wrapper of a LocoFlat environment per option set of ``kws`` (each with
+    ``common``), all reset with ``seed`` and ``command``; closed on the way out."""
+    envs = [LocoTraining(make_env("loco-flat", robot=robot), seed=0, rank=0, **common, **kw) for kw in kws]
+    try:
+        for e in envs:
+            e.reset(seed=seed, options={"command": command})
+        yield envs
+    finally:
+        for e in envs:
+            e.close()
+
+
 def test_the_survival_bonus_and_the_effort_scale_shift_only_their_terms():
     """``alive`` adds its value to every step; ``effort_scale`` scales the torque and joint
     acceleration penalties (never positive), nothing else."""
-    envs = [
-        LocoTraining(make_env("loco-flat", robot="wheeled_legged"), seed=0, rank=0, curriculum=False, **kw)
-        for kw in ({}, {"alive": 1.0}, {"effort_scale": 0.1}, {"effort_scale": 0.0})
-    ]
-    try:
+    kws = ({}, {"alive": 1.0}, {"effort_scale": 0.1}, {"effort_scale": 0.0})
+    with _trainings("wheeled_legged", kws, 2, (1.0, 0.0, 0.0), curriculum=False) as envs:
         rng = np.random.default_rng(1)
-        for e in envs:
-            e.reset(seed=2, options={"command": (1.0, 0.0, 0.0)})
         for a in np.clip(0.2 * rng.standard_normal((30, 16)), -1, 1):
             plain, alive, tenth, none = (e.step(a)[1] for e in envs)
             assert alive == pytest.approx(plain + 1.0, abs=1e-9)
             assert none >= tenth >= plain and tenth - plain == pytest.approx(0.9 * (none - plain))
-    finally:
-        for e in envs:
-            e.close()
 
 
 def test_the_fall_share_the_foot_clearance_and_the_turn_progress_change_only_their_terms():
@@ -148,10 +155,7 @@ def test_the_fall_share_the_foot_clearance_and_the_turn_progress_change_only_the
     ground); ``turn_progress`` adds its weight times the share of the commanded turn made
     good; an episode's end tells its curriculum row (``terrain_level``, the training log's)."""
     kws = ({}, {"fall_penalty": 0.25}, {"foot_clearance": 1.0}, {"turn_progress": 2.0})
-    envs = [LocoTraining(make_env("loco-flat", robot="quadruped"), seed=0, rank=0, **kw) for kw in kws]
-    try:
-        for e in envs:
-            e.reset(seed=4, options={"command": (0.5, 0.0, 0.8)})
+    with _trainings("quadruped", kws, 4, (0.5, 0.0, 0.8)) as envs:
         rng = np.random.default_rng(2)
         low, turned, fell = [], [], False
         for a in np.clip(0.8 * rng.standard_normal((600, 12)), -1, 1):
@@ -167,19 +171,12 @@ def test_the_fall_share_the_foot_clearance_and_the_turn_progress_change_only_the
             low.append(clear < plain)
             turned.append(turn != plain)
         assert fell and any(low) and any(turned)
-    finally:
-        for e in envs:
-            e.close()
 
 
 def test_base_height_costs_only_a_base_lower_than_standing():
     """``base_height`` pays its weight times the squared shortfall of the base's height under
     the robot's standing height, as a share of it: nothing standing, the most sitting down."""
-    kws = ({}, {"base_height": 3.0})
-    envs = [LocoTraining(make_env("loco-flat", robot="quadruped"), seed=0, rank=0, **kw) for kw in kws]
-    try:
-        for e in envs:
-            e.reset(seed=4, options={"command": (0.0, 0.0, 0.0)})
+    with _trainings("quadruped", ({}, {"base_height": 3.0}), 4, (0.0, 0.0, 0.0)) as envs:
         u = envs[1].unwrapped
         stand = u.robot.stand_height
         crouch = np.array([0.0, 0.6, -1.0] * 4)  # knees folded: it sits down
@@ -192,20 +189,13 @@ def test_base_height_costs_only_a_base_lower_than_standing():
             assert height == pytest.approx(plain - 3.0 * (short / stand) ** 2, abs=1e-9)
             costs.append(plain - height)
         assert costs[0] < 1e-3 and costs[-1] > 0.1, costs
-    finally:
-        for e in envs:
-            e.close()
 
 
 def test_heading_progress_pays_the_speed_along_the_held_heading_in_the_world():
     """``heading_progress`` adds its weight times the share of the commanded speed made good
     along the held heading in the world (a robot driving in circles earns it on one half of the
     circle and pays it on the other), and nothing where the command turns (no held heading)."""
-    kws = ({}, {"heading_progress": 1.5})
-    envs = [LocoTraining(make_env("loco-flat", robot="quadruped"), seed=0, rank=0, **kw) for kw in kws]
-    try:
-        for e in envs:
-            e.reset(seed=4, options={"command": (0.8, 0.0, 0.0)})
+    with _trainings("quadruped", ({}, {"heading_progress": 1.5}), 4, (0.8, 0.0, 0.0)) as envs:
         u = envs[1].unwrapped
         held = u.held_heading
         assert held is not None
@@ -226,9 +216,6 @@ def test_heading_progress_pays_the_speed_along_the_held_heading_in_the_world():
         a = np.zeros(12)
         (_, plain, *_), (_, heading, *_) = [e.step(a) for e in envs]
         assert heading == plain
-    finally:
-        for e in envs:
-            e.close()
 
 
 @pytest.fixture(scope="module")

@@ -232,12 +232,11 @@ def _child(conn: Any) -> None:
         scene, robot, resolution, people, store = pickle.loads(conn.recv_bytes())
         maps = build_maps(scene, robot, resolution, people)
         if maps.tables is not None and store is not None:
-            from citygen.runner.agents.crowd import TABLES_ENTRY
+            from citygen.runner.agents.crowd import save_tables
             from citygen.runner.scene_store import SceneStore
 
             disk = SceneStore(store[0])
-            for name, array in maps.tables.items():
-                disk.save_array(store[1], f"{TABLES_ENTRY}-{name}", array)
+            save_tables(disk, store[1], maps.tables)
             if not disk._unwritable:  # kept there: crowd_of reads them
                 maps.tables = None
         buffers: list[pickle.PickleBuffer] = []

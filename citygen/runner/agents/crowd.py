@@ -124,8 +124,7 @@ def crowd_of(prepared, scene: Scene, *, rng: np.random.Generator, dt: float) -> 
             tables = made_apart
         made = Crowd(scene, prepared.occupancy, rng=rng, dt=dt, tables=tables)
         if disk is not None and fresh and len(made.ids):
-            for name, array in made.tables().items():
-                disk.save_array(key, f"{TABLES_ENTRY}-{name}", array)
+            save_tables(disk, key, made.tables())
         have = (scene, dt, made)
         prepared._crowd = have
     crowd = copy.copy(have[2])  # its arrays shared: an episode replaces, never edits, them,
@@ -146,6 +145,13 @@ def _store_of(prepared) -> tuple:
     key = getattr(prepared, "store_key", None)
     disk = scene_store.store() if key is not None else None
     return (disk, key) if disk is not None else (None, None)
+
+
+def save_tables(disk, key: str, tables: dict[str, np.ndarray]) -> None:
+    """Keep a crowd's :meth:`Crowd.tables` beside store entry ``key``, where
+    :func:`_load_tables` reads them."""
+    for name, array in tables.items():
+        disk.save_array(key, f"{TABLES_ENTRY}-{name}", array)
 
 
 def _load_tables(disk, key: str, scene: Scene, occupancy: OccupancyMap) -> dict[str, np.ndarray] | None:
