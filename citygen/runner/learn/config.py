@@ -303,6 +303,30 @@ class TrainConfig(BaseModel):
         "--init FILE.npz (which holds no critic) the fresh value head first learns the actor's "
         "returns, so its first advantages do not undo the actor.",
     )
+    # Imitation before PPO (citygen.runner.learn.imitate)
+    expert: Literal["planner"] | None = Field(
+        None,
+        description="Navigation: first imitate this expert by DAgger (its rounds below), then train "
+        "on with PPO from there; planner: A* on the scene's maps and pure pursuit.",
+    )
+    dagger_iterations: Annotated[int, Field(ge=1, le=1000)] = Field(
+        4, description="DAgger rounds: drive episodes with the policy, label them, refit on all."
+    )
+    dagger_episodes: Annotated[int, Field(ge=1, le=100_000)] = Field(
+        100, description="Training episodes each DAgger round drives."
+    )
+    dagger_epochs: Annotated[int, Field(ge=1, le=1000)] = Field(
+        10, description="Passes over the aggregated data set after each DAgger round."
+    )
+    dagger_lr: Annotated[float, Field(gt=0, le=1)] = Field(1e-4, description="Adam's rate in DAgger's fits.")
+    dagger_beta: Annotated[float, Field(ge=0, le=1)] = Field(
+        0.5, description="In DAgger's first round, the share of steps the expert drives."
+    )
+    bc_coef: Annotated[float, Field(ge=0, le=100)] = Field(
+        0.0,
+        description="Weight of the behaviour-cloning loss on DAgger's data set added to every "
+        "PPO update (0: none), so PPO keeps what the expert showed.",
+    )
     # CPU and bookkeeping
     torch_threads: Annotated[int, Field(ge=0, le=256)] = Field(
         1,
@@ -344,6 +368,20 @@ class TrainConfig(BaseModel):
         if gait is not None and not str(info.data.get("task", "")).startswith("loco"):
             raise ValueError(f"a locomotion task (loco-*) for gait {gait!r}")
         return gait
+
+    @field_validator("expert")
+    @classmethod
+    def _expert_for_navigation(cls, expert: str | None, info: ValidationInfo) -> str | None:
+        if expert is not None and not str(info.data.get("task", "")).startswith("nav"):
+            raise ValueError(f"a navigation task (nav-*) for expert {expert!r}")
+        return expert
+
+    @field_validator("bc_coef")
+    @classmethod
+    def _cloning_needs_an_expert(cls, coef: float, info: ValidationInfo) -> float:
+        if coef > 0 and info.data.get("expert") is None:
+            raise ValueError("0 without an expert (bc_coef clones the expert's actions)")
+        return coef
 
     @field_validator("stack")
     @classmethod

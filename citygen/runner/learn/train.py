@@ -507,6 +507,28 @@ def _start_from_policy(model: Any, venv: Any, path: Path) -> None:
             rms.count = 1e6  # statistics of a finished run: new samples move them slowly
 
 
+def _imitate(model: Any, venv: Any, cfg: TrainConfig, out: Path, resume: bool) -> None:
+    """DAgger from ``cfg.expert`` before PPO (:mod:`citygen.runner.learn.imitate`), with a
+    checkpoint at 0 steps after it (a ``--resume`` goes on with PPO); then, with
+    ``bc_coef``, the cloning term in PPO's updates, on the data set kept in the run folder."""
+    from citygen.runner.learn import imitate
+
+    store = out / "imitation.npz"
+    if resume:
+        if not cfg.bc_coef:
+            return
+        if not store.is_file():
+            raise TrainError(f"--resume: {store}, the DAgger data set bc_coef clones, is missing")
+        data = imitate.Demonstrations.load(store, tuple(cfg.obs_keys))
+    else:
+        data = imitate.dagger(model, venv, cfg, out)
+        if cfg.bc_coef:
+            data.save(store)
+        save_checkpoint(model, venv, out, cfg.keep_checkpoints)
+    if cfg.bc_coef:
+        imitate.keep_cloning(model, venv, data, cfg.bc_coef, cfg.seed)
+
+
 def _schedule(cfg: TrainConfig) -> Any:
     """SB3's learning rate: a number, or a function of the remaining progress (1 -> 0 over
     the run's ``steps``, counted from step 0 also when resuming)."""
@@ -656,6 +678,8 @@ def train(
     # Ctrl-C) stop a run with SIGTERM: save a checkpoint as Ctrl-C does.
     previous = signal.signal(signal.SIGTERM, _interrupt) if _main_thread() else None
     try:
+        if cfg.expert:
+            _imitate(model, venv, cfg, out, resume)
         if cfg.steps > start:
             model.learn(
                 total_timesteps=cfg.steps - start,

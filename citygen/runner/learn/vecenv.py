@@ -195,6 +195,47 @@ class Sb3VecEnv(VecEnv):
         return [False for _ in self._get_indices(indices)]
 
 
+def _sub_env_args(cfg: TrainConfig, rank: int) -> tuple[Any, ...]:
+    """:func:`_sub_env`'s arguments for sub-environment ``rank`` of the run ``cfg``."""
+    return (
+        cfg.task,
+        cfg.train_split,
+        cfg.robot_name,
+        cfg.scenes,
+        cfg.sampling,
+        cfg.seed,
+        rank,
+        cfg.n_steps,
+        cfg.progress,
+        cfg.gamma,
+        cfg.reverse,
+        tuple(cfg.obs_keys),
+        {
+            "shaping": cfg.gait_shaping,
+            "command_mix": cfg.command_mix,
+            "curriculum": cfg.curriculum,
+            "only_positive": cfg.only_positive,
+            "effort_scale": cfg.effort_scale,
+            "alive": cfg.alive,
+            "fall_penalty": cfg.fall_penalty,
+            "foot_clearance": cfg.foot_clearance,
+            "turn_progress": cfg.turn_progress,
+            "heading_progress": cfg.heading_progress,
+            "base_height": cfg.base_height,
+        },
+        cfg.locomotion,
+        (cfg.gait, cfg.gait_scale, cfg.gait_max_speed) if cfg.gait else None,
+        cfg.max_steps,
+        cfg.tilt,
+    )
+
+
+def sub_env_of(cfg: TrainConfig, rank: int) -> gymnasium.Env:
+    """Sub-environment ``rank`` of the run ``cfg``, built in this process (the imitation
+    rounds of :mod:`citygen.runner.learn.imitate` drive one beside the vector env)."""
+    return _sub_env(*_sub_env_args(cfg, rank))
+
+
 def make_training_env(cfg: TrainConfig) -> Sb3VecEnv:
     """The SB3 vector environment of a training run: ``cfg.envs`` sub-environments of
     ``cfg.task`` on ``cfg.train_split``, spread over a process per core or all in this one
@@ -203,41 +244,7 @@ def make_training_env(cfg: TrainConfig) -> Sb3VecEnv:
 
     from citygen.runner.vector import VectorEnv
 
-    fns = [
-        functools.partial(
-            _sub_env,
-            cfg.task,
-            cfg.train_split,
-            cfg.robot_name,
-            cfg.scenes,
-            cfg.sampling,
-            cfg.seed,
-            rank,
-            cfg.n_steps,
-            cfg.progress,
-            cfg.gamma,
-            cfg.reverse,
-            tuple(cfg.obs_keys),
-            {
-                "shaping": cfg.gait_shaping,
-                "command_mix": cfg.command_mix,
-                "curriculum": cfg.curriculum,
-                "only_positive": cfg.only_positive,
-                "effort_scale": cfg.effort_scale,
-                "alive": cfg.alive,
-                "fall_penalty": cfg.fall_penalty,
-                "foot_clearance": cfg.foot_clearance,
-                "turn_progress": cfg.turn_progress,
-                "heading_progress": cfg.heading_progress,
-                "base_height": cfg.base_height,
-            },
-            cfg.locomotion,
-            (cfg.gait, cfg.gait_scale, cfg.gait_max_speed) if cfg.gait else None,
-            cfg.max_steps,
-            cfg.tilt,
-        )
-        for rank in range(cfg.envs)
-    ]
+    fns = [functools.partial(_sub_env, *_sub_env_args(cfg, rank)) for rank in range(cfg.envs)]
     processes = cfg.processes if cfg.processes is not None else int((os.cpu_count() or 1) > 1)
     # citygen's vector env: observations through shared memory, nothing pickled per step.
     venv = VectorEnv(fns, processes=bool(processes and cfg.envs > 1), autoreset_mode=AutoresetMode.SAME_STEP)
