@@ -679,7 +679,11 @@ def train(
     previous = signal.signal(signal.SIGTERM, _interrupt) if _main_thread() else None
     try:
         if cfg.expert:
+            t0 = time.perf_counter()
             _imitate(model, venv, cfg, out, resume)
+            # the rounds' time counts in the run's seconds, not in PPO's steps/s
+            seconds0 += time.perf_counter() - t0
+            tracker.t0 = time.perf_counter()
         if cfg.steps > start:
             model.learn(
                 total_timesteps=cfg.steps - start,
