@@ -188,3 +188,23 @@ def test_train_refuses_learned_legs_it_cannot_have_before_it_starts(general, cli
     lines = result.err.strip().splitlines()
     assert result.code == 2 and len(lines) == 1 and word in lines[0], result
     assert "training PPO" not in result.out
+
+
+def test_policy_ppo_on_learned_legs_runs_the_model_fine_tuned_on_them(general, tmp_path):
+    """A navigation file trained with ``locomotion="learned"`` (its metadata says so) is
+    ``--policy ppo`` on learned legs only; the servo keeps its own file."""
+    from citygen.runner.learn.policy import resolve_policy
+
+    servo = shipped_models.BASELINES / "nav-static-quadruped.npz"
+    with np.load(servo) as data:
+        arrays = {k: data[k] for k in data.files}
+    meta = {**json.loads(str(arrays.pop("meta"))), "locomotion": "learned"}
+    legs = write_policy(shipped_models.BASELINES / "nav-static-quadruped-legs.npz", meta, arrays)
+    assert shipped_models.baseline("nav-static", "quadruped") == servo
+    assert shipped_models.baseline("nav-static", "quadruped", "learned") == legs
+    found = resolve_policy("ppo", "nav-static", "quadruped", (), locomotion="learned")
+    assert found == str(legs)
+    assert resolve_policy("ppo", "nav-static", "quadruped", ()) == str(servo)
+    # A task with no legs file falls back to the servo's on learned legs too.
+    clear = shipped_models.baseline("nav-clear", "quadruped", "learned")
+    assert clear == shipped_models.BASELINES / "nav-clear-quadruped.npz"

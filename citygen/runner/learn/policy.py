@@ -148,7 +148,8 @@ def resolve_policy(
 
     env = make_env(task, robot=robot, **env_options)
     try:
-        path = baseline(task, env.unwrapped.robot.name) if name == "ppo" else Path(name)
+        locomotion = env_options.get("locomotion") or "servo"
+        path = baseline(task, env.unwrapped.robot.name, locomotion) if name == "ppo" else Path(name)
         check_fits(load_policy(path), env, str(name))
     finally:
         env.close()

@@ -1,6 +1,8 @@
 """The learned models that ship with citygen (``baselines/`` in this package): the task
-models ``<task>-<robot>.npz`` behind ``--policy ppo`` and each robot's general locomotion
-model (trained on :data:`GENERAL_LOCO_SPLIT`). Found by reading each file's metadata with
+models ``<task>-<robot>.npz`` behind ``--policy ppo``, each robot's general locomotion
+model (trained on :data:`GENERAL_LOCO_SPLIT`), and navigation models fine-tuned on a legged
+robot's learned legs (``<task>-<robot>-legs.npz``, trained with ``locomotion="learned"``:
+``--policy ppo`` with ``--locomotion learned``). Found by reading each file's metadata with
 numpy alone, so that an environment can find its locomotion model without the rest of
 :mod:`citygen.runner.learn` (which makes environments: an import circle)."""
 
@@ -30,27 +32,34 @@ def _meta(path: str, mtime: float) -> dict:
     return read_policy(path).meta
 
 
-def _shipped_files() -> tuple[dict[tuple[str, str], Path], dict[str, Path]]:
-    """The shipped files: ``(task, robot) -> file`` of the task models and ``robot -> file``
-    of the general locomotion models (trained on :data:`GENERAL_LOCO_SPLIT`)."""
+def _shipped_files() -> tuple[dict[tuple[str, str], Path], dict[str, Path], dict[tuple[str, str], Path]]:
+    """The shipped files: ``(task, robot) -> file`` of the task models, ``robot -> file`` of
+    the general locomotion models (trained on :data:`GENERAL_LOCO_SPLIT`), and ``(task,
+    robot) -> file`` of the navigation models trained on learned legs."""
     tasks: dict[tuple[str, str], Path] = {}
     general: dict[str, Path] = {}
+    legs: dict[tuple[str, str], Path] = {}
     for path in sorted(BASELINES.glob("*.npz")):
         meta = _meta(str(path), path.stat().st_mtime)
         if meta.get("train", {}).get("split") == GENERAL_LOCO_SPLIT:
             general[meta["robot"]] = path
+        elif meta.get("locomotion") == "learned":
+            legs[(meta["task"], meta["robot"])] = path
         else:
             tasks[(meta["task"], meta["robot"])] = path
-    return tasks, general
+    return tasks, general, legs
 
 
-def shipped() -> dict[tuple[str, str], Path]:
+def shipped(locomotion: str = "servo") -> dict[tuple[str, str], Path]:
     """The shipped baselines: ``(task, robot) -> file``. A robot's general locomotion model
-    serves each locomotion task that has no terrain model of its own."""
-    out, general = _shipped_files()
+    serves each locomotion task that has no terrain model of its own; with ``locomotion =
+    "learned"`` a navigation model fine-tuned on learned legs replaces the servo's."""
+    out, general, legs = _shipped_files()
     for robot, path in general.items():
         for task in LOCO_TASKS:
             out.setdefault((task, robot), path)
+    if locomotion == "learned":
+        out.update(legs)
     return out
 
 
@@ -80,9 +89,10 @@ def terrain_locomotion(robot: str) -> dict[str, Path]:
     }
 
 
-def baseline(task: str, robot: str) -> Path:
-    """The shipped baseline of ``task`` and ``robot``, or a one-line error listing those that exist."""
-    found = shipped()
+def baseline(task: str, robot: str, locomotion: str = "servo") -> Path:
+    """The shipped baseline of ``task`` and ``robot`` (on learned legs: the one fine-tuned
+    on them, if any), or a one-line error listing those that exist."""
+    found = shipped(locomotion)
     if (task, robot) not in found:
         have = ", ".join(f"{t} {r}" for t, r in found) or "none"
         raise PolicyError(f"--policy ppo: no shipped baseline for {task} with robot {robot}; shipped: {have}")

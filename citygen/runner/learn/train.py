@@ -732,6 +732,8 @@ def train(
         goal_range=cfg.goal_range,
         train=train_notes,
     )
+    if cfg.locomotion == "learned":  # trained on the robot's legs: --policy ppo there (shipped_models)
+        meta["locomotion"] = "learned"
     if cfg.gait:  # the policy rides on the gait (learn.residual); load_policy puts it back under it
         from citygen.runner.learn.residual import gait_spec
 
