@@ -143,7 +143,12 @@ def evaluate(
 
 
 def plot(
-    results: list[dict], path: Path, steps: int, init: Path | None = None, start: float | None = None
+    results: list[dict],
+    path: Path,
+    steps: int,
+    init: Path | None = None,
+    start: float | None = None,
+    imitation: str = "",
 ) -> None:
     import matplotlib
 
@@ -170,12 +175,24 @@ def plot(
     ax.set_ylabel("NavStatic success on urban-nav-2-test (%)")
     ax.set_ylim(0, 100)
     start = "from scratch" if init is None else f"from {init.name}"
-    ax.set_title(f"PPO, {steps:,} steps per run {start}, wheeled robot")
+    ax.set_title(f"{imitation}PPO, {steps:,} steps per run {start}, wheeled robot")
     ax.legend(loc="upper left")
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path)
     plt.close(fig)
+
+
+def _imitation(config: Path | None) -> str:
+    """The plot title's words for runs that imitate an expert first (``expert`` in the config)."""
+    if config is None:
+        return ""
+    from citygen.runner.learn.config import load_config
+
+    cfg = load_config(config, task="nav-static")
+    if cfg.expert is None:
+        return ""
+    return f"DAgger from the {cfg.expert} ({cfg.dagger_iterations} x {cfg.dagger_episodes} episodes), then "
 
 
 def _samplings(text: str) -> list[str]:
@@ -262,6 +279,7 @@ def main() -> None:
         args.steps,
         args.init,
         None if start is None else start["success_rate"],
+        _imitation(args.config),
     )
 
     print()
