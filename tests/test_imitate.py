@@ -15,16 +15,15 @@ import numpy as np
 import pytest
 
 from tests.conftest import ROOT
+from tests.test_learn import TINY as PPO_TINY
+from tests.test_learn import _train
 
 pytestmark = pytest.mark.filterwarnings("ignore::citygen.exporters.ExportWarning")
 
-#: Two DAgger rounds of two short episodes, fitted hard, then a few PPO steps with cloning.
-TINY = """
-n_steps = 50
-minibatches = 2
-n_epochs = 2
-net_arch = [32, 32]
-checkpoint_every = 100
+#: test_learn's tiny PPO after two DAgger rounds of two short episodes, fitted hard.
+TINY = (
+    PPO_TINY
+    + """
 expert = "planner"
 dagger_iterations = 2
 dagger_episodes = 2
@@ -32,13 +31,7 @@ dagger_epochs = 30
 dagger_lr = 1e-3
 bc_coef = 0.5
 """
-
-TRAIN = [sys.executable, "-m", "citygen", "train", "--task", "nav-clear", "--envs", "2", "--processes", "0"]
-
-
-def _train(*args):
-    cmd = [*TRAIN, *map(str, args)]
-    return subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=300)
+)
 
 
 @pytest.fixture(scope="module")
