@@ -195,6 +195,8 @@ def test_policy_ppo_on_learned_legs_runs_the_model_fine_tuned_on_them(general, t
     ``--policy ppo`` on learned legs only; the servo keeps its own file."""
     from citygen.runner.learn.policy import resolve_policy
 
+    for (task, robot), path in shipped_models._shipped_files()[2].items():  # the files that ship
+        assert resolve_policy("ppo", task, robot, (), locomotion="learned") == str(path)
     servo = shipped_models.BASELINES / "nav-static-quadruped.npz"
     with np.load(servo) as data:
         arrays = {k: data[k] for k in data.files}
