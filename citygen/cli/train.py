@@ -100,7 +100,7 @@ def train(
 ) -> None:
     """Train a PPO policy (the paper's hyperparameters) and export it for `citygen bench --policy`."""
     from citygen.runner.learn.config import load_config
-    from citygen.runner.learn.train import require_train
+    from citygen.runner.learn.extra import require_train
     from citygen.runner.learn.train import train as run
 
     cfg = load_config(

@@ -65,11 +65,14 @@ class Demonstrations:
         return {k: np.stack(v) for k, v in self.obs.items()}, np.stack(self.labels)
 
     def save(self, path: Path) -> None:
-        from citygen.runner.learn.train import atomically
+        import io
+
+        from citygen.io import write_atomic
 
         obs, labels = self.arrays()
-        with atomically(path) as part, open(part, "wb") as f:
-            np.savez(f, labels=labels, **{f"obs/{k}": v for k, v in obs.items()})
+        buffer = io.BytesIO()
+        np.savez(buffer, labels=labels, **{f"obs/{k}": v for k, v in obs.items()})
+        write_atomic(path, buffer.getvalue())  # never half a file
 
     @classmethod
     def load(cls, path: Path, keys: tuple[str, ...]) -> Demonstrations:

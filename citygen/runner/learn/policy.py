@@ -38,7 +38,7 @@ def is_model(name: str) -> bool:
 
 
 def _sb3_policy(path: Path) -> NumpyPolicy:
-    from citygen.runner.learn.train import require_train, stats_of
+    from citygen.runner.learn.extra import require_train, stats_of
 
     require_train()
     import pickle

@@ -35,28 +35,12 @@ from typing import Any
 
 import numpy as np
 
-from citygen.errors import CitygenError, Interrupted, is_interrupt
+from citygen.errors import Interrupted, is_interrupt
 from citygen.runner.learn.config import TrainConfig
+from citygen.runner.learn.extra import MISSING, TrainError, require_train, stats_of  # noqa: F401
 
 #: The one line printed when the optional dependencies are missing.
-MISSING = (
-    'citygen train needs the optional "train" extra (Stable-Baselines3 and PyTorch), which is not '
-    'installed: pip install -e ".[train]" (see docs/training.md for a CPU-only PyTorch)'
-)
 CURVE_FIELDS = ("steps", "seconds", "steps_per_s", "episodes", "success_rate", "return_mean")
-
-
-class TrainError(CitygenError):
-    """A training run that cannot start or continue."""
-
-
-def require_train() -> None:
-    """A one-line :class:`TrainError` naming the ``train`` extra when it is not installed."""
-    try:
-        import stable_baselines3  # noqa: F401
-        import torch  # noqa: F401
-    except ImportError:
-        raise TrainError(MISSING) from None
 
 
 @dataclass(frozen=True)
@@ -66,12 +50,6 @@ class TrainResult:
     seconds: float
     success_rate: float | None
     policy: Path
-
-
-def stats_of(model: Path) -> Path:
-    """The ``VecNormalize`` statistics saved with an SB3 model: ``model_<steps>.zip`` ->
-    ``vecnormalize_<steps>.pkl``, ``model.zip`` -> ``vecnormalize.pkl``."""
-    return model.with_name(model.stem.replace("model", "vecnormalize") + ".pkl")
 
 
 def latest_checkpoint(out: Path) -> tuple[int, Path, Path] | None:
