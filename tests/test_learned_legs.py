@@ -207,6 +207,12 @@ def test_policy_ppo_on_learned_legs_runs_the_model_fine_tuned_on_them(general, t
     found = resolve_policy("ppo", "nav-static", "quadruped", (), locomotion="learned")
     assert found == str(legs)
     assert resolve_policy("ppo", "nav-static", "quadruped", ()) == str(servo)
+    # The traverse's AI on learned legs navigates with it too.
+    from citygen.runner.policies import foundational_navigator, traverse_ai
+
+    assert traverse_ai("quadruped", "learned").path == str(legs)
+    assert traverse_ai("quadruped").path == str(servo)
+    assert foundational_navigator("quadruped", "learned").paths["nav-static"] == str(legs)
     # A task with no legs file falls back to the servo's on learned legs too.
     clear = shipped_models.baseline("nav-clear", "quadruped", "learned")
     assert clear == shipped_models.BASELINES / "nav-clear-quadruped.npz"

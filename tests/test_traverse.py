@@ -143,7 +143,9 @@ def test_the_ai_drives_the_robots_shipped_learned_navigator_else_the_planner(mon
     assert isinstance(ai, policies.LearnedNavigator)
     assert ai.path == str(learned.shipped()[("nav-static", "quadruped")])
     some = next(iter(learned.shipped().values()))
-    monkeypatch.setattr(learned, "shipped", lambda: {("nav-static", "wheeled_legged"): some})
+    monkeypatch.setattr(
+        learned, "shipped", lambda locomotion="servo": {("nav-static", "wheeled_legged"): some}
+    )
     # a shipped baseline drives the traverse only once it is named for the robot's track
     assert isinstance(policies.traverse_ai("wheeled_legged"), policies.PlannerPolicy)
     monkeypatch.setitem(policies.TRAVERSE_AI, "wheeled_legged", "nav-static")

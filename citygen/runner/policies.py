@@ -319,12 +319,13 @@ class LearnedNavigator:
         return action
 
 
-def traverse_ai(robot: str) -> Policy:
+def traverse_ai(robot: str, locomotion: str = "servo") -> Policy:
     """The AI of a traverse for ``robot``: :class:`LearnedNavigator` on its shipped learned
-    baseline named in :data:`TRAVERSE_AI`, else the privileged planner (:class:`PlannerPolicy`)."""
+    baseline named in :data:`TRAVERSE_AI` (on learned legs, the one fine-tuned on them if one
+    ships), else the privileged planner (:class:`PlannerPolicy`)."""
     from citygen.runner.learn.policy import shipped
 
-    found = shipped()
+    found = shipped(locomotion)
     if (TRAVERSE_AI.get(robot), robot) in found:
         return LearnedNavigator(str(found[(TRAVERSE_AI[robot], robot)]))
     return PlannerPolicy()
@@ -424,12 +425,13 @@ class DispatchingNavigator(LearnedNavigator):
         return self.task
 
 
-def foundational_navigator(robot: str) -> Policy:
+def foundational_navigator(robot: str, locomotion: str = "servo") -> Policy:
     """The foundational navigation of ``robot``: :class:`DispatchingNavigator` over its
-    shipped models of :data:`FOUNDATIONAL_NAV`, else (none shipped) the planner."""
+    shipped models of :data:`FOUNDATIONAL_NAV` (on learned legs, those fine-tuned on them
+    where one ships), else (none shipped) the planner."""
     from citygen.runner.learn.policy import shipped
 
-    found = shipped()
+    found = shipped(locomotion)
     paths = {t: str(found[(t, robot)]) for t in FOUNDATIONAL_NAV if (t, robot) in found}
     return DispatchingNavigator(paths) if paths else PlannerPolicy()
 
@@ -479,14 +481,15 @@ class ControlMode:
         self.terrain_legs = terrain_legs
         self.ai = ai
         self._given = ai is not None
-        self._robot: str | None = None  # whose AI self.ai is
+        self._robot: tuple[str, str] | None = None  # whose AI self.ai is, and on what legs
         self.env = None
 
     def reset(self, env: Any) -> None:
         self.env = env
-        if not self._given and self._robot != env.robot.name:
+        walk = "learned" if getattr(env, "legs", None) is not None else "servo"
+        if not self._given and self._robot != (env.robot.name, walk):
             make_ai = traverse_ai if self.navigation == "general" else foundational_navigator
-            self.ai, self._robot = make_ai(env.robot.name), env.robot.name
+            self.ai, self._robot = make_ai(env.robot.name, walk), (env.robot.name, walk)
         self.ai.reset(env)
         self.driver.reset(env)
         self._last = None
