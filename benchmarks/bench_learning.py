@@ -192,7 +192,7 @@ def _imitation(config: Path | None) -> str:
     cfg = load_config(config, task="nav-static")
     if cfg.expert is None:
         return ""
-    return f"DAgger from the {cfg.expert} ({cfg.dagger_iterations} x {cfg.dagger_episodes} episodes), then "
+    return f"DAgger from the {cfg.expert} ({cfg.dagger_iterations} x {cfg.dagger_episodes} episodes), then\n"
 
 
 def _samplings(text: str) -> list[str]:
