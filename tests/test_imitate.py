@@ -147,3 +147,37 @@ def test_an_expert_the_run_cannot_use_is_one_line(cli, tmp_path, task, extra, sa
     assert result.code == 2
     assert says in result.err and "Traceback" not in result.err + result.out
     assert not (tmp_path / "r").exists()
+
+
+@pytest.mark.slow
+def test_a_run_stopped_in_its_imitation_rounds_starts_over_with_the_same_command(tmp_path):
+    """SIGTERM in the rounds leaves no checkpoint (nothing half-imitated to resume) and says
+    so in one line; the same command then runs the rounds from the start."""
+    import signal
+    import time
+
+    from tests.test_learn import TRAIN
+
+    config = tmp_path / "c.toml"
+    config.write_text(TINY.replace("dagger_episodes = 2", "dagger_episodes = 40"))
+    out = tmp_path / "run"
+    args = ["--steps", "100", "--max-steps", "40", "--config", str(config), "--out", str(out)]
+    proc = subprocess.Popen(
+        [*TRAIN, *args], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    deadline = time.monotonic() + 300
+    try:
+        while not (out / "imitation.csv").exists():  # written as the rounds begin
+            assert proc.poll() is None, proc.stderr.read()
+            assert time.monotonic() < deadline
+            time.sleep(0.1)
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=120)
+    assert proc.returncode != 0 and "imitation rounds" in err and "Traceback" not in err, err
+    assert err.strip().count("\n") == 0
+    assert not (out / "checkpoints").exists()
+    config.write_text(TINY)  # the same run, shorter rounds: it starts, it is not refused
+    again = _train(*args)
+    assert again.returncode == 0, again.stderr[-2000:]
+    assert "DAgger round 2/2" in again.stdout

@@ -39,7 +39,6 @@ from citygen.errors import Interrupted, is_interrupt
 from citygen.runner.learn.config import TrainConfig
 from citygen.runner.learn.extra import MISSING, TrainError, require_train, stats_of  # noqa: F401
 
-#: The one line printed when the optional dependencies are missing.
 CURVE_FIELDS = ("steps", "seconds", "steps_per_s", "episodes", "success_rate", "return_mean")
 
 
@@ -655,10 +654,13 @@ def train(
     # ``kill``, a job scheduler's preemption and a background job (whose shell ignores
     # Ctrl-C) stop a run with SIGTERM: save a checkpoint as Ctrl-C does.
     previous = signal.signal(signal.SIGTERM, _interrupt) if _main_thread() else None
+    imitating = False
     try:
         if cfg.expert:
             t0 = time.perf_counter()
+            imitating = not resume
             _imitate(model, venv, cfg, out, resume)
+            imitating = False
             # the rounds' time counts in the run's seconds, not in PPO's steps/s
             seconds0 += time.perf_counter() - t0
             tracker.t0 = time.perf_counter()
@@ -675,6 +677,13 @@ def train(
         if bar is not None:
             bar.stop()
             bar = None
+        if imitating:  # no checkpoint before the rounds end: the same command starts over
+            with contextlib.suppress(BaseException):
+                venv.close()
+            raise Interrupted(
+                f"interrupted in the imitation rounds, before any checkpoint; run the same command "
+                f"again (the rounds start over in {out})"
+            ) from None
         save_checkpoint(model, venv, out, cfg.keep_checkpoints)
         with contextlib.suppress(BaseException):  # workers that got the Ctrl-C too are gone already
             venv.close()
