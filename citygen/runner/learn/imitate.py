@@ -95,15 +95,20 @@ def _mean_action(policy: Any, nobs: dict[str, np.ndarray]) -> Any:
     return policy.get_distribution(tensors).distribution.mean.clamp(-1.0, 1.0)
 
 
+def _squared_error(policy: Any, nobs: dict[str, np.ndarray], labels: Any) -> Any:
+    """The mean squared error of the actor's mean on normalised observations ``nobs``
+    against the expert's actions ``labels`` (a tensor with its graph)."""
+    return ((_mean_action(policy, nobs) - labels) ** 2).mean()
+
+
 def bc_loss(policy: Any, venv: Any, data: Demonstrations, rng: np.random.Generator, batch: int = _BATCH):
-    """The squared error of the actor's mean against the expert's actions on a random
-    minibatch of ``data`` (a tensor with its graph)."""
+    """:func:`_squared_error` on a random minibatch of ``data``."""
     import torch
 
     idx = rng.integers(len(data), size=min(batch, len(data)))
     obs = {k: np.stack([data.obs[k][i] for i in idx]) for k in data.keys}
     labels = torch.as_tensor(np.stack([data.labels[i] for i in idx]))
-    return ((_mean_action(policy, _normalized(venv, obs)) - labels) ** 2).mean()
+    return _squared_error(policy, _normalized(venv, obs), labels)
 
 
 def _fit(policy: Any, venv: Any, data: Demonstrations, cfg: TrainConfig, rng: np.random.Generator) -> float:
@@ -120,7 +125,7 @@ def _fit(policy: Any, venv: Any, data: Demonstrations, cfg: TrainConfig, rng: np
         total = 0.0
         for s in range(0, len(order), _BATCH):
             idx = order[s : s + _BATCH]
-            loss = ((_mean_action(policy, {k: v[idx] for k, v in nobs.items()}) - targets[idx]) ** 2).mean()
+            loss = _squared_error(policy, {k: v[idx] for k, v in nobs.items()}, targets[idx])
             opt.zero_grad()
             loss.backward()
             torch.nn.utils.clip_grad_norm_(policy.parameters(), 1.0)
@@ -155,7 +160,6 @@ def dagger(model: Any, venv: Any, cfg: TrainConfig, out: Path, log: Any = print)
     try:
         for it in range(cfg.dagger_iterations):
             t0, wins, first = time.perf_counter(), 0, len(data)
-            raw = Demonstrations(data.keys)
             for _ in range(cfg.dagger_episodes):
                 obs, _ = env.reset(seed=seed)
                 seed = None  # the first reset seeds the scene schedule; the rest continue it
@@ -164,7 +168,6 @@ def dagger(model: Any, venv: Any, cfg: TrainConfig, out: Path, log: Any = print)
                     obs = clip_goal({k: np.asarray(obs[k]) for k in data.keys}, cfg.goal_range)
                     label = expert.act(obs)
                     data.add(obs, label)
-                    raw.add(obs, label)
                     if it == 0 and rng.random() < cfg.dagger_beta:
                         action = label
                     else:
@@ -176,9 +179,8 @@ def dagger(model: Any, venv: Any, cfg: TrainConfig, out: Path, log: Any = print)
                         wins += bool(info.get("is_success", False))
                         break
             if cfg.normalize and venv.norm_obs:
-                obs_new, _ = raw.arrays()
-                for k in venv.norm_obs_keys:
-                    venv.obs_rms[k].update(obs_new[k].astype(np.float64))
+                for k in venv.norm_obs_keys:  # this round's states
+                    venv.obs_rms[k].update(np.stack(data.obs[k][first:]).astype(np.float64))
             loss = _fit(policy, venv, data, cfg, rng)
             row = {
                 "iteration": it + 1,

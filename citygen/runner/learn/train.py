@@ -37,7 +37,7 @@ import numpy as np
 
 from citygen.errors import Interrupted, is_interrupt
 from citygen.runner.learn.config import TrainConfig
-from citygen.runner.learn.extra import MISSING, TrainError, require_train, stats_of  # noqa: F401
+from citygen.runner.learn.extra import TrainError, require_train, stats_of
 
 CURVE_FIELDS = ("steps", "seconds", "steps_per_s", "episodes", "success_rate", "return_mean")
 
