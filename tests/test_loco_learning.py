@@ -173,6 +173,34 @@ def test_the_fall_share_the_foot_clearance_and_the_turn_progress_change_only_the
         assert fell and any(low) and any(turned)
 
 
+def test_leg_collisions_cost_each_leg_link_on_the_ground_and_a_higher_clearance_costs_more():
+    """``leg_collision`` subtracts its weight per leg link (not a foot) touching the ground, so a
+    robot stumbling under action noise pays it on some steps and never gains; the foot clearance
+    term asking for 0.20 m costs at least what it costs at 0.12 m, and more where feet swing."""
+    kws = (
+        {},
+        {"leg_collision": 2.0},
+        {"foot_clearance": 1.0},
+        {"foot_clearance": 1.0, "clearance_height": 0.2},
+    )
+    with _trainings("quadruped", kws, 4, (0.5, 0.0, 0.0)) as envs:
+        rng = np.random.default_rng(5)
+        hits, higher = [], []
+        for a in np.clip(0.8 * rng.standard_normal((600, 12)), -1, 1):
+            (_, plain, end, *_), (_, coll, *_), (_, low, *_), (_, high, *_) = [e.step(a) for e in envs]
+            n = envs[1]._leg_hits()
+            assert coll == pytest.approx(plain - 2.0 * n, abs=1e-9)
+            assert high <= low + 1e-12
+            hits.append(n)
+            higher.append(high < low)
+            if end:
+                break
+        assert any(hits) and any(higher)
+        assert envs[1]._leg_ids and not envs[1]._leg_ids & {
+            int(g) for g in envs[1].unwrapped.handle.foot_geom_ids
+        }
+
+
 def test_base_height_costs_only_a_base_lower_than_standing():
     """``base_height`` pays its weight times the squared shortfall of the base's height under
     the robot's standing height, as a share of it: nothing standing, the most sitting down."""

@@ -41,12 +41,17 @@ def fall_geoms(model: Any, handle: Any, robot_geoms: np.ndarray) -> np.ndarray:
     foot (or wheel) up to the base, so a knee brushing a knee-high bump is not a fall, the
     trunk, head, torso or an arm touching down is (the base-contact termination of Isaac
     Lab's locomotion tasks, on which URBAN-SIM's are built)."""
+    return robot_geoms & ~np.isin(model.geom_bodyid, sorted(leg_bodies(model, handle)))
+
+
+def leg_bodies(model: Any, handle: Any) -> set[int]:
+    """The bodies of the robot's legs: every body from a foot (or wheel) up to the base."""
     legs: set[int] = set()
     for body in model.geom_bodyid[handle.foot_geom_ids].tolist():
         while body != handle.base_id and body > 0 and body not in legs:
             legs.add(body)
             body = int(model.body_parentid[body])
-    return robot_geoms & ~np.isin(model.geom_bodyid, sorted(legs))
+    return legs
 
 
 def body_ground_force(

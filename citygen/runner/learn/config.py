@@ -233,8 +233,20 @@ class TrainConfig(BaseModel):
     foot_clearance: Annotated[float, Field(ge=0, le=100)] = Field(
         0.0,
         description="Locomotion, training only: weight of the foot clearance term (swinging feet "
-        "lower than 0.12 m over the ground under them pay the square of the shortfall; "
+        "lower than clearance_height over the ground under them pay the square of the shortfall; "
         "citygen.runner.learn.loco), so that feet lift over a stair's edge.",
+    )
+    clearance_height: Annotated[float, Field(gt=0, le=0.5)] = Field(
+        0.12,
+        description="Locomotion, training only: the height (m) over the ground under it that the "
+        "foot clearance term asks of a swinging foot's centre (0.12: a 0.10 m step and the "
+        "quadruped's foot radius).",
+    )
+    leg_collision: Annotated[float, Field(ge=0, le=100)] = Field(
+        0.0,
+        description="Locomotion, training only: weight of a leg-collision term (minus the number "
+        "of leg links, feet not counted, touching the ground: legged_gym's collision penalty on "
+        "thighs and calves), so that legs are lifted over a riser instead of knocked against it.",
     )
     turn_progress: Annotated[float, Field(ge=0, le=10)] = Field(
         0.0,

@@ -21,6 +21,10 @@ adds what makes the same policy learnable on a laptop in hours:
 - **Foot clearance** (``foot_clearance`` times :meth:`LocoTraining._foot_clearance`): swinging
   feet lower than :data:`FOOT_CLEARANCE` over the ground under them pay the square of the
   shortfall (Isaac Lab's Spot reward), so that feet lift over a stair's edge.
+- **Leg collisions** (``leg_collision`` times the number of leg links, feet not counted,
+  touching the ground: legged_gym's ``collision`` term on thighs and calves), so that a leg
+  is lifted over a riser instead of knocked against it. ``clearance_height`` sets the foot
+  clearance term's height (:data:`FOOT_CLEARANCE` unless set): a 0.17 m riser asks for more.
 - **Turn progress** (``turn_progress``): ``w_z / c_wz`` clipped to [-1, 1] where the command
   turns (|c_wz| > 0.1 rad/s), the forward-progress term's twin for yaw: the tracking kernel
   pays a robot standing under a 1 rad/s command almost nothing, so nothing led the general
@@ -62,6 +66,8 @@ import math
 import gymnasium
 import numpy as np
 
+from citygen.runner.envs.legged import leg_bodies
+
 #: Ranges of the commands drawn for training: forward (m/s), sideways (m/s), yaw rate (rad/s).
 COMMANDS = ((-0.5, 1.0), (-0.3, 0.3), (-1.0, 1.0))
 #: Weights of the gait shaping terms (see the module docstring).
@@ -86,6 +92,13 @@ START_ROWS = 3
 FOOT_CLEARANCE = 0.12
 
 
+def leg_link_geoms(model, handle) -> frozenset[int]:
+    """The geoms of ``handle``'s leg links, its feet not counted (the bodies of
+    :func:`citygen.runner.envs.legged.leg_bodies`)."""
+    ids = np.flatnonzero(np.isin(model.geom_bodyid, sorted(leg_bodies(model, handle)))).tolist()
+    return frozenset(ids) - frozenset(int(g) for g in handle.foot_geom_ids)
+
+
 class LocoTraining(gymnasium.Wrapper):
     """Command sampling, terrain curriculum and gait shaping of one training sub-environment
     (see the module docstring)."""
@@ -95,9 +108,13 @@ class LocoTraining(gymnasium.Wrapper):
         command_mix: float = 0.0, curriculum: bool = True, only_positive: bool = False,
         effort_scale: float = 1.0, alive: float = 0.0, fall_penalty: float = 1.0,
         foot_clearance: float = 0.0, turn_progress: float = 0.0, heading_progress: float = 0.0,
-        base_height: float = 0.0,
+        base_height: float = 0.0, leg_collision: float = 0.0, clearance_height: float = FOOT_CLEARANCE,
     ):  # fmt: skip
         super().__init__(env)
+        self._collision = float(leg_collision)
+        self._clear_h = float(clearance_height)
+        self._leg_ids: frozenset[int] = frozenset()
+        self._ground_ids: frozenset[int] = frozenset()
         self._base_height = float(base_height)
         self._fall_refund = (1.0 - float(fall_penalty)) * -FALL_PENALTY
         self._clearance = float(foot_clearance)
@@ -137,6 +154,9 @@ class LocoTraining(gymnasium.Wrapper):
         self._start = tuple(float(v) for v in u.data.qpos[h.qadr : h.qadr + 2])
         self._air = np.zeros(len(h.foot_geom_ids))
         self._foot_index = {int(g): k for k, g in enumerate(h.foot_geom_ids)}
+        if self._collision:  # the scene's model may differ from the last episode's
+            self._leg_ids = leg_link_geoms(u.model, h)
+            self._ground_ids = frozenset(np.flatnonzero(u.prepared.ground_geoms).tolist())
         self._stepping = not u.robot.loco_wheels
         self._last_qvel = None
         self._last_feet = None
@@ -210,7 +230,24 @@ class LocoTraining(gymnasium.Wrapper):
             r += self._clearance * self._foot_clearance(touching)
         if self._base_height:
             r += self._base_height * self._height_shortfall()
+        if self._collision:
+            r -= self._collision * self._leg_hits()
         return r
+
+    def _leg_hits(self) -> int:
+        """How many leg links (feet not counted) touch the ground after this step."""
+        d = self.env.unwrapped.data
+        n = d.ncon
+        if not n:
+            return 0
+        legs, ground = self._leg_ids, self._ground_ids
+        hit = set()
+        for g1, g2 in d.contact.geom[:n].tolist():
+            if g1 in legs and g2 in ground:
+                hit.add(g1)
+            elif g2 in legs and g1 in ground:
+                hit.add(g2)
+        return len(hit)
 
     def _height_shortfall(self) -> float:
         """``-((h_stand - h) / h_stand)^2`` where the base's height ``h`` over the ground under
@@ -222,8 +259,8 @@ class LocoTraining(gymnasium.Wrapper):
         return -((short / stand) ** 2) if short > 0 else 0.0
 
     def _foot_clearance(self, touching: np.ndarray) -> float:
-        """``-sum (FOOT_CLEARANCE - h)^2 * tanh(2 |v_xy|) / FOOT_CLEARANCE^2`` over the feet in
-        the air that are lower than :data:`FOOT_CLEARANCE` over the ground under them (h), each
+        """``-sum (H - h)^2 * tanh(2 |v_xy|) / H^2`` over the feet in the air that are lower than
+        ``H`` (``clearance_height``, :data:`FOOT_CLEARANCE` unless set) over the ground under them (h), each
         weighted by how fast it swings (Isaac Lab's Spot reward, as a penalty): a swinging foot
         lifted clear of a stair's edge costs nothing, one scuffing along the ground the most."""
         u = self.env.unwrapped
@@ -233,13 +270,13 @@ class LocoTraining(gymnasium.Wrapper):
             return 0.0
         ground_at = u.prepared.ground_at
         speed = np.hypot(*(feet[:, :2] - last).T) / u.dt
-        total = 0.0
+        total, height = 0.0, self._clear_h
         for (x, y, z), v, down in zip(feet.tolist(), speed.tolist(), touching.tolist(), strict=True):
             if not down:
-                short = FOOT_CLEARANCE - (z - ground_at(x, y))
+                short = height - (z - ground_at(x, y))
                 if short > 0:
                     total += short * short * math.tanh(2.0 * v)
-        return -total / (FOOT_CLEARANCE * FOOT_CLEARANCE)
+        return -total / (height * height)
 
     def _feet_touching(self) -> np.ndarray:
         """Which feet touch anything (the ground, a step) after this step."""

@@ -219,6 +219,8 @@ def _sub_env_args(cfg: TrainConfig, rank: int) -> tuple[Any, ...]:
             "alive": cfg.alive,
             "fall_penalty": cfg.fall_penalty,
             "foot_clearance": cfg.foot_clearance,
+            "clearance_height": cfg.clearance_height,
+            "leg_collision": cfg.leg_collision,
             "turn_progress": cfg.turn_progress,
             "heading_progress": cfg.heading_progress,
             "base_height": cfg.base_height,
