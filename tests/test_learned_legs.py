@@ -190,9 +190,11 @@ def test_train_refuses_learned_legs_it_cannot_have_before_it_starts(general, cli
     assert "training PPO" not in result.out
 
 
-def test_policy_ppo_on_learned_legs_runs_the_model_fine_tuned_on_them(general, tmp_path):
+def test_policy_ppo_on_learned_legs_runs_the_model_fine_tuned_on_them(general, cli, tmp_path):
     """A navigation file trained with ``locomotion="learned"`` (its metadata says so) is
-    ``--policy ppo`` on learned legs only; the servo keeps its own file."""
+    ``--policy ppo`` on learned legs only, in the library and on ``citygen bench``'s command
+    line (which once resolved ``ppo`` before reading ``--locomotion``, running the servo's
+    file on the legs); the servo keeps its own file."""
     from citygen.runner.learn.policy import resolve_policy
 
     for (task, robot), path in shipped_models._shipped_files()[2].items():  # the files that ship
@@ -207,6 +209,13 @@ def test_policy_ppo_on_learned_legs_runs_the_model_fine_tuned_on_them(general, t
     found = resolve_policy("ppo", "nav-static", "quadruped", (), locomotion="learned")
     assert found == str(legs)
     assert resolve_policy("ppo", "nav-static", "quadruped", ()) == str(servo)
+    out = tmp_path / "bench.json"
+    args = ["--task", "nav-static", "--robot", "quadruped", "--policy", "ppo", "-n", "1", "--max-steps", "5"]
+    result = cli("bench", *args, "--locomotion", "learned", "--output", out)
+    assert result.code == 0, result
+    assert json.loads(out.read_text())["policy"] == str(legs)
+    assert cli("bench", *args, "--output", out).code == 0
+    assert json.loads(out.read_text())["policy"] == str(servo)
     # The traverse's AI on learned legs navigates with it too.
     from citygen.runner.policies import foundational_navigator, traverse_ai
 

@@ -61,13 +61,16 @@ def _robot_help() -> str:
     )
 
 
-def _robot_and_policy(task: str, robot: str | None, policy: str | None, options: dict):
+def _robot_and_policy(task: str, robot: str | None, policy: str | None, options: dict, locomotion: str):
     """The Robot and the policy to run (a baseline's name, or a learned model's file checked
-    against the task's environment); a one-line SpecError when they do not fit the task."""
+    against the task's environment on the ``--locomotion`` asked for: ``ppo`` on learned legs
+    is the file fine-tuned on them where one ships), with ``options`` given the locomotion's
+    environment option; a one-line SpecError when they do not fit the task."""
     from citygen.runner.learn.policy import is_model, resolve_policy
     from citygen.runner.tasks import check_policy, check_robot, default_policy
 
     loaded = check_robot(task, robot, options.get("adapter"))
+    options.update(_locomotion(locomotion, task, loaded))
     policy = policy or default_policy(task)
     if Path(policy).is_dir():  # a run folder of `citygen train`: its exported policy
         exported = Path(policy, "policy.npz")
@@ -137,9 +140,8 @@ def bench(
     check_task(task)
     split = check_split(task, split or DEFAULT_SPLIT[task])
     options = {} if adapter is None else {"adapter": str(adapter)}
-    loaded, policy = _robot_and_policy(task, robot, policy, options)
-    walk = _locomotion(locomotion, task, loaded)
-    options.update(walk)
+    loaded, policy = _robot_and_policy(task, robot, policy, options, locomotion)
+    walk = {k: v for k, v in options.items() if k == "locomotion"}
     if output is not None:  # before the episodes run, not after
         check_output(output, option="--output")
     with progress_bar(episodes, _bar_enabled()) as advance:
@@ -292,9 +294,8 @@ def run(
     check_task(kind)
     check_scene_task(kind, spec.task, str(scene))
     options = {} if adapter is None else {"adapter": str(adapter)}
-    loaded, policy = _robot_and_policy(kind, robot, policy, options)
-    walk = _locomotion(locomotion, kind, loaded)
-    options.update(walk)
+    loaded, policy = _robot_and_policy(kind, robot, policy, options, locomotion)
+    walk = {k: v for k, v in options.items() if k == "locomotion"}
     _check_run_outputs(output, frames, animation)
     want_pictures = frames is not None or animation is not None
     env = make_env(kind, spec, robot=robot, render_mode="rgb_array" if want_pictures else None, **options)
