@@ -16,7 +16,7 @@ import pytest
 
 from tests.conftest import ROOT
 from tests.test_learn import TINY as PPO_TINY
-from tests.test_learn import _train
+from tests.test_learn import TRAIN, _train
 
 pytestmark = pytest.mark.filterwarnings("ignore::citygen.exporters.ExportWarning")
 
@@ -155,8 +155,6 @@ def test_a_run_stopped_in_its_imitation_rounds_starts_over_with_the_same_command
     so in one line; the same command then runs the rounds from the start."""
     import signal
     import time
-
-    from tests.test_learn import TRAIN
 
     config = tmp_path / "c.toml"
     config.write_text(TINY.replace("dagger_episodes = 2", "dagger_episodes = 40"))

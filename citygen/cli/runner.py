@@ -64,13 +64,14 @@ def _robot_help() -> str:
 def _robot_and_policy(task: str, robot: str | None, policy: str | None, options: dict, locomotion: str):
     """The Robot and the policy to run (a baseline's name, or a learned model's file checked
     against the task's environment on the ``--locomotion`` asked for: ``ppo`` on learned legs
-    is the file fine-tuned on them where one ships), with ``options`` given the locomotion's
-    environment option; a one-line SpecError when they do not fit the task."""
+    is the file fine-tuned on them where one ships), and that locomotion's environment option
+    (also added to ``options``); a one-line SpecError when they do not fit the task."""
     from citygen.runner.learn.policy import is_model, resolve_policy
     from citygen.runner.tasks import check_policy, check_robot, default_policy
 
     loaded = check_robot(task, robot, options.get("adapter"))
-    options.update(_locomotion(locomotion, task, loaded))
+    walk = _locomotion(locomotion, task, loaded)
+    options.update(walk)
     policy = policy or default_policy(task)
     if Path(policy).is_dir():  # a run folder of `citygen train`: its exported policy
         exported = Path(policy, "policy.npz")
@@ -81,8 +82,8 @@ def _robot_and_policy(task: str, robot: str | None, policy: str | None, options:
             )
         policy = str(exported)
     if is_model(policy):
-        return loaded, resolve_policy(policy, task, robot, (), **options)
-    return loaded, check_policy(task, loaded, policy)
+        return loaded, resolve_policy(policy, task, robot, (), **options), walk
+    return loaded, check_policy(task, loaded, policy), walk
 
 
 def bench(
@@ -140,8 +141,7 @@ def bench(
     check_task(task)
     split = check_split(task, split or DEFAULT_SPLIT[task])
     options = {} if adapter is None else {"adapter": str(adapter)}
-    loaded, policy = _robot_and_policy(task, robot, policy, options, locomotion)
-    walk = {k: v for k, v in options.items() if k == "locomotion"}
+    loaded, policy, walk = _robot_and_policy(task, robot, policy, options, locomotion)
     if output is not None:  # before the episodes run, not after
         check_output(output, option="--output")
     with progress_bar(episodes, _bar_enabled()) as advance:
@@ -294,8 +294,7 @@ def run(
     check_task(kind)
     check_scene_task(kind, spec.task, str(scene))
     options = {} if adapter is None else {"adapter": str(adapter)}
-    loaded, policy = _robot_and_policy(kind, robot, policy, options, locomotion)
-    walk = {k: v for k, v in options.items() if k == "locomotion"}
+    loaded, policy, walk = _robot_and_policy(kind, robot, policy, options, locomotion)
     _check_run_outputs(output, frames, animation)
     want_pictures = frames is not None or animation is not None
     env = make_env(kind, spec, robot=robot, render_mode="rgb_array" if want_pictures else None, **options)

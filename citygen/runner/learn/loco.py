@@ -115,6 +115,7 @@ class LocoTraining(gymnasium.Wrapper):
         self._clear_h = float(clearance_height)
         self._leg_ids: frozenset[int] = frozenset()
         self._ground_ids: frozenset[int] = frozenset()
+        self._leg_model = None  # the model the two sets above are of
         self._base_height = float(base_height)
         self._fall_refund = (1.0 - float(fall_penalty)) * -FALL_PENALTY
         self._clearance = float(foot_clearance)
@@ -154,9 +155,10 @@ class LocoTraining(gymnasium.Wrapper):
         self._start = tuple(float(v) for v in u.data.qpos[h.qadr : h.qadr + 2])
         self._air = np.zeros(len(h.foot_geom_ids))
         self._foot_index = {int(g): k for k, g in enumerate(h.foot_geom_ids)}
-        if self._collision:  # the scene's model may differ from the last episode's
+        if self._collision and u.model is not self._leg_model:  # a new scene's model
             self._leg_ids = leg_link_geoms(u.model, h)
             self._ground_ids = frozenset(np.flatnonzero(u.prepared.ground_geoms).tolist())
+            self._leg_model = u.model
         self._stepping = not u.robot.loco_wheels
         self._last_qvel = None
         self._last_feet = None
