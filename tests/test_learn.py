@@ -397,9 +397,9 @@ def test_a_model_of_another_tasks_spaces_is_one_line(cli):
 
 
 def test_a_missing_shipped_baseline_lists_those_that_exist(cli):
-    r = cli("bench", "--task", "nav-dynamic", "--robot", "wheelchair", "--policy", "ppo", "--episodes", "1")
+    r = cli("bench", "--task", "loco-slope", "--robot", "humanoid", "--policy", "ppo", "--episodes", "1")
     assert r.code == 2 and r.err.count("\n") == 1
-    assert "no shipped baseline for nav-dynamic with robot wheelchair" in r.err
+    assert "no shipped baseline for loco-slope with robot humanoid" in r.err
     assert all(f"{task} {robot}" in r.err for task, robot in shipped())
 
 
