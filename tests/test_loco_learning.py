@@ -314,14 +314,17 @@ def test_a_general_model_serves_every_loco_task_without_a_terrain_model(tmp_path
     general = {**meta, "train": {**meta["train"], "split": P.GENERAL_LOCO_SPLIT}}
     write_policy(tmp_path / "loco-general-quadruped.npz", general, arrays)
     write_policy(tmp_path / "loco-stair-quadruped.npz", {**meta, "task": "loco-stair"}, arrays)
+    # a model kept for a task it was not trained on (an earlier general model): ``serves``
+    write_policy(tmp_path / "loco-rough-quadruped.npz", {**general, "serves": "loco-rough"}, arrays)
     monkeypatch.setattr(shipped_models, "BASELINES", tmp_path)
     found = P.shipped()
     general = tmp_path / "loco-general-quadruped.npz"
     assert {t: found[(t, "quadruped")].name for t in P.LOCO_TASKS} == {
-        "loco-flat": general.name, "loco-slope": general.name, "loco-rough": general.name,
+        "loco-flat": general.name, "loco-slope": general.name, "loco-rough": "loco-rough-quadruped.npz",
         "loco-stair": "loco-stair-quadruped.npz",
     }  # fmt: skip
     assert P.general_locomotion("quadruped") == general
+    assert sorted(shipped_models.terrain_locomotion("quadruped")) == ["rough", "stair"]
     with pytest.raises(P.PolicyError, match="no general locomotion model shipped for robot humanoid"):
         P.general_locomotion("humanoid")
 

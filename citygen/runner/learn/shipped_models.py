@@ -33,20 +33,21 @@ def _meta(path: str, mtime: float) -> dict:
 
 
 def _shipped_files() -> tuple[dict[tuple[str, str], Path], dict[str, Path], dict[tuple[str, str], Path]]:
-    """The shipped files: ``(task, robot) -> file`` of the task models, ``robot -> file`` of
-    the general locomotion models (trained on :data:`GENERAL_LOCO_SPLIT`), and ``(task,
-    robot) -> file`` of the navigation models trained on learned legs."""
+    """The shipped files: ``(task, robot) -> file`` of the task models (the task a file's
+    metadata ``serves``, else the one it was trained on), ``robot -> file`` of the general
+    locomotion models (``loco-general-<robot>.npz``, trained on :data:`GENERAL_LOCO_SPLIT`),
+    and ``(task, robot) -> file`` of the navigation models trained on learned legs."""
     tasks: dict[tuple[str, str], Path] = {}
     general: dict[str, Path] = {}
     legs: dict[tuple[str, str], Path] = {}
     for path in sorted(BASELINES.glob("*.npz")):
         meta = _meta(str(path), path.stat().st_mtime)
-        if meta.get("train", {}).get("split") == GENERAL_LOCO_SPLIT:
+        if path.stem == f"loco-general-{meta['robot']}":
             general[meta["robot"]] = path
         elif meta.get("locomotion") == "learned":
             legs[(meta["task"], meta["robot"])] = path
-        else:
-            tasks[(meta["task"], meta["robot"])] = path
+        else:  # a model kept for a task it was not trained on says so (``serves``)
+            tasks[(meta.get("serves", meta["task"]), meta["robot"])] = path
     return tasks, general, legs
 
 
@@ -78,9 +79,11 @@ def general_locomotion(robot: str) -> Path:
 
 def terrain_locomotion(robot: str) -> dict[str, Path]:
     """The shipped terrain locomotion models of ``robot``: ``terrain -> file`` (``"slope"`` for
-    ``loco-slope-<robot>.npz``), each trained on its one Urban-Loc terrain, the general model
-    not among them (the paper's "foundational" locomotion models, which Human-AI-Mode-1 of the
-    traverse dispatches by the ground ahead)."""
+    ``loco-slope-<robot>.npz``), each trained on its one Urban-Loc terrain or kept for it
+    (metadata ``serves``: the quadruped's LocoRough file is its general model before the one
+    that climbs stairs, which falls more on rough ground), the general model not among them
+    (the paper's "foundational" locomotion models, which Human-AI-Mode-1 of the traverse
+    dispatches by the ground ahead)."""
     tasks = _shipped_files()[0]
     return {
         task.removeprefix("loco-"): path
