@@ -6,10 +6,11 @@ the episode; it ends at the route's last point or the task's time limit.
 On learned legs (``locomotion="learned"``, :mod:`citygen.runner.envs.legs`) a fall is
 LocoEnv's (the body on the ground) and is what the paper makes of every failed trial: the
 robot is put back standing at the last waypoint reached (within :data:`RETRY_JITTER` of it,
-as a person sets it down), the legs' command and last action cleared, and one attempt (the paper's "Attempts to Success", resets of the task) is
-counted; it is not Labor Cost (the time a person drives). ``info["metrics"]`` then adds
-``falls`` (the attempts that followed a fall) and ``terrain_model_time`` (s on a terrain
-locomotion model, :meth:`~citygen.runner.envs.legs.LearnedLegs.use`). Who is driving is told by
+as a person sets it down), the legs' command and last action cleared, and one attempt (the
+paper's "Attempts to Success", resets of the task) is counted; it is not Labor Cost (the
+time a person drives). ``info["metrics"]`` then adds ``falls`` (the attempts that followed a
+fall) and ``terrain_model_time`` (s on a terrain locomotion model,
+:meth:`~citygen.runner.envs.legs.LearnedLegs.use`). Who is driving is told by
 :meth:`TraverseEnv.set_operator` (the control modes of :mod:`citygen.runner.policies`).
 """
 
@@ -140,8 +141,8 @@ class TraverseEnv(NavEnv):
             (ax, ay), ayaw = self._anchor
             if self.legs is not None:  # set down by hand (RETRY_JITTER); the same run, the same draws
                 rng = np.random.default_rng([self.steps, self.attempts])
-                (dx, dy), dyaw = rng.uniform(-1.0, 1.0, 2) * RETRY_JITTER[0], rng.uniform(-1.0, 1.0) * RETRY_JITTER[1]
-                ax, ay, ayaw = ax + dx, ay + dy, ayaw + dyaw
+                dx, dy = rng.uniform(-1.0, 1.0, 2) * RETRY_JITTER[0]
+                ax, ay, ayaw = ax + dx, ay + dy, ayaw + rng.uniform(-1.0, 1.0) * RETRY_JITTER[1]
             # feet on the ground under each, as at the start (forwarded); wheels: the drive pose
             self._spawn(ax, ay, ayaw, drive=self.legs is None)
             if self.legs is not None:  # standing, no command or last action, not fallen
