@@ -4,12 +4,11 @@ Human-AI-Mode-2, AI; docs/training.md, "The paper's four modes, on learned legs"
 paper's metrics beside its figures, and the legs' own (falls, time on a terrain model, route
 completion).
 
-``python benchmarks/traverse_modes.py [--jobs 2] [--modes human ai] [--general FILE]``: each
-mode is one ``citygen bench --task traverse --split urban-tra-standard --robot quadruped
---locomotion learned --policy MODE --episodes 1`` (the same figures), run in ``--jobs``
-processes (a mode takes 5-20 minutes on a free core); ``--general`` walks the modes on
-another general locomotion model than the shipped one (a candidate before it ships). The
-table is printed and the last line is one JSON object of figures.
+``python benchmarks/traverse_modes.py [--jobs 2] [--modes human ai]``: each mode is one
+``citygen bench --task traverse --split urban-tra-standard --robot quadruped --locomotion
+learned --policy MODE --episodes 1`` (the same figures), run in ``--jobs`` processes (a mode
+takes 2-4 minutes on a free core). The table is printed and the last line is one JSON object
+of figures.
 """
 
 from __future__ import annotations
@@ -18,7 +17,6 @@ import argparse
 import json
 import time
 from concurrent.futures import ProcessPoolExecutor
-from pathlib import Path
 
 MODES = ("human", "human-ai-mode-1", "human-ai-mode-2", "ai")
 #: The paper's traverse table (urban-tra-standard, its quadruped): metric -> per mode.
@@ -44,14 +42,8 @@ ROWS = {
 }
 
 
-def run_mode(mode: str, general: str | None) -> tuple[dict, float]:
+def run_mode(mode: str) -> tuple[dict, float]:
     """One episode of ``mode`` on the whole track; its metrics and wall time (s)."""
-    if general is not None:  # a candidate general model in place of the shipped one
-        import citygen.runner.learn.shipped_models as shipped
-
-        shipped_general = shipped.general_locomotion
-        path = Path(general).resolve()
-        shipped.general_locomotion = lambda robot: path if robot == "quadruped" else shipped_general(robot)
     from citygen.runner.bench import run_episode
     from citygen.runner.make import make_env
     from citygen.runner.policies import make_policy
@@ -66,10 +58,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--jobs", type=int, default=2, help="modes run at once (processes)")
     parser.add_argument("--modes", nargs="+", choices=MODES, default=list(MODES))
-    parser.add_argument("--general", help="a general locomotion model (.npz) in place of the shipped one")
     args = parser.parse_args()
     with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-        futures = {mode: pool.submit(run_mode, mode, args.general) for mode in args.modes}
+        futures = {mode: pool.submit(run_mode, mode) for mode in args.modes}
         rows = {mode: future.result() for mode, future in futures.items()}
     print("| metric | " + " | ".join(f"{m} (paper / citygen)" for m in args.modes) + " |")
     print("|---|" + "---|" * len(args.modes))
