@@ -275,6 +275,42 @@ def test_the_curriculum_moves_up_after_a_long_walk_and_down_after_a_fall(grid):
         env.close()
 
 
+def test_drawn_commands_hold_the_level_but_a_fall_and_may_change_mid_episode(grid):
+    """With ``level_on_commands="falls"`` an episode on a drawn command moves its level only
+    down, on a fall (a turning command never covers 4 m); the task's own command still moves
+    it up. ``command_resample`` draws a new command during such an episode, seen by the next
+    observation and obeyed by the environment."""
+    env = LocoTraining(
+        make_env("loco-rough", robot="quadruped", split=str(grid)), seed=0, rank=0, command_mix=1.0,
+        command_resample=0.2, level_on_commands="falls",
+    )  # fmt: skip
+    try:
+        obs, info = env.reset(seed=0)
+        assert env._drawn
+        u = env.unwrapped
+        env.level = 0
+        u.data.qpos[u.handle.qadr] += 5.0  # far enough to promote on the task's command
+        env._move_level(fell=False)
+        assert env.level == 0
+        env.level = 1
+        env._move_level(fell=True)
+        assert env.level == 0
+        env._drawn = False  # as on the task's own command
+        env._move_level(fell=False)
+        assert env.level == 1
+        env.reset(seed=1)
+        first, seen = tuple(u.command), set()
+        for _ in range(30):  # 0.6 s at a 0.2 s mean interval
+            obs, _, end, cut, _ = env.step(np.zeros(12))
+            assert tuple(obs["command"]) == tuple(np.float32(u.command))
+            seen.add(tuple(u.command))
+            if end or cut:
+                break
+        assert len(seen - {first}) >= 1
+    finally:
+        env.close()
+
+
 GRID = loco_grid("rough", "quadruped")
 TINY = TINY_LOCO + "command_mix = 0.5\n"
 

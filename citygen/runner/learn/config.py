@@ -204,6 +204,19 @@ class TrainConfig(BaseModel):
         "from citygen.runner.learn.loco.COMMANDS instead of the task's own (a general model that "
         "follows a navigation policy's commands).",
     )
+    command_resample: Annotated[float, Field(ge=0, le=1000)] = Field(
+        0.0,
+        description="Locomotion, training only: mean interval (s) at which an episode on a drawn "
+        "command (command_mix) draws a new one; 0: one command for the whole episode. A "
+        "navigation policy changes its command every 0.1 s.",
+    )
+    level_on_commands: Literal["distance", "falls"] = Field(
+        "distance",
+        description="Locomotion, training only: how an episode on a drawn command moves its "
+        "curriculum level: 'distance' as the task's own command does (up past 4 m, down short of "
+        "half the distance asked or on a fall), 'falls' only down, on a fall (turning and slow "
+        "commands never cover 4 m).",
+    )
     effort_scale: Annotated[float, Field(ge=0, le=10)] = Field(
         1.0,
         description="Locomotion, training only: factor on the gait shaping's torque and joint "

@@ -8,12 +8,20 @@ adds what makes the same policy learnable on a laptop in hours:
 - **Commands.** With probability ``command_mix`` an episode's command is drawn from
   :data:`COMMANDS` (forward speed, sideways speed, yaw rate in the robot's frame) instead of
   the task's own ``(1, 0, 0)``, so the general model also follows the velocity commands a
-  navigation policy gives it.
+  navigation policy gives it. With ``command_resample`` (s) such an episode draws a new one
+  at that mean interval (each step with probability ``dt / command_resample``; Isaac Lab's
+  velocity task resamples every 10 s): a navigation policy changes its command every 0.1 s,
+  and a model that only ever held one command for a whole episode sat down on a slope when
+  the command changed (the traverse's Human-AI-Mode-1).
 - **Terrain curriculum** (Rudin et al. 2022, "Learning to Walk in Minutes"): the Urban-Loc
   training grids rise in difficulty with the row. Each sub-environment keeps a level (a row),
   starts at the easiest rows and draws a random column; an episode that covers more than
   half a region (4 m) moves it a row up, one that covers less than half of what its command
-  asked moves it a row down; a level past the hardest row restarts at a random one.
+  asked moves it a row down; a level past the hardest row restarts at a random one. With
+  ``level_on_commands="falls"`` an episode on a drawn command moves it only down, on a fall:
+  a turning or slow command never covers 4 m and a turning one never its straight-line
+  distance, so by distance such episodes pull every level to the easiest rows (the curriculum
+  stalled at row 4 of 30 with 60 % of episodes on drawn commands).
 - **Fall penalty** (``fall_penalty``): the share of the paper's ``-100`` on a fall that
   training pays (1: all of it; legged_gym's rough-terrain policies train with none, a fall
   costing only the rewards it ends), so that a policy on stairs is not taught that standing
@@ -109,8 +117,14 @@ class LocoTraining(gymnasium.Wrapper):
         effort_scale: float = 1.0, alive: float = 0.0, fall_penalty: float = 1.0,
         foot_clearance: float = 0.0, turn_progress: float = 0.0, heading_progress: float = 0.0,
         base_height: float = 0.0, leg_collision: float = 0.0, clearance_height: float = FOOT_CLEARANCE,
+        command_resample: float = 0.0, level_on_commands: str = "distance",
     ):  # fmt: skip
         super().__init__(env)
+        if level_on_commands not in ("distance", "falls"):
+            raise ValueError(f"level_on_commands: expected 'distance' or 'falls', got {level_on_commands!r}")
+        self._resample = float(command_resample)
+        self._level_by_falls = level_on_commands == "falls"
+        self._drawn = False  # whether this episode's command was drawn from COMMANDS
         self._collision = float(leg_collision)
         self._clear_h = float(clearance_height)
         self._leg_ids: frozenset[int] = frozenset()
@@ -148,8 +162,10 @@ class LocoTraining(gymnasium.Wrapper):
             if self.level is None:
                 self.level = int(self._rng.integers(min(START_ROWS, rows)))
             options["region"] = (self.level, int(self._rng.integers(cols)))
+        self._drawn = False
         if self.command_mix and "command" not in options and self._rng.random() < self.command_mix:
-            options["command"] = tuple(float(self._rng.uniform(lo, hi)) for lo, hi in COMMANDS)
+            options["command"] = self._draw_command()
+            self._drawn = True
         obs, info = self.env.reset(seed=seed, options=options)
         h = u.handle
         self._start = tuple(float(v) for v in u.data.qpos[h.qadr : h.qadr + 2])
@@ -169,6 +185,9 @@ class LocoTraining(gymnasium.Wrapper):
             angle = u.held_heading + math.atan2(c1, c0)
             self._held_dir = (math.cos(angle) / speed, math.sin(angle) / speed)
         return obs, info
+
+    def _draw_command(self) -> tuple[float, float, float]:
+        return tuple(float(self._rng.uniform(lo, hi)) for lo, hi in COMMANDS)
 
     def _grid(self, options: dict):
         """The terrain grid of the scene the next reset loads (its first scene's: every
@@ -191,6 +210,10 @@ class LocoTraining(gymnasium.Wrapper):
         if (terminated or truncated) and self.curriculum and self.level is not None:
             self._move_level(bool(terminated))
             info = {**info, "terrain_level": self.level}
+        elif self._drawn and self._resample and self._rng.random() < self.env.unwrapped.dt / self._resample:
+            command = self._draw_command()  # the next step's; this step's reward was the last one's
+            self.env.unwrapped.command[:] = command
+            obs = {**obs, "command": np.asarray(command, dtype=np.float32)}
         return obs, reward, terminated, truncated, info
 
     def _shaping(self) -> float:
@@ -304,7 +327,10 @@ class LocoTraining(gymnasium.Wrapper):
         x, y = (float(v) for v in u.data.qpos[h.qadr : h.qadr + 2])
         walked = math.hypot(x - self._start[0], y - self._start[1])
         asked = math.hypot(*u.command[:2]) * u.steps * u.dt
-        if walked > grid.tile_size / 2 and not fell:
+        if self._drawn and self._level_by_falls:
+            if fell:
+                self.level = max(self.level - 1, 0)
+        elif walked > grid.tile_size / 2 and not fell:
             self.level += 1
         elif walked < asked / 2 or fell:
             self.level = max(self.level - 1, 0)

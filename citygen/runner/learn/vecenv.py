@@ -213,6 +213,8 @@ def _sub_env_args(cfg: TrainConfig, rank: int) -> tuple[Any, ...]:
         {
             "shaping": cfg.gait_shaping,
             "command_mix": cfg.command_mix,
+            "command_resample": cfg.command_resample,
+            "level_on_commands": cfg.level_on_commands,
             "curriculum": cfg.curriculum,
             "only_positive": cfg.only_positive,
             "effort_scale": cfg.effort_scale,
