@@ -285,7 +285,7 @@ def test_drawn_commands_hold_the_level_but_a_fall_and_may_change_mid_episode(gri
         command_resample=0.2, level_on_commands="falls",
     )  # fmt: skip
     try:
-        obs, info = env.reset(seed=0)
+        env.reset(seed=0)
         assert env._drawn
         u = env.unwrapped
         env.level = 0
