@@ -78,24 +78,24 @@ def run(path: str, task: str, episodes: int, rows: float, period: float, seed: i
             "progress": float(np.mean(progress)), "episodes": episodes}  # fmt: skip
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("files", nargs="+", help="locomotion model files (.npz or checkpoint .zip)")
     parser.add_argument("--task", default="loco-slope", help="locomotion task whose test grid is walked")
     parser.add_argument("--episodes", type=int, default=63)
     parser.add_argument("--rows", type=float, default=0.45, help="share of the grid's rows, easiest first")
     parser.add_argument("--period", type=float, default=1.0, help="seconds between command changes")
-    args = parser.parse_args()
-    figures = {}
+    args = parser.parse_args(argv)
+    rows = []
     print(f"{'file':<48} {'falls %':>8} {'sits %':>8} {'progress':>9}")
     for path in args.files:
         row = run(path, args.task, args.episodes, args.rows, args.period)
-        figures[path] = row
+        rows.append({"file": path, **row})
         line = f"{path[-48:]:<48} {row['falls']:>8.1f} {row['sits']:>8.1f} {row['progress']:>9.2f}"
         print(line, flush=True)
-    se = {p: math.sqrt(r["falls"] * (100 - r["falls"]) / r["episodes"]) for p, r in figures.items()}
-    print(json.dumps({"task": args.task, "rows": args.rows, "period": args.period, "figures": figures,
-                      "falls_se": se}))  # fmt: skip
+    for r in rows:  # the binomial standard error of the fall rate
+        r["falls_se"] = math.sqrt(r["falls"] * (100 - r["falls"]) / r["episodes"])
+    print(json.dumps({"task": args.task, "rows": args.rows, "period": args.period, "models": rows}))
 
 
 if __name__ == "__main__":
