@@ -361,6 +361,11 @@ def test_a_general_model_serves_every_loco_task_without_a_terrain_model(tmp_path
     }  # fmt: skip
     assert P.general_locomotion("quadruped") == general
     assert sorted(shipped_models.terrain_locomotion("quadruped")) == ["rough", "stair"]
+    # a terrain model trained on navigation's commands: the traverse's, not --policy ppo's
+    nav = {**meta, "task": "loco-stair", "commands": "navigation"}
+    write_policy(tmp_path / "loco-stair-quadruped-nav.npz", nav, arrays)
+    assert P.shipped()[("loco-stair", "quadruped")].name == "loco-stair-quadruped.npz"
+    assert shipped_models.terrain_locomotion("quadruped")["stair"].name == "loco-stair-quadruped-nav.npz"
     with pytest.raises(P.PolicyError, match="no general locomotion model shipped for robot humanoid"):
         P.general_locomotion("humanoid")
 

@@ -1,8 +1,10 @@
 """The learned models that ship with citygen (``baselines/`` in this package): the task
 models ``<task>-<robot>.npz`` behind ``--policy ppo``, each robot's general locomotion
-model (trained on :data:`GENERAL_LOCO_SPLIT`), and navigation models fine-tuned on a legged
+model (trained on :data:`GENERAL_LOCO_SPLIT`), navigation models fine-tuned on a legged
 robot's learned legs (``<task>-<robot>-legs.npz``, trained with ``locomotion="learned"``:
-``--policy ppo`` with ``--locomotion learned``). Found by reading each file's metadata with
+``--policy ppo`` with ``--locomotion learned``), and terrain locomotion models trained on
+navigation's changing commands (``loco-<terrain>-<robot>-nav.npz``, metadata ``commands =
+"navigation"``: the traverse's Human-AI-Mode-1 dispatches them in place of the task's). Found by reading each file's metadata with
 numpy alone, so that an environment can find its locomotion model without the rest of
 :mod:`citygen.runner.learn` (which makes environments: an import circle)."""
 
@@ -32,30 +34,38 @@ def _meta(path: str, mtime: float) -> dict:
     return read_policy(path).meta
 
 
-def _shipped_files() -> tuple[dict[tuple[str, str], Path], dict[str, Path], dict[tuple[str, str], Path]]:
+Files = dict[tuple[str, str], Path]
+
+
+def _shipped_files() -> tuple[Files, dict[str, Path], Files, Files]:
     """The shipped files: ``(task, robot) -> file`` of the task models (the task a file's
     metadata ``serves``, else the one it was trained on), ``robot -> file`` of the general
     locomotion models (``loco-general-<robot>.npz``, trained on :data:`GENERAL_LOCO_SPLIT`),
-    and ``(task, robot) -> file`` of the navigation models trained on learned legs."""
-    tasks: dict[tuple[str, str], Path] = {}
+    ``(task, robot) -> file`` of the navigation models trained on learned legs, and
+    ``(task, robot) -> file`` of the locomotion models trained on navigation's commands."""
+    tasks: Files = {}
     general: dict[str, Path] = {}
-    legs: dict[tuple[str, str], Path] = {}
+    legs: Files = {}
+    steered: Files = {}
     for path in sorted(BASELINES.glob("*.npz")):
         meta = _meta(str(path), path.stat().st_mtime)
+        task = meta.get("serves", meta["task"])  # a model kept for a task it was not trained on
         if path.stem == f"loco-general-{meta['robot']}":
             general[meta["robot"]] = path
         elif meta.get("locomotion") == "learned":
             legs[(meta["task"], meta["robot"])] = path
-        else:  # a model kept for a task it was not trained on says so (``serves``)
-            tasks[(meta.get("serves", meta["task"]), meta["robot"])] = path
-    return tasks, general, legs
+        elif meta.get("commands") == "navigation":
+            steered[(task, meta["robot"])] = path
+        else:
+            tasks[(task, meta["robot"])] = path
+    return tasks, general, legs, steered
 
 
 def shipped(locomotion: str = "servo") -> dict[tuple[str, str], Path]:
     """The shipped baselines: ``(task, robot) -> file``. A robot's general locomotion model
     serves each locomotion task that has no terrain model of its own; with ``locomotion =
     "learned"`` a navigation model fine-tuned on learned legs replaces the servo's."""
-    out, general, legs = _shipped_files()
+    out, general, legs, _ = _shipped_files()
     for robot, path in general.items():
         for task in LOCO_TASKS:
             out.setdefault((task, robot), path)
@@ -83,11 +93,14 @@ def terrain_locomotion(robot: str) -> dict[str, Path]:
     (metadata ``serves``: the quadruped's LocoRough file is its general model before the one
     that climbs stairs, which falls more on rough ground), the general model not among them
     (the paper's "foundational" locomotion models, which Human-AI-Mode-1 of the traverse
-    dispatches by the ground ahead)."""
-    tasks = _shipped_files()[0]
+    dispatches by the ground ahead). Where a terrain's model trained on navigation's changing
+    commands ships (``loco-slope-<robot>-nav.npz``), it is that terrain's: the task's own,
+    trained on the task's straight command, sits down or falls when navigation changes its
+    command every 0.1 s."""
+    tasks, _, _, steered = _shipped_files()
     return {
         task.removeprefix("loco-"): path
-        for (task, owner), path in sorted(tasks.items())
+        for (task, owner), path in sorted({**tasks, **steered}.items())
         if owner == robot and task in LOCO_TASKS
     }
 
