@@ -4,9 +4,10 @@ model (trained on :data:`GENERAL_LOCO_SPLIT`), navigation models fine-tuned on a
 robot's learned legs (``<task>-<robot>-legs.npz``, trained with ``locomotion="learned"``:
 ``--policy ppo`` with ``--locomotion learned``), and terrain locomotion models trained on
 navigation's changing commands (``loco-<terrain>-<robot>-nav.npz``, metadata ``commands =
-"navigation"``: the traverse's Human-AI-Mode-1 dispatches them in place of the task's). Found by reading each file's metadata with
-numpy alone, so that an environment can find its locomotion model without the rest of
-:mod:`citygen.runner.learn` (which makes environments: an import circle)."""
+"navigation"``: the traverse's Human-AI-Mode-1 dispatches them in place of the task's).
+Found by reading each file's metadata with numpy alone, so that an environment can find its
+locomotion model without the rest of :mod:`citygen.runner.learn` (which makes
+environments: an import circle)."""
 
 from __future__ import annotations
 
