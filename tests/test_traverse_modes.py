@@ -131,8 +131,9 @@ def test_the_foundational_navigation_model_is_the_situations():
 
 @pytest.mark.parametrize("mode", ["human-ai-mode-1", "human-ai-mode-2"])
 def test_which_locomotion_model_walks_in_the_papers_shared_modes(mode, monkeypatch):
-    """Mode-1 walks a slope ahead on the slope model and flat ground on the general one,
-    keeping the last action across the swap; Mode-2 stays on the general model."""
+    """Mode-1 walks a slope ahead on the slope model trained on navigation's changing commands
+    (``loco-slope-quadruped-nav.npz``, not LocoSlope's own) and flat ground on the general
+    one, keeping the last action across the swap; Mode-2 stays on the general model."""
     env = make_env("traverse", _tiny_traverse(), robot="quadruped", locomotion="learned")
     obs, _ = env.reset(seed=0)
     control = policies.make_policy(mode, task="traverse")
@@ -151,7 +152,8 @@ def test_which_locomotion_model_walks_in_the_papers_shared_modes(mode, monkeypat
     for ground, want in (("slope", slope), ("flat", "general")):
         monkeypatch.setattr(policies, "ground_ahead", lambda e, g=ground: g)
         obs, *_ = env.step(control.act(obs))
-        assert env.legs.model == want and env.legs.path.name == f"loco-{want}-quadruped.npz"
+        name = {"general": "loco-general-quadruped.npz", "slope": "loco-slope-quadruped-nav.npz"}[want]
+        assert env.legs.model == want and env.legs.path.name == name
         assert acted[-env.legs.repeats :] == [want] * env.legs.repeats, acted
     # the swap keeps what the legs were doing: the new model reads the old one's last action
     last = env.legs.last_action.copy()
