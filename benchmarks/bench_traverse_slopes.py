@@ -1,13 +1,14 @@
 """Human-AI-Mode-1's terrain dispatch against Mode-2's general legs (issue 47), on two
-stretches of urban-tra-standard's slopes that the full track never reaches on learned legs
-(every mode stops at the stairs at x = 60 m, docs/training.md): the track's traverse cut to
+stretches of urban-tra-standard's slopes beyond its first stairs (docs/training.md, "The
+paper's four modes, on learned legs"): the track's traverse cut to
 each stretch (as ``tests/test_traverse.py`` cuts its stretches), the quadruped on learned
 legs, one episode of each mode (seed 0): the paper's traverse metrics, the falls and the time
-on a terrain model (Mode-1 walks a slope ahead on ``loco-slope-quadruped.npz``, Mode-2 on the
-general model).
+on a terrain model (Mode-1 walks a slope ahead on the slope model that follows navigation,
+``loco-slope-quadruped-nav.npz``; Mode-2 on the general model).
 
-``python benchmarks/bench_traverse_slopes.py [--seconds 60]`` (about two minutes on a free
-core); the last line is one JSON object of figures.
+``python benchmarks/bench_traverse_slopes.py [--seconds 60]`` (13 s on a free core on
+2026-12-01, when the stretches end early; at most about two minutes); the last line is one
+JSON object of figures.
 """
 
 from __future__ import annotations
