@@ -40,9 +40,9 @@ def run(path: str, task: str, episodes: int, rows: float, period: float, seed: i
     rng = np.random.default_rng(seed)
     falls = sits = 0
     progress = []
+    grid = env.unwrapped.source.scene(0).terrain  # every Urban-Loc split is one scene
     try:
         for ep in range(episodes):
-            grid = env.unwrapped.source.scene(0).terrain
             region = (int(rng.integers(max(1, int(grid.rows * rows)))), int(rng.integers(grid.cols)))
             first = COMMANDS[ep % len(COMMANDS)]
             obs, _ = env.reset(seed=int(rng.integers(1 << 30)), options={"command": first, "region": region})
