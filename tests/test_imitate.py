@@ -1,7 +1,8 @@
-"""Imitating the planner before PPO (``expert = "planner"``, :mod:`citygen.runner.learn.imitate`):
-DAgger's rounds fit the actor to the planner's actions, PPO goes on from its checkpoint, the
-cloning term (``bc_coef``) pulls the actor towards the planner in PPO's updates, and the
-mistakes a user can make are one line.
+"""Imitating an expert before PPO (``expert``, :mod:`citygen.runner.learn.imitate`): DAgger's
+rounds fit the actor to the planner's actions, PPO goes on from its checkpoint, the cloning
+term (``bc_coef``) pulls the actor towards the planner in PPO's updates; the terrain expert
+acts as the traverse's Human-AI-Mode-1 walks, and a locomotion run distils it; the mistakes a
+user can make are one line.
 
 These tests need the ``train`` extra (Stable-Baselines3 and PyTorch); CI installs it."""
 
@@ -138,6 +139,8 @@ def test_resume_goes_on_with_ppo_and_needs_the_data_set_it_clones(run, tmp_path)
         ("loco-flat", 'expert = "planner"', "expert"),
         ("nav-clear", "bc_coef = 1.0", "bc_coef"),
         ("nav-clear", 'expert = "oracle"', "expert"),
+        ("nav-clear", 'expert = "terrain"', "expert"),
+        ("loco-flat", 'gait = "trot"\nexpert = "terrain"', "gait"),
     ],
 )
 def test_an_expert_the_run_cannot_use_is_one_line(cli, tmp_path, task, extra, says):
@@ -179,3 +182,67 @@ def test_a_run_stopped_in_its_imitation_rounds_starts_over_with_the_same_command
     again = _train(*args)
     assert again.returncode == 0, again.stderr[-2000:]
     assert "DAgger round 2/2" in again.stdout
+
+
+def test_the_terrain_expert_acts_as_mode_1_walks():
+    """On each kind of tile of the mixed grid the terrain expert acts with the model
+    Human-AI-Mode-1 dispatches there: the terrain's shipped model, the general one on flat
+    ground; its action is that model's, to the bit."""
+    from citygen.runner.learn.imitate import TerrainExpert
+    from citygen.runner.learn.policy import load_policy
+    from citygen.runner.learn.shipped_models import general_locomotion, terrain_locomotion
+    from citygen.runner.make import make_env
+    from citygen.runner.policies import ground_ahead
+
+    env = make_env("loco-flat", robot="quadruped", split="urban-loc-mixed-train")
+    expert = TerrainExpert("quadruped")
+    expert.reset(env.unwrapped)
+    grid = env.unwrapped.source.scene(0).terrain
+    files = {"general": general_locomotion("quadruped"), **terrain_locomotion("quadruped")}
+    seen = set()
+    try:
+        for col in range(4):  # the grid's columns cycle flat, slope, stair, rough
+            obs, _ = env.reset(seed=col, options={"region": (grid.rows // 2, col), "command": (0.0, 0.0, 0.0)})
+            action = expert.act(obs)
+            kind = ground_ahead(env.unwrapped)
+            want = "general" if kind == "flat" else kind
+            assert expert.model == want
+            np.testing.assert_array_equal(action, load_policy(str(files[want])).act(obs).astype(np.float32))
+            seen.add(want)
+    finally:
+        env.close()
+    assert seen == {"general", "slope", "stair", "rough"}
+
+
+@pytest.mark.slow
+def test_a_locomotion_run_distils_the_terrain_models(tmp_path):
+    """Two DAgger rounds from the general model on the mixed grid, labelled by the terrain
+    expert: the rounds aggregate, the loss is logged, and the exported policy walks in
+    citygen bench."""
+    import csv
+
+    config = tmp_path / "c.toml"
+    config.write_text(
+        "envs = 2\nn_steps = 32\nnet_arch = [256, 128]\nactivation = \"elu\"\nlog_std_init = -1.2\n"
+        "expert = \"terrain\"\ndagger_iterations = 2\ndagger_episodes = 1\ndagger_epochs = 2\n"
+        "critic_warmup = 1000\n"
+    )
+    out = tmp_path / "run"
+    done = subprocess.run(
+        [sys.executable, "-m", "citygen", "train", "--envs", "2", "--processes", "0", "--task", "loco-flat", "--robot", "quadruped", "--split", "urban-loc-mixed-train",
+         "--init", "citygen/runner/learn/baselines/loco-general-quadruped.npz", "--seed", "0",
+         "--steps", "64", "--max-steps", "50", "--config", str(config), "--out", str(out)],
+        capture_output=True, text=True, cwd=ROOT, timeout=600,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr[-2000:]
+    with open(out / "imitation.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    samples = [int(r["samples"]) for r in rows]
+    assert 0 < samples[0] < samples[1] <= 100  # one episode of at most 50 steps a round
+    assert all(float(r["loss"]) > 0 for r in rows)
+    bench = subprocess.run(
+        [sys.executable, "-m", "citygen", "bench", "--task", "loco-stair", "--robot", "quadruped",
+         "--policy", str(out / "policy.npz"), "--episodes", "1", "--jobs", "1", "--max-steps", "50"],
+        capture_output=True, text=True, cwd=ROOT, timeout=300,
+    )  # fmt: skip
+    assert bench.returncode == 0, bench.stderr[-2000:]

@@ -329,10 +329,12 @@ class TrainConfig(BaseModel):
         "returns, so its first advantages do not undo the actor.",
     )
     # Imitation before PPO (citygen.runner.learn.imitate)
-    expert: Literal["planner"] | None = Field(
+    expert: Literal["planner", "terrain"] | None = Field(
         None,
-        description="Navigation: first imitate this expert by DAgger (its rounds below), then train "
-        "on with PPO from there; planner: A* on the scene's maps and pure pursuit.",
+        description="First imitate this expert by DAgger (its rounds below), then train on with PPO "
+        "from there. planner (navigation): A* on the scene's maps and pure pursuit; terrain "
+        "(locomotion): the robot's shipped terrain models dispatched by the ground ahead, as the "
+        "traverse's Human-AI-Mode-1 walks (the general model on flat ground).",
     )
     dagger_iterations: Annotated[int, Field(ge=1, le=1000)] = Field(
         4, description="DAgger rounds: drive episodes with the policy, label them, refit on all."
@@ -396,9 +398,13 @@ class TrainConfig(BaseModel):
 
     @field_validator("expert")
     @classmethod
-    def _expert_for_navigation(cls, expert: str | None, info: ValidationInfo) -> str | None:
-        if expert is not None and not str(info.data.get("task", "")).startswith("nav"):
-            raise ValueError(f"a navigation task (nav-*) for expert {expert!r}")
+    def _expert_for_its_task(cls, expert: str | None, info: ValidationInfo) -> str | None:
+        kind = {"planner": "nav", "terrain": "loco"}.get(expert or "")
+        if kind and not str(info.data.get("task", "")).startswith(kind):
+            what = "a navigation task (nav-*)" if kind == "nav" else "a locomotion task (loco-*)"
+            raise ValueError(f"{what} for expert {expert!r}")
+        if expert == "terrain" and info.data.get("gait"):
+            raise ValueError("no gait for expert 'terrain' (its models act on joint targets, not on a gait)")
         return expert
 
     @field_validator("bc_coef")

@@ -1,8 +1,16 @@
-"""Imitation of the planner before PPO: DAgger (Ross, Gordon and Bagnell 2011).
+"""Imitation of an expert before PPO: DAgger (Ross, Gordon and Bagnell 2011).
 
-A navigation run with ``expert = "planner"`` first teaches its actor to act as the planner
-(:class:`citygen.runner.policies.PlannerPolicy`, A* on the scene's maps and pure pursuit)
-does, then trains on with PPO from there:
+A run with an ``expert`` first teaches its actor to act as the expert does, then trains on
+with PPO from there. The experts (:data:`EXPERTS`):
+
+- ``"planner"`` (navigation): :class:`citygen.runner.policies.PlannerPolicy`, A* on the
+  scene's maps and pure pursuit;
+- ``"terrain"`` (locomotion): :class:`TerrainExpert`, the robot's shipped terrain models
+  dispatched by the ground ahead as the traverse's Human-AI-Mode-1 does: one network distilled
+  from several specialists (as Barkour distilled its skills into a generalist; Caluwaerts et
+  al. 2023) walks every terrain with a single model, the paper's general locomotion model.
+
+The rounds:
 
 1. each of ``dagger_iterations`` rounds drives ``dagger_episodes`` training episodes (the
    run's split, ``--scenes`` and shaping) with the actor's mean action (in the first round,
@@ -14,7 +22,7 @@ does, then trains on with PPO from there:
    PPO's would.
 
 The policy sees only its observations (the goal, its velocity, the local map); the planner
-sees the whole scene. DAgger's rounds are on the states the policy itself reaches, so it
+sees the whole scene, the terrain expert the terrain kind ahead. DAgger's rounds are on the states the policy itself reaches, so it
 learns to recover from its own mistakes, which cloning the planner's own episodes does not
 teach. ``bc_coef`` keeps a behaviour-cloning term on the data set in every PPO update (the
 squared error, weighted), so that PPO does not unlearn what the planner showed where its own
@@ -38,7 +46,7 @@ from citygen.runner.learn.config import TrainConfig
 from citygen.runner.learn.export import clip_goal
 
 #: The experts a run can imitate.
-EXPERTS = ("planner",)
+EXPERTS = ("planner", "terrain")
 IMITATION_FIELDS = ["iteration", "episodes", "success_rate", "samples", "loss", "seconds"]
 _BATCH = 256
 
@@ -134,6 +142,43 @@ def _fit(policy: Any, venv: Any, data: Demonstrations, cfg: TrainConfig, rng: np
     return total / max(len(labels), 1)
 
 
+class TerrainExpert:
+    """The locomotion the traverse's Human-AI-Mode-1 walks on, as an expert: at each step the
+    robot's shipped model of the ground ahead (:func:`~citygen.runner.policies.ground_ahead`,
+    :func:`~citygen.runner.policies.locomotion_for`: the terrain's model on a slope, stairs
+    or rough ground where one ships, else the general model) acts on the observation."""
+
+    def __init__(self, robot: str):
+        from citygen.runner.learn.policy import load_policy
+        from citygen.runner.learn.shipped_models import general_locomotion, terrain_locomotion
+
+        #: Model name (``"general"``, a terrain) -> file.
+        self.files = {"general": general_locomotion(robot), **terrain_locomotion(robot)}
+        self.policies = {name: load_policy(str(path)) for name, path in self.files.items()}
+        self.env: Any = None
+        #: The model that acted last.
+        self.model = "general"
+
+    def reset(self, env: Any) -> None:
+        self.env = env
+
+    def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:
+        from citygen.runner.policies import ground_ahead, locomotion_for
+
+        name = locomotion_for(ground_ahead(self.env))
+        self.model = name if name in self.policies else "general"
+        return np.asarray(self.policies[self.model].act(obs), dtype=np.float32)
+
+
+def make_expert(cfg: TrainConfig) -> Any:
+    """The expert ``cfg.expert`` names (:data:`EXPERTS`)."""
+    if cfg.expert == "terrain":
+        return TerrainExpert(cfg.robot_name)
+    from citygen.runner.policies import PlannerPolicy
+
+    return PlannerPolicy()
+
+
 def expert_env(cfg: TrainConfig) -> Any:
     """One training sub-environment in this process (the run's split, scenes and shaping),
     with a rank of its own so that its scenes are drawn apart from the vector env's."""
@@ -146,11 +191,9 @@ def dagger(model: Any, venv: Any, cfg: TrainConfig, out: Path, log: Any = print)
     """Run DAgger on ``model``'s policy (see the module docstring); the data set it gathered."""
     import torch
 
-    from citygen.runner.policies import PlannerPolicy
-
     policy = model.policy
+    expert = make_expert(cfg)
     env = expert_env(cfg)
-    expert = PlannerPolicy()
     rng = np.random.default_rng([cfg.seed, 4231])
     data = Demonstrations(tuple(cfg.obs_keys))
     path = out / "imitation.csv"
