@@ -202,7 +202,8 @@ def test_the_terrain_expert_acts_as_mode_1_walks():
     seen = set()
     try:
         for col in range(4):  # the grid's columns cycle flat, slope, stair, rough
-            obs, _ = env.reset(seed=col, options={"region": (grid.rows // 2, col), "command": (0.0, 0.0, 0.0)})
+            options = {"region": (grid.rows // 2, col), "command": (0.0, 0.0, 0.0)}
+            obs, _ = env.reset(seed=col, options=options)
             action = expert.act(obs)
             kind = ground_ahead(env.unwrapped)
             want = "general" if kind == "flat" else kind
@@ -229,7 +230,8 @@ def test_a_locomotion_run_distils_the_terrain_models(tmp_path):
     )
     out = tmp_path / "run"
     done = subprocess.run(
-        [sys.executable, "-m", "citygen", "train", "--envs", "2", "--processes", "0", "--task", "loco-flat", "--robot", "quadruped", "--split", "urban-loc-mixed-train",
+        [sys.executable, "-m", "citygen", "train", "--envs", "2", "--processes", "0",
+         "--task", "loco-flat", "--robot", "quadruped", "--split", "urban-loc-mixed-train",
          "--init", "citygen/runner/learn/baselines/loco-general-quadruped.npz", "--seed", "0",
          "--steps", "64", "--max-steps", "50", "--config", str(config), "--out", str(out)],
         capture_output=True, text=True, cwd=ROOT, timeout=600,

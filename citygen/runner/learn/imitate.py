@@ -22,11 +22,12 @@ The rounds:
    PPO's would.
 
 The policy sees only its observations (the goal, its velocity, the local map); the planner
-sees the whole scene, the terrain expert the terrain kind ahead. DAgger's rounds are on the states the policy itself reaches, so it
-learns to recover from its own mistakes, which cloning the planner's own episodes does not
-teach. ``bc_coef`` keeps a behaviour-cloning term on the data set in every PPO update (the
-squared error, weighted), so that PPO does not unlearn what the planner showed where its own
-returns are silent (the roll-overs of wheeled NavClear came back without it).
+sees the whole scene, the terrain expert the terrain kind ahead. DAgger's rounds are on the
+states the policy itself reaches, so it learns to recover from its own mistakes, which
+cloning the expert's own episodes does not teach. ``bc_coef`` keeps a behaviour-cloning term
+on the data set in every PPO update (the squared error, weighted), so that PPO does not
+unlearn what the expert showed where its own returns are silent (the roll-overs of wheeled
+NavClear came back without it).
 
 The rounds' figures (success of the episodes driven, samples, loss) go to
 ``imitation.csv`` in the run folder; the data set to ``imitation.npz`` when ``bc_coef`` needs
