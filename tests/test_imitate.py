@@ -224,8 +224,8 @@ def test_a_locomotion_run_distils_the_terrain_models(tmp_path):
 
     config = tmp_path / "c.toml"
     config.write_text(
-        "envs = 2\nn_steps = 32\nnet_arch = [256, 128]\nactivation = \"elu\"\nlog_std_init = -1.2\n"
-        "expert = \"terrain\"\ndagger_iterations = 2\ndagger_episodes = 1\ndagger_epochs = 2\n"
+        'envs = 2\nn_steps = 32\nnet_arch = [256, 128]\nactivation = "elu"\nlog_std_init = -1.2\n'
+        'expert = "terrain"\ndagger_iterations = 2\ndagger_episodes = 1\ndagger_epochs = 2\n'
         "critic_warmup = 1000\n"
     )
     out = tmp_path / "run"
