@@ -347,7 +347,7 @@ def test_a_general_model_serves_every_loco_task_without_a_terrain_model(tmp_path
     with np.load(P.baseline("loco-flat", "quadruped")) as data:
         arrays = {k: data[k] for k in data.files}
     meta = json.loads(str(arrays.pop("meta")))
-    general = {**meta, "train": {**meta["train"], "split": P.GENERAL_LOCO_SPLIT}}
+    general_meta = general = {**meta, "train": {**meta["train"], "split": P.GENERAL_LOCO_SPLIT}}
     write_policy(tmp_path / "loco-general-quadruped.npz", general, arrays)
     write_policy(tmp_path / "loco-stair-quadruped.npz", {**meta, "task": "loco-stair"}, arrays)
     # a model kept for a task it was not trained on (an earlier general model): ``serves``
@@ -366,6 +366,20 @@ def test_a_general_model_serves_every_loco_task_without_a_terrain_model(tmp_path
     write_policy(tmp_path / "loco-stair-quadruped-nav.npz", nav, arrays)
     assert P.shipped()[("loco-stair", "quadruped")].name == "loco-stair-quadruped.npz"
     assert shipped_models.terrain_locomotion("quadruped")["stair"].name == "loco-stair-quadruped-nav.npz"
+    # a general model trained on navigation's commands: the traverse's legs, not the task's
+    write_policy(
+        tmp_path / "loco-general-quadruped-nav.npz", {**general_meta, "commands": "navigation"}, arrays
+    )
+    assert P.general_locomotion("quadruped") == general
+    assert P.general_locomotion("quadruped", "navigation").name == "loco-general-quadruped-nav.npz"
+    assert P.shipped()[("loco-slope", "quadruped")] == general
+    assert "flat" not in shipped_models.terrain_locomotion("quadruped")
+    from citygen.runner.envs.legs import general_model
+    from citygen.runner.robots.registry import load_robot
+
+    robot = load_robot("quadruped")
+    assert general_model("traverse", robot).name == "loco-general-quadruped-nav.npz"
+    assert general_model("nav-static", robot) == general
     with pytest.raises(P.PolicyError, match="no general locomotion model shipped for robot humanoid"):
         P.general_locomotion("humanoid")
 

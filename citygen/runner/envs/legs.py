@@ -70,7 +70,10 @@ def learned_legs(env: Any, locomotion: str) -> LearnedLegs | None:
 def general_model(task: str, robot: Any) -> Path:
     """The general locomotion model that walks ``robot`` (a :class:`~citygen.runner.robots.Robot`)
     through navigation ``task`` on learned legs, or a one-line error: a task other than
-    navigation, a robot without legs or without a shipped general locomotion model."""
+    navigation, a robot without legs or without a shipped general locomotion model. On the
+    traverse, the general model trained on navigation's changing commands where one ships
+    (``loco-general-<robot>-nav.npz``); the navigation tasks keep the general model their
+    legs-tuned navigation models were trained over."""
     from citygen.runner.learn.shipped_models import PolicyError, general_locomotion
 
     if not task.startswith("nav") and task != "traverse":
@@ -84,7 +87,7 @@ def general_model(task: str, robot: Any) -> Path:
             "expected a legged robot, or --locomotion servo"
         )
     try:
-        return general_locomotion(robot.name)
+        return general_locomotion(robot.name, "navigation" if task == "traverse" else None)
     except PolicyError as exc:
         raise PolicyError(f"--locomotion learned: {exc}") from None
 

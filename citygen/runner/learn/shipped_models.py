@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import functools
 from pathlib import Path
+from typing import NamedTuple
 
 from citygen.errors import CitygenError
 from citygen.runner.learn.export import read_policy
@@ -38,35 +39,48 @@ def _meta(path: str, mtime: float) -> dict:
 Files = dict[tuple[str, str], Path]
 
 
-def _shipped_files() -> tuple[Files, dict[str, Path], Files, Files]:
-    """The shipped files: ``(task, robot) -> file`` of the task models (the task a file's
-    metadata ``serves``, else the one it was trained on), ``robot -> file`` of the general
-    locomotion models (``loco-general-<robot>.npz``, trained on :data:`GENERAL_LOCO_SPLIT`),
-    ``(task, robot) -> file`` of the navigation models trained on learned legs, and
-    ``(task, robot) -> file`` of the locomotion models trained on navigation's commands."""
-    tasks: Files = {}
-    general: dict[str, Path] = {}
-    legs: Files = {}
-    steered: Files = {}
+class ShippedFiles(NamedTuple):
+    """The shipped files by role (see :func:`_shipped_files`)."""
+
+    tasks: Files
+    general: dict[str, Path]
+    legs: Files
+    steered: Files
+    steered_general: dict[str, Path]
+
+
+def _shipped_files() -> ShippedFiles:
+    """The shipped files: ``tasks``, ``(task, robot) -> file`` of the task models (the task a
+    file's metadata ``serves``, else the one it was trained on); ``general``, ``robot -> file``
+    of the general locomotion models (``loco-general-<robot>.npz``, trained on
+    :data:`GENERAL_LOCO_SPLIT`); ``legs``, ``(task, robot) -> file`` of the navigation models
+    trained on learned legs; ``steered``, ``(task, robot) -> file`` of the terrain locomotion
+    models trained on navigation's commands; ``steered_general``, ``robot -> file`` of the
+    general models trained on them (``loco-general-<robot>-nav.npz``)."""
+    found = ShippedFiles({}, {}, {}, {}, {})
     for path in sorted(BASELINES.glob("*.npz")):
         meta = _meta(str(path), path.stat().st_mtime)
+        robot = meta["robot"]
         task = meta.get("serves", meta["task"])  # a model kept for a task it was not trained on
-        if path.stem == f"loco-general-{meta['robot']}":
-            general[meta["robot"]] = path
+        if path.stem == f"loco-general-{robot}":
+            found.general[robot] = path
+        elif path.stem == f"loco-general-{robot}-nav":
+            found.steered_general[robot] = path
         elif meta.get("locomotion") == "learned":
-            legs[(meta["task"], meta["robot"])] = path
+            found.legs[(meta["task"], robot)] = path
         elif meta.get("commands") == "navigation":
-            steered[(task, meta["robot"])] = path
+            found.steered[(task, robot)] = path
         else:
-            tasks[(task, meta["robot"])] = path
-    return tasks, general, legs, steered
+            found.tasks[(task, robot)] = path
+    return found
 
 
 def shipped(locomotion: str = "servo") -> dict[tuple[str, str], Path]:
     """The shipped baselines: ``(task, robot) -> file``. A robot's general locomotion model
     serves each locomotion task that has no terrain model of its own; with ``locomotion =
     "learned"`` a navigation model fine-tuned on learned legs replaces the servo's."""
-    out, general, legs, _ = _shipped_files()
+    found = _shipped_files()
+    out, general, legs = dict(found.tasks), found.general, found.legs
     for robot, path in general.items():
         for task in LOCO_TASKS:
             out.setdefault((task, robot), path)
@@ -75,11 +89,15 @@ def shipped(locomotion: str = "servo") -> dict[tuple[str, str], Path]:
     return out
 
 
-def general_locomotion(robot: str) -> Path:
+def general_locomotion(robot: str, commands: str | None = None) -> Path:
     """The shipped general locomotion model of ``robot`` (the paper's "general locomotion
     model", which follows velocity commands on every terrain), or a one-line error naming
-    the robots that have one."""
-    general = _shipped_files()[1]
+    the robots that have one. ``commands="navigation"``: the one trained on navigation's
+    changing commands (``loco-general-<robot>-nav.npz``) where it ships."""
+    found = _shipped_files()
+    general = found.general
+    if commands == "navigation" and robot in found.steered_general:
+        return found.steered_general[robot]
     if robot not in general:
         raise PolicyError(
             f"no general locomotion model shipped for robot {robot}; "
@@ -98,7 +116,8 @@ def terrain_locomotion(robot: str) -> dict[str, Path]:
     commands ships (``loco-slope-<robot>-nav.npz``), it is that terrain's: the task's own,
     trained on the task's straight command, sits down or falls when navigation changes its
     command every 0.1 s."""
-    tasks, _, _, steered = _shipped_files()
+    found = _shipped_files()
+    tasks, steered = found.tasks, found.steered
     return {
         task.removeprefix("loco-"): path
         for (task, owner), path in sorted({**tasks, **steered}.items())
