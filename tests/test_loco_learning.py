@@ -150,22 +150,24 @@ def test_the_survival_bonus_and_the_effort_scale_shift_only_their_terms():
 
 
 def test_the_fall_share_the_foot_clearance_and_the_turn_progress_change_only_their_terms():
-    """``fall_penalty=0.25`` gives 75 of a fall's 100 back and nothing on any other step;
+    """``fall_penalty=0.25`` gives 75 of a fall's 100 back and nothing on any other step,
+    ``fall_penalty=3`` takes 200 more;
     ``foot_clearance`` never pays and costs where feet swing low (action noise on flat
     ground); ``turn_progress`` adds its weight times the share of the commanded turn made
     good; an episode's end tells its curriculum row (``terrain_level``, the training log's)."""
-    kws = ({}, {"fall_penalty": 0.25}, {"foot_clearance": 1.0}, {"turn_progress": 2.0})
+    kws = ({}, {"fall_penalty": 0.25}, {"foot_clearance": 1.0}, {"turn_progress": 2.0}, {"fall_penalty": 3.0})
     with _trainings("quadruped", kws, 4, (0.5, 0.0, 0.8)) as envs:
         rng = np.random.default_rng(2)
         low, turned, fell = [], [], False
         for a in np.clip(0.8 * rng.standard_normal((600, 12)), -1, 1):
             steps = [e.step(a) for e in envs]
-            (_, plain, end, _, info), (_, share, *_), (_, clear, *_), (_, turn, *_) = steps
+            (_, plain, end, _, info), (_, share, *_), (_, clear, *_), (_, turn, *_), (_, dear, *_) = steps
             if end:
                 fell = info["fallen"]
                 assert share == pytest.approx(plain + 75.0) and info["terrain_level"] == envs[0].level
+                assert dear == pytest.approx(plain - 200.0)
                 break
-            assert share == plain and clear <= plain
+            assert share == plain == dear and clear <= plain
             wz = envs[3].unwrapped.base_velocity[3]
             assert turn == pytest.approx(plain + 2.0 * min(max(wz / 0.8, -1.0), 1.0), abs=1e-9)
             low.append(clear < plain)

@@ -237,11 +237,12 @@ class TrainConfig(BaseModel):
         "more per step than the -100 of a fall (a heavy robot's torques), a policy would otherwise "
         "learn to fall at once. The fall's -100 stays.",
     )
-    fall_penalty: Annotated[float, Field(ge=0, le=1)] = Field(
+    fall_penalty: Annotated[float, Field(ge=0, le=10)] = Field(
         1.0,
-        description="Locomotion, training only: the share of the paper's -100 on a fall that the "
-        "training reward keeps (legged_gym's rough-terrain policies train with none: a fall costs "
-        "the rewards it ends). citygen bench measures the paper's reward and metrics either way.",
+        description="Locomotion, training only: the multiple of the paper's -100 on a fall that the "
+        "training reward pays (0: none, as legged_gym's rough-terrain policies train, a fall costing "
+        "the rewards it ends; above 1: a fall costs more than the paper's). citygen bench measures "
+        "the paper's reward and metrics either way.",
     )
     foot_clearance: Annotated[float, Field(ge=0, le=100)] = Field(
         0.0,

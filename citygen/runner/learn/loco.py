@@ -22,10 +22,10 @@ adds what makes the same policy learnable on a laptop in hours:
   a turning or slow command never covers 4 m and a turning one never its straight-line
   distance, so by distance such episodes pull every level to the easiest rows (the curriculum
   stalled at row 4 of 30 with 60 % of episodes on drawn commands).
-- **Fall penalty** (``fall_penalty``): the share of the paper's ``-100`` on a fall that
-  training pays (1: all of it; legged_gym's rough-terrain policies train with none, a fall
+- **Fall penalty** (``fall_penalty``): the multiple of the paper's ``-100`` on a fall that
+  training pays (1: the paper's; legged_gym's rough-terrain policies train with none, a fall
   costing only the rewards it ends), so that a policy on stairs is not taught that standing
-  at the first riser beats trying.
+  at the first riser beats trying; above 1, balance is bought with distance.
 - **Foot clearance** (``foot_clearance`` times :meth:`LocoTraining._foot_clearance`): swinging
   feet lower than :data:`FOOT_CLEARANCE` over the ground under them pay the square of the
   shortfall (Isaac Lab's Spot reward), so that feet lift over a stair's edge.
