@@ -37,9 +37,11 @@ def _tiny_traverse(time_limit: float = 3.0):
 
 
 def _flip(env) -> None:
-    """Upside down half a metre up: the body lands on the ground, LocoEnv's fall."""
+    """Upside down 0.1 m over the ground: the body lies on it, LocoEnv's fall. (Dropped from
+    half a metre, the general model that follows navigation's commands rolls over in the air
+    and lands on its feet.)"""
     q = env.handle.qadr
-    env.data.qpos[q + 2] += 0.3
+    env.data.qpos[q + 2] = env.prepared.ground_at(env.data.qpos[q], env.data.qpos[q + 1]) + 0.1
     env.data.qpos[q + 3 : q + 7] = (0.0, 1.0, 0.0, 0.0)
     mujoco.mj_forward(env.model, env.data)
 
@@ -133,7 +135,9 @@ def test_the_foundational_navigation_model_is_the_situations():
 def test_which_locomotion_model_walks_in_the_papers_shared_modes(mode, monkeypatch):
     """Mode-1 walks a slope ahead on the slope model trained on navigation's changing commands
     (``loco-slope-quadruped-nav.npz``, not LocoSlope's own) and flat ground on the general
-    one, keeping the last action across the swap; Mode-2 stays on the general model."""
+    one, keeping the last action across the swap; Mode-2 stays on the general model. The
+    traverse's general model is the one trained on navigation's commands
+    (``loco-general-quadruped-nav.npz``), not LocoStair's."""
     env = make_env("traverse", _tiny_traverse(), robot="quadruped", locomotion="learned")
     obs, _ = env.reset(seed=0)
     control = policies.make_policy(mode, task="traverse")
@@ -152,7 +156,7 @@ def test_which_locomotion_model_walks_in_the_papers_shared_modes(mode, monkeypat
     for ground, want in (("slope", slope), ("flat", "general")):
         monkeypatch.setattr(policies, "ground_ahead", lambda e, g=ground: g)
         obs, *_ = env.step(control.act(obs))
-        name = {"general": "loco-general-quadruped.npz", "slope": "loco-slope-quadruped-nav.npz"}[want]
+        name = {"general": "loco-general-quadruped-nav.npz", "slope": "loco-slope-quadruped-nav.npz"}[want]
         assert env.legs.model == want and env.legs.path.name == name
         assert acted[-env.legs.repeats :] == [want] * env.legs.repeats, acted
     # the swap keeps what the legs were doing: the new model reads the old one's last action
