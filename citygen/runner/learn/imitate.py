@@ -147,7 +147,9 @@ class TerrainExpert:
     """The locomotion the traverse's Human-AI-Mode-1 walks on, as an expert: at each step the
     robot's shipped model of the ground ahead (:func:`~citygen.runner.policies.ground_ahead`,
     :func:`~citygen.runner.policies.locomotion_for`: the terrain's model on a slope, stairs
-    or rough ground where one ships, else the general model) acts on the observation."""
+    or rough ground where one ships, else the general model) acts on the observation. The
+    general model here is ``loco-general-<robot>.npz``, not the traverse's one distilled from
+    this expert (``loco-general-<robot>-nav.npz``), so a distillation never imitates itself."""
 
     def __init__(self, robot: str):
         from citygen.runner.learn.policy import load_policy
