@@ -35,7 +35,8 @@ LEGGED = [name for name in BUILTIN if load_robot(name).leg_joints]
 @pytest.fixture
 def general(tmp_path, monkeypatch) -> dict[str, object]:
     """The shipped files, and the LocoFlat model as the quadruped's general model if it has
-    none; ``robot -> file`` of the general models."""
+    none; ``robot -> file`` of the general models navigation walks on (the one trained on
+    navigation's commands where it ships)."""
     for path in shipped_models.BASELINES.glob("*.npz"):
         shutil.copy(path, tmp_path / path.name)
     if "quadruped" not in shipped_models._shipped_files()[1]:
@@ -45,7 +46,7 @@ def general(tmp_path, monkeypatch) -> dict[str, object]:
         meta["train"] = {**meta["train"], "split": shipped_models.GENERAL_LOCO_SPLIT}
         write_policy(tmp_path / "loco-general-quadruped.npz", meta, arrays)
     monkeypatch.setattr(shipped_models, "BASELINES", tmp_path)
-    return shipped_models._shipped_files()[1]
+    return {r: shipped_models.general_locomotion(r, "navigation") for r in shipped_models._shipped_files()[1]}
 
 
 @pytest.mark.parametrize("robot", LEGGED)

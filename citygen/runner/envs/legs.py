@@ -70,10 +70,9 @@ def learned_legs(env: Any, locomotion: str) -> LearnedLegs | None:
 def general_model(task: str, robot: Any) -> Path:
     """The general locomotion model that walks ``robot`` (a :class:`~citygen.runner.robots.Robot`)
     through navigation ``task`` on learned legs, or a one-line error: a task other than
-    navigation, a robot without legs or without a shipped general locomotion model. On the
-    traverse, the general model trained on navigation's changing commands where one ships
-    (``loco-general-<robot>-nav.npz``); the navigation tasks keep the general model their
-    legs-tuned navigation models were trained over."""
+    navigation, a robot without legs or without a shipped general locomotion model. The
+    general model trained on navigation's changing commands where one ships
+    (``loco-general-<robot>-nav.npz``): navigation changes its command every 0.1 s."""
     from citygen.runner.learn.shipped_models import PolicyError, general_locomotion
 
     if not task.startswith("nav") and task != "traverse":
@@ -87,7 +86,7 @@ def general_model(task: str, robot: Any) -> Path:
             "expected a legged robot, or --locomotion servo"
         )
     try:
-        return general_locomotion(robot.name, "navigation" if task == "traverse" else None)
+        return general_locomotion(robot.name, "navigation")
     except PolicyError as exc:
         raise PolicyError(f"--locomotion learned: {exc}") from None
 
