@@ -152,12 +152,14 @@ class TerrainExpert:
     this expert (``loco-general-<robot>-nav.npz``), so a distillation never imitates itself."""
 
     def __init__(self, robot: str):
+        from citygen.runner import policies
         from citygen.runner.learn.policy import load_policy
         from citygen.runner.learn.shipped_models import general_locomotion, terrain_locomotion
 
         #: Model name (``"general"``, a terrain) -> file.
         self.files = {"general": general_locomotion(robot), **terrain_locomotion(robot)}
         self.policies = {name: load_policy(str(path)) for name, path in self.files.items()}
+        self._policies = policies  # ground_ahead, locomotion_for: looked up per step, imported once
         self.env: Any = None
         #: The model that acted last.
         self.model = "general"
@@ -166,9 +168,7 @@ class TerrainExpert:
         self.env = env
 
     def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:
-        from citygen.runner.policies import ground_ahead, locomotion_for
-
-        name = locomotion_for(ground_ahead(self.env))
+        name = self._policies.locomotion_for(self._policies.ground_ahead(self.env))
         self.model = name if name in self.policies else "general"
         return np.asarray(self.policies[self.model].act(obs), dtype=np.float32)
 

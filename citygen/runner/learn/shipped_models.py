@@ -79,13 +79,13 @@ def shipped(locomotion: str = "servo") -> dict[tuple[str, str], Path]:
     """The shipped baselines: ``(task, robot) -> file``. A robot's general locomotion model
     serves each locomotion task that has no terrain model of its own; with ``locomotion =
     "learned"`` a navigation model fine-tuned on learned legs replaces the servo's."""
-    found = _shipped_files()
-    out, general, legs = dict(found.tasks), found.general, found.legs
-    for robot, path in general.items():
+    found = _shipped_files()  # fresh dicts on every call: ``out`` is the caller's
+    out = found.tasks
+    for robot, path in found.general.items():
         for task in LOCO_TASKS:
             out.setdefault((task, robot), path)
     if locomotion == "learned":
-        out.update(legs)
+        out.update(found.legs)
     return out
 
 
