@@ -221,6 +221,23 @@ def test_base_height_costs_only_a_base_lower_than_standing():
         assert costs[0] < 1e-3 and costs[-1] > 0.1, costs
 
 
+def test_orientation_costs_the_base_s_tilt_from_level():
+    """``orientation`` subtracts its weight times ``|g_xy|^2`` (gravity's share in the base's
+    plane): nothing while the robot stands level, more once action noise tips it."""
+    with _trainings("quadruped", ({}, {"orientation": 4.0}), 4, (0.5, 0.0, 0.0)) as envs:
+        u = envs[1].unwrapped
+        rng = np.random.default_rng(3)
+        tilts = []
+        for a in [np.zeros(12)] * 3 + list(np.clip(0.8 * rng.standard_normal((300, 12)), -1, 1)):
+            (_, plain, end, *_), (_, level, *_) = [e.step(a) for e in envs]
+            g = u.data.xmat[u.handle.base_id][6:8]
+            assert level == pytest.approx(plain - 4.0 * float(g @ g), abs=1e-9)
+            tilts.append(float(g @ g))
+            if end:
+                break
+        assert tilts[0] < 1e-3 and max(tilts) > 0.05, (tilts[0], max(tilts))
+
+
 def test_heading_progress_pays_the_speed_along_the_held_heading_in_the_world():
     """``heading_progress`` adds its weight times the share of the commanded speed made good
     along the held heading in the world (a robot driving in circles earns it on one half of the

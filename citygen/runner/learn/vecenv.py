@@ -226,6 +226,7 @@ def _sub_env_args(cfg: TrainConfig, rank: int) -> tuple[Any, ...]:
             "turn_progress": cfg.turn_progress,
             "heading_progress": cfg.heading_progress,
             "base_height": cfg.base_height,
+            "orientation": cfg.orientation,
         },
         cfg.locomotion,
         (cfg.gait, cfg.gait_scale, cfg.gait_max_speed) if cfg.gait else None,
