@@ -282,7 +282,8 @@ class TrainConfig(BaseModel):
         description="Locomotion, training only: weight of legged_gym's orientation term, "
         "-|g_xy|^2 a step (gravity's share in the base's plane: the base's tilt from level), on top "
         "of the gait shaping's -0.5 |g_xy|^2, so that a robot crossing a slope levels its base "
-        "with its legs instead of rolling over (citygen.runner.learn.loco).",
+        "with its legs instead of rolling over (part of the gait shaping: scaled by gait_shaping; "
+        "citygen.runner.learn.loco).",
     )
     heading_progress: Annotated[float, Field(ge=0, le=10)] = Field(
         0.0,
