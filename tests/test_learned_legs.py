@@ -39,14 +39,15 @@ def general(tmp_path, monkeypatch) -> dict[str, object]:
     navigation's commands where it ships)."""
     for path in shipped_models.BASELINES.glob("*.npz"):
         shutil.copy(path, tmp_path / path.name)
-    if "quadruped" not in shipped_models._shipped_files()[1]:
+    if "quadruped" not in shipped_models._shipped_files().general:
         with np.load(shipped_models.BASELINES / "loco-flat-quadruped.npz") as data:
             arrays = {k: data[k] for k in data.files}
         meta = json.loads(str(arrays.pop("meta")))
         meta["train"] = {**meta["train"], "split": shipped_models.GENERAL_LOCO_SPLIT}
         write_policy(tmp_path / "loco-general-quadruped.npz", meta, arrays)
     monkeypatch.setattr(shipped_models, "BASELINES", tmp_path)
-    return {r: shipped_models.general_locomotion(r, "navigation") for r in shipped_models._shipped_files()[1]}
+    robots = shipped_models._shipped_files().general
+    return {r: shipped_models.general_locomotion(r, "navigation") for r in robots}
 
 
 @pytest.mark.parametrize("robot", LEGGED)
@@ -198,7 +199,7 @@ def test_policy_ppo_on_learned_legs_runs_the_model_fine_tuned_on_them(general, c
     file on the legs); the servo keeps its own file."""
     from citygen.runner.learn.policy import resolve_policy
 
-    for (task, robot), path in shipped_models._shipped_files()[2].items():  # the files that ship
+    for (task, robot), path in shipped_models._shipped_files().legs.items():  # the files that ship
         assert resolve_policy("ppo", task, robot, (), locomotion="learned") == str(path)
     servo = shipped_models.BASELINES / "nav-static-quadruped.npz"
     with np.load(servo) as data:
