@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from citygen.io import load_scene
-from citygen.runner.envs.legs import BACK_AND_TURN, free_damping
+from citygen.runner.envs.legs import BACK_AND_TURN, UNWEDGE, WEDGE, free_damping
 from citygen.runner.learn import shipped_models
 from citygen.runner.learn.export import write_policy
 from citygen.runner.learn.loco import COMMANDS
@@ -149,6 +149,60 @@ def test_a_fall_ends_the_navigation_episode_as_a_failure(general):
     assert terminated and env.legs.fell and reward < -90
     assert info["is_success"] is False
     assert info["metrics"]["fall_rate"] == 100.0 and info["metrics"]["success_rate"] == 0.0
+
+
+def test_a_robot_tipped_on_its_side_has_fallen_though_its_body_is_clear_of_the_ground(general):
+    """Rolled 70 degrees and lifted clear of the ground: no part presses on it, yet the
+    robot has fallen (the servo's 60 degree rule), on the first step."""
+    env = make_env("nav-static", NAV, robot="quadruped", locomotion="learned")
+    env.reset(seed=0)
+    q = env.handle.qadr
+    env.data.qpos[q + 2] += 1.0
+    roll = math.radians(70.0)
+    env.data.qpos[q + 3 : q + 7] = (math.cos(roll / 2), math.sin(roll / 2), 0.0, 0.0)
+    mujoco.mj_forward(env.model, env.data)
+    _, _, terminated, _, info = env.step(np.zeros(2))
+    ground = set(np.flatnonzero(env.prepared.ground_geoms).tolist())
+    robot = set(np.flatnonzero(env._robot_geoms).tolist())
+    pairs = [{c.geom1, c.geom2} for c in env.data.contact[: env.data.ncon]]
+    assert not [p for p in pairs if p & robot and p & ground]
+    assert terminated and env.legs.fell and info["metrics"]["fall_rate"] == 100.0
+
+
+def _still_legs(env):
+    """``env``'s legs on a model whose mean is the standing pose whatever it sees: asked to
+    walk, the robot stands still (a wedge), and only draws from its Gaussian move a joint."""
+    n = env.legs.last_action.size
+    env.legs.policy.mean = lambda obs: np.zeros((1, n), dtype=np.float32)
+
+
+def test_a_robot_still_while_asked_to_walk_acts_on_its_gaussian_for_a_while(general):
+    """Asked to walk and not moving for WEDGE[0] s, the model acts on draws from its trained
+    Gaussian for UNWEDGE s (the same draws for the same seed), then on its mean again; a
+    robot asked to stand is not wedged."""
+    runs = []
+    for _ in range(2):
+        env = make_env("nav-static", NAV, robot="quadruped", locomotion="learned")
+        env.reset(seed=3)
+        _still_legs(env)
+        steps = round((WEDGE[0] + 0.5 * UNWEDGE) / env.dt)
+        actions = []
+        for _ in range(steps):
+            env.step(np.array([0.0, 0.0]))
+        assert env.legs.wedges == 0 and not env.legs.last_action.any()
+        for _ in range(steps):
+            env.step(np.array([0.5, 0.0]))
+            actions.append(env.legs.last_action.copy())
+        assert env.legs.wedges == 1
+        moved = [bool(a.any()) for a in actions]
+        first = moved.index(True)
+        assert not any(moved[:first]) and first * env.dt == pytest.approx(WEDGE[0], abs=1.5 * env.dt)
+        assert all(moved[first:])
+        for _ in range(round(UNWEDGE / env.dt)):
+            env.step(np.array([0.5, 0.0]))
+        assert not env.legs.last_action.any() or env.legs.wedges == 2
+        runs.append(np.array(actions))
+    assert np.array_equal(runs[0], runs[1])
 
 
 def test_learned_legs_need_a_legged_robot_and_a_navigation_task(general):

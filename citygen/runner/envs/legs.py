@@ -17,12 +17,15 @@ navigation step) from what :class:`~citygen.runner.envs.loco.LocoEnv` would obse
 same state (:func:`citygen.runner.envs.legged.leg_observation`), on the same MJCF robot, PD
 servos and contacts. The robot starts standing with its feet on the ground, as in
 locomotion. A fall (LocoEnv's rule: the body, not the legs, pressing on the ground with
-more than :data:`~citygen.runner.envs.loco.FALL_FORCE` N, checked after every 50 Hz step)
+more than :data:`~citygen.runner.envs.loco.FALL_FORCE` N; or, as on the servo, the base
+tipped past 60 degrees, :data:`TIPPED`; checked after every 50 Hz step)
 ends the navigation episode as leaving the scene does: a failure (success 0, SPL 0, the
 route completed up to the fall, reward -100), counted by the episode's ``fall_rate``
 metric (100 when it ended in a fall, else 0); on the traverse it is a failed trial instead
 (:mod:`~citygen.runner.envs.traverse`). :meth:`LearnedLegs.use` swaps in one of the robot's
 shipped terrain models between two navigation steps (the traverse's Human-AI-Mode-1).
+The models act on their mean, except when the robot is wedged (:data:`WEDGE`: still while
+asked to move): then for :data:`UNWEDGE` s on draws from their trained Gaussian.
 """
 
 from __future__ import annotations
@@ -50,6 +53,22 @@ GENERAL = "general"
 #: place (0.28 rad/s asked 1): the rule would halve its NavStatic success (12.5 -> 6.3 % of
 #: 32), so it has none.
 BACK_AND_TURN: dict[str, float] = {"quadruped": 0.3}
+#: Tilt past which a robot on learned legs has fallen although its body does not press on
+#: the ground: the base's up axis less than this cosine from the vertical (60 degrees, the
+#: servo's rule, :meth:`~citygen.runner.envs.nav.NavEnv._fallen`). On the traverse the
+#: quadruped's general model lay on its side, propped on its legs, for 6-14 s until the
+#: track's stuck rule put it back (4 of the Human mode's 38 attempts of the first 2,000 s).
+TIPPED = 0.5
+#: A robot asked to move (:data:`WEDGE_COMMAND`: m/s forward or back, rad/s of yaw) whose
+#: base moved less than ``WEDGE[1]`` m/s and turned less than ``WEDGE[2]`` rad/s for
+#: ``WEDGE[0]`` s is wedged; its model then acts on a draw from its trained Gaussian (as in
+#: training) for :data:`UNWEDGE` s. On the traverse's stairs the quadruped's general model
+#: froze with a calf jammed under a step's edge (about 800 N on it): a feed-forward policy's
+#: mean in a still state is a still action, so the mean holds the wedge for ever (and backing
+#: up does not free it), while 2 s of its own noise freed it and it walked on up the flight.
+WEDGE = (1.0, 0.02, 0.02)
+WEDGE_COMMAND = (0.1, 0.2)
+UNWEDGE = 2.0
 
 #: Values of the ``locomotion`` option: the ideal servo on the base (the default, with which
 #: the shipped navigation results were measured) or the robot's learned general model.
@@ -128,6 +147,10 @@ class LearnedLegs:
         self.command = np.zeros(3)
         self.last_action = np.zeros(n_actions)
         self.fell = False
+        #: 50 Hz steps left of acting on draws from the model's Gaussian (:data:`WEDGE`),
+        #: seconds the robot has been still while asked to move, and how often it was wedged.
+        self._unwedge, self._still, self.wedges = 0, 0.0, 0
+        self._rng = np.random.default_rng(0)
         self._free_damping = free_damping(robot)
         self._force = np.zeros(6)  # mj_contactForce's output
         self._handle = None  # the robot handle the ids below are of
@@ -196,6 +219,11 @@ class LearnedLegs:
         self.command[:] = 0.0
         self.last_action[:] = 0.0
         self.fell = False
+        self._unwedge, self._still = 0, 0.0
+        # draws seeded by the episode (without drawing from the environment's own generator)
+        # and the step, so a run replays
+        seed = env.np_random.bit_generator.state["state"]["state"]
+        self._rng = np.random.default_rng([seed, env.steps])
         self.use(GENERAL)
 
     def observation(self) -> dict[str, np.ndarray]:
@@ -221,12 +249,33 @@ class LearnedLegs:
             v = 0.0
         self.command[:] = (v, 0.0, w)
         m.dof_damping[h.dadr : h.dadr + 6] = self._free_damping  # no servo's (free_damping)
+        x0, y0, _, yaw0 = h.pose(d)
         for _ in range(self.repeats):
-            a = np.asarray(self.policy.act(self.observation()), dtype=np.float64)
+            rng = self._rng if self._unwedge > 0 else None
+            self._unwedge = max(0, self._unwedge - 1)
+            a = np.asarray(self.policy.predict(self.observation(), rng)[0], dtype=np.float64)
             a = np.minimum(np.maximum(a, -1.0), 1.0)
             h.joint_action(d, a)
             mujoco.mj_step(m, d, nstep=self._substeps)
             self.last_action = a
-            if legged.body_ground_force(m, d, self._fall_ids, self._ground_ids, self._force) > FALL_FORCE:
+            if (
+                legged.body_ground_force(m, d, self._fall_ids, self._ground_ids, self._force) > FALL_FORCE
+                or d.xmat[h.base_id][8] < TIPPED
+            ):
                 self.fell = True
                 return
+        self._watch_wedge(x0, y0, yaw0, v, w)
+
+    def _watch_wedge(self, x0: float, y0: float, yaw0: float, v: float, w: float) -> None:
+        """After a navigation step asked ``(v, w)`` from the pose ``(x0, y0, yaw0)``: count
+        the time the robot has stood still while asked to move, and once it is wedged
+        (:data:`WEDGE`) act on the model's Gaussian for the next :data:`UNWEDGE` s."""
+        env, dt = self.env, self.env.dt
+        x, y, _, yaw = env.handle.pose(env.data)
+        turned = abs(math.remainder(yaw - yaw0, math.tau))
+        moving = math.hypot(x - x0, y - y0) >= WEDGE[1] * dt or turned >= WEDGE[2] * dt
+        asked = abs(v) >= WEDGE_COMMAND[0] or abs(w) >= WEDGE_COMMAND[1]
+        self._still = 0.0 if moving or not asked else self._still + dt
+        if self._still >= WEDGE[0] and self._unwedge == 0:
+            self._unwedge, self._still = max(1, round(UNWEDGE / LOCO_DT)), 0.0
+            self.wedges += 1

@@ -137,9 +137,9 @@ class NavEnv(_CitygenEnv):
         import mujoco
 
         mujoco.mj_forward(self.model, self.data)
+        self.steps = 0
         if self.legs is not None:
             self.legs.reset()
-        self.steps = 0
         self.collisions = 0
         self._last_collision = False
         self.recorder = self._new_record()
@@ -289,7 +289,7 @@ class NavEnv(_CitygenEnv):
 
     def _fallen(self, z: float, x: float, y: float, yaw: float) -> bool:
         """Tipped over (base tilted more than 60 degrees) or fallen through the ground; on
-        learned legs, LocoEnv's fall (:class:`~citygen.runner.envs.legs.LearnedLegs`)."""
+        learned legs, LocoEnv's fall or tipped over (:class:`~citygen.runner.envs.legs.LearnedLegs`)."""
         if self.legs is not None:
             return self.legs.fell
         up = self.data.xmat[self.handle.base_id][8]
