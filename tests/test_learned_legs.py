@@ -246,7 +246,7 @@ def test_train_refuses_learned_legs_it_cannot_have_before_it_starts(general, cli
     assert "training PPO" not in result.out
 
 
-def test_policy_ppo_on_learned_legs_runs_the_model_fine_tuned_on_them(general, cli, tmp_path):
+def test_policy_ppo_on_learned_legs_runs_the_model_fine_tuned_on_them(general, cli, tmp_path, monkeypatch):
     """A navigation file trained with ``locomotion="learned"`` (its metadata says so) is
     ``--policy ppo`` on learned legs only, in the library and on ``citygen bench``'s command
     line (which once resolved ``ppo`` before reading ``--locomotion``, running the servo's
@@ -262,6 +262,14 @@ def test_policy_ppo_on_learned_legs_runs_the_model_fine_tuned_on_them(general, c
     legs = write_policy(shipped_models.BASELINES / "nav-static-quadruped-legs.npz", meta, arrays)
     assert shipped_models.baseline("nav-static", "quadruped") == servo
     assert shipped_models.baseline("nav-static", "quadruped", "learned") == legs
+    for task in shipped_models.LEGS_STAND_IN:  # none of their own on the legs: NavStatic's stands in
+        assert shipped_models.baseline(task, "quadruped", "learned") == legs
+        servo_file = shipped_models.BASELINES / f"{task}-quadruped.npz"
+        assert shipped_models.baseline(task, "quadruped") == servo_file
+    clear = {**meta, "task": "nav-clear"}
+    own = write_policy(shipped_models.BASELINES / "nav-clear-quadruped-legs.npz", clear, arrays)
+    assert shipped_models.baseline("nav-clear", "quadruped", "learned") == own
+    own.unlink()
     found = resolve_policy("ppo", "nav-static", "quadruped", (), locomotion="learned")
     assert found == str(legs)
     assert resolve_policy("ppo", "nav-static", "quadruped", ()) == str(servo)
@@ -277,7 +285,14 @@ def test_policy_ppo_on_learned_legs_runs_the_model_fine_tuned_on_them(general, c
 
     assert traverse_ai("quadruped", "learned").path == str(legs)
     assert traverse_ai("quadruped").path == str(servo)
-    assert foundational_navigator("quadruped", "learned").paths["nav-static"] == str(legs)
-    # A task with no legs file falls back to the servo's on learned legs too.
-    clear = shipped_models.baseline("nav-clear", "quadruped", "learned")
-    assert clear == shipped_models.BASELINES / "nav-clear-quadruped.npz"
+    # Human-AI-Mode-1 and -2's foundational models: NavStatic's legs file stands in for the
+    # tasks without one of their own on the legs (LEGS_STAND_IN), the servo's on the servo.
+    paths = foundational_navigator("quadruped", "learned").paths
+    assert paths == dict.fromkeys(("nav-clear", "nav-static", "nav-dynamic"), str(legs))
+    assert foundational_navigator("quadruped").paths["nav-clear"] == str(
+        shipped_models.BASELINES / "nav-clear-quadruped.npz"
+    )
+    # A task no legs file stands in for keeps the servo's on learned legs too.
+    monkeypatch.delitem(shipped_models.LEGS_STAND_IN, "nav-dynamic")
+    dynamic = shipped_models.baseline("nav-dynamic", "quadruped", "learned")
+    assert dynamic == shipped_models.BASELINES / "nav-dynamic-quadruped.npz"

@@ -146,8 +146,8 @@ def test_which_locomotion_model_walks_in_the_papers_shared_modes(mode, monkeypat
 
     def spy(name: str) -> None:  # the model, recording each 50 Hz step it acts
         inner = env.legs._loaded.get(name) or env.legs._read(env.legs.files[name])
-        act = lambda o: acted.append(name) or inner.act(o)  # noqa: E731
-        env.legs._loaded[name] = SimpleNamespace(act=act, keys=inner.keys)
+        predict = lambda o, rng=None: acted.append(name) or inner.predict(o, rng)  # noqa: E731
+        env.legs._loaded[name] = SimpleNamespace(predict=predict, keys=inner.keys)
 
     spy("general")
     spy("slope")
