@@ -17,8 +17,8 @@ navigation step) from what :class:`~citygen.runner.envs.loco.LocoEnv` would obse
 same state (:func:`citygen.runner.envs.legged.leg_observation`), on the same MJCF robot, PD
 servos and contacts. The robot starts standing with its feet on the ground, as in
 locomotion. A fall (LocoEnv's rule: the body, not the legs, pressing on the ground with
-more than :data:`~citygen.runner.envs.loco.FALL_FORCE` N; or, as on the servo, the base
-tipped past 60 degrees, :data:`TIPPED`; checked after every 50 Hz step)
+more than :data:`~citygen.runner.envs.loco.FALL_FORCE` N, checked after every 50 Hz step;
+or, as on the servo, the base tipped past 60 degrees, here for a second: :data:`TIPPED`)
 ends the navigation episode as leaving the scene does: a failure (success 0, SPL 0, the
 route completed up to the fall, reward -100), counted by the episode's ``fall_rate``
 metric (100 when it ended in a fall, else 0); on the traverse it is a failed trial instead
@@ -53,12 +53,14 @@ GENERAL = "general"
 #: place (0.28 rad/s asked 1): the rule would halve its NavStatic success (12.5 -> 6.3 % of
 #: 32), so it has none.
 BACK_AND_TURN: dict[str, float] = {"quadruped": 0.3}
-#: Tilt past which a robot on learned legs has fallen although its body does not press on
-#: the ground: the base's up axis less than this cosine from the vertical (60 degrees, the
-#: servo's rule, :meth:`~citygen.runner.envs.nav.NavEnv._fallen`). On the traverse the
-#: quadruped's general model lay on its side, propped on its legs, for 6-14 s until the
-#: track's stuck rule put it back (4 of the Human mode's 38 attempts of the first 2,000 s).
-TIPPED = 0.5
+#: A robot on learned legs whose base stays tipped past ``TIPPED[0]`` (the cosine of its up
+#: axis from the vertical: 60 degrees, the servo's rule, :meth:`~citygen.runner.envs.nav.NavEnv._fallen`)
+#: for ``TIPPED[1]`` s has fallen although its body does not press on the ground. On the
+#: traverse the quadruped's general model lay on its side, propped on its legs, for 6-14 s
+#: until the track's stuck rule put it back (4 of the Human mode's first 38 attempts); counted
+#: at once, the tilt made falls of recoveries (the AI mode's falls 37 -> 63, its time 2,601 ->
+#: 2,874 s).
+TIPPED = (0.5, 1.0)
 #: A robot asked to move (:data:`WEDGE_COMMAND`: m/s forward or back, rad/s of yaw) whose
 #: base moved less than ``WEDGE[1]`` m/s and turned less than ``WEDGE[2]`` rad/s for
 #: ``WEDGE[0]`` s is wedged; its model then acts on a draw from its trained Gaussian (as in
@@ -149,7 +151,7 @@ class LearnedLegs:
         self.fell = False
         #: 50 Hz steps left of acting on draws from the model's Gaussian (:data:`WEDGE`),
         #: seconds the robot has been still while asked to move, and how often it was wedged.
-        self._unwedge, self._still, self.wedges = 0, 0.0, 0
+        self._unwedge, self._still, self.wedges, self._tipped = 0, 0.0, 0, 0.0
         self._rng = np.random.default_rng(0)
         self._free_damping = free_damping(robot)
         self._force = np.zeros(6)  # mj_contactForce's output
@@ -219,7 +221,7 @@ class LearnedLegs:
         self.command[:] = 0.0
         self.last_action[:] = 0.0
         self.fell = False
-        self._unwedge, self._still = 0, 0.0
+        self._unwedge, self._still, self._tipped = 0, 0.0, 0.0
         # draws seeded by the episode (without drawing from the environment's own generator)
         # and the step, so a run replays
         seed = env.np_random.bit_generator.state["state"]["state"]
@@ -258,13 +260,18 @@ class LearnedLegs:
             h.joint_action(d, a)
             mujoco.mj_step(m, d, nstep=self._substeps)
             self.last_action = a
-            if (
-                legged.body_ground_force(m, d, self._fall_ids, self._ground_ids, self._force) > FALL_FORCE
-                or d.xmat[h.base_id][8] < TIPPED
-            ):
+            if legged.body_ground_force(
+                m, d, self._fall_ids, self._ground_ids, self._force
+            ) > FALL_FORCE or self._lying(d.xmat[h.base_id][8]):
                 self.fell = True
                 return
         self._watch_wedge(x0, y0, yaw0, v, w)
+
+    def _lying(self, up: float) -> bool:
+        """After a 50 Hz step with the base's up axis at cosine ``up`` from the vertical:
+        whether it has been tipped past :data:`TIPPED` for long enough to have fallen."""
+        self._tipped = self._tipped + LOCO_DT if up < TIPPED[0] else 0.0
+        return self._tipped >= TIPPED[1] - 1e-9
 
     def _watch_wedge(self, x0: float, y0: float, yaw0: float, v: float, w: float) -> None:
         """After a navigation step asked ``(v, w)`` from the pose ``(x0, y0, yaw0)``: count
