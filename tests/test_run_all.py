@@ -244,3 +244,38 @@ def test_only_and_skip_keep_the_other_scripts_figures_dated(tmp_path: Path) -> N
     results = json.loads((out / "results.json").read_text())
     assert "ran" not in results and results["benches"]["run_all"]["figures"]["suite_wall_min"] < 5
     assert "(measured" not in (out / "REPORT.md").read_text()
+
+
+def test_scripts_run_on_request_run_only_when_named_and_later_runs_keep_them(tmp_path: Path) -> None:
+    """``traverse_modes`` (ON_REQUEST) stays out of a full run until ``--only`` names it;
+    then its figures and issue 47's targets join the report, and a full run after keeps
+    them while its own wall time becomes the suite's."""
+    bench = tmp_path / "benches"
+    bench.mkdir()
+    ran = tmp_path / "ran"
+    (bench / "bench_wfc.py").write_text('import json\nprint(json.dumps({"wfc_64x64_ms": 12.5}))\n')
+    figures = {f"{m}_route_completion": 100.0 for m in ("human", "human_ai_mode_1", "human_ai_mode_2", "ai")}
+    (bench / "traverse_modes.py").write_text(
+        f"import json, pathlib\npathlib.Path({str(ran)!r}).touch()\nprint(json.dumps({figures!r}))\n"
+    )
+    out = tmp_path / "out"
+    assert run("--bench-dir", str(bench), "--out", str(out)).returncode == 0
+    results = json.loads((out / "results.json").read_text())
+    assert not ran.exists() and "traverse_modes" not in results["benches"]
+
+    proc = run("--bench-dir", str(bench), "--out", str(out), "--only", "traverse_modes")
+    assert proc.returncode == 0, proc.stderr
+    assert ran.exists()
+    results = json.loads((out / "results.json").read_text())
+    assert results["benches"]["traverse_modes"]["figures"] == figures
+    assert results["benches"]["traverse_modes"]["args"] == ["--jobs", "2"]
+    report = (out / "REPORT.md").read_text()
+    assert "| 47 | urban-tra-standard on learned legs, quadruped, AI: route completed | 100 %" in report
+
+    ran.unlink()
+    results["benches"]["run_all"]["figures"]["suite_wall_min"] = 39.8  # an earlier full run's
+    (out / "results.json").write_text(json.dumps(results))
+    assert run("--bench-dir", str(bench), "--out", str(out)).returncode == 0
+    results = json.loads((out / "results.json").read_text())
+    assert not ran.exists() and results["benches"]["traverse_modes"]["figures"] == figures
+    assert results["ran"] == ["bench_wfc"] and results["benches"]["run_all"]["figures"]["suite_wall_min"] < 5
