@@ -150,7 +150,8 @@ class LearnedLegs:
         self.last_action = np.zeros(n_actions)
         self.fell = False
         #: 50 Hz steps left of acting on draws from the model's Gaussian (:data:`WEDGE`),
-        #: seconds the robot has been still while asked to move, and how often it was wedged.
+        #: seconds the robot has been still while asked to move, how often it was wedged, and
+        #: seconds its base has been tipped past :data:`TIPPED`.
         self._unwedge, self._still, self.wedges, self._tipped = 0, 0.0, 0, 0.0
         self._rng = np.random.default_rng(0)
         self._free_damping = free_damping(robot)
