@@ -263,8 +263,9 @@ class LearnedNavigator:
         self._explore = False
         self.fallback = PlannerPolicy()
         self.fallback.reset(env)
-        # seeded by the episode without drawing from the environment's own generator
-        self._rng = np.random.default_rng(env.np_random.bit_generator.state["state"]["state"])
+        from citygen.runner.envs.base import episode_rng
+
+        self._rng = episode_rng(env)
 
     def subgoal(self, x: float, y: float) -> np.ndarray:
         """Where the navigator steers from ``(x, y)``: :data:`CARROT` m ahead on the guide."""

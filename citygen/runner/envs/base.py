@@ -25,6 +25,14 @@ LIVE_SCENES = 8
 #: Spawning: clearance (m) between the ground and a robot part that would have touched it.
 SPAWN_CLEARANCE = 0.01
 
+
+def episode_rng(env: Any, *salt: int) -> np.random.Generator:
+    """A generator seeded by ``env``'s episode (the state of its ``np_random``, read without
+    drawing from it, so the environment's own draws stay as they were) and ``salt``: draws
+    a controller adds to a run (a policy's exploration, the legs' unwedging) replay with it."""
+    return np.random.default_rng([env.np_random.bit_generator.state["state"]["state"], *salt])
+
+
 #: Default split of each task kind (the test part of its dataset).
 DEFAULT_SPLIT = {
     "nav-clear": "urban-nav-1-test",

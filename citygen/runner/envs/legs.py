@@ -38,6 +38,7 @@ import numpy as np
 
 from citygen.errors import Problem, SpecError
 from citygen.runner.envs import legged
+from citygen.runner.envs.base import episode_rng
 from citygen.runner.envs.loco import FALL_FORCE, LOCO_DT
 from citygen.runner.learn.loco import COMMANDS
 
@@ -223,10 +224,7 @@ class LearnedLegs:
         self.last_action[:] = 0.0
         self.fell = False
         self._unwedge, self._still, self._tipped = 0, 0.0, 0.0
-        # draws seeded by the episode (without drawing from the environment's own generator)
-        # and the step, so a run replays
-        seed = env.np_random.bit_generator.state["state"]["state"]
-        self._rng = np.random.default_rng([seed, env.steps])
+        self._rng = episode_rng(env, env.steps)  # a reset mid-episode (the traverse's) draws anew
         self.use(GENERAL)
 
     def observation(self) -> dict[str, np.ndarray]:

@@ -94,14 +94,13 @@ def shipped(locomotion: str = "servo") -> dict[tuple[str, str], Path]:
         for task in LOCO_TASKS:
             out.setdefault((task, robot), path)
     if locomotion == "learned":
-        legs = found.legs
         stand_ins = {
-            (task, robot): legs[(by, robot)]
+            (task, robot): path
+            for (tuned, robot), path in found.legs.items()
             for task, by in LEGS_STAND_IN.items()
-            for robot in {r for _, r in legs}
-            if (by, robot) in legs and (task, robot) not in legs
+            if by == tuned
         }
-        out.update({**stand_ins, **legs})
+        out.update({**stand_ins, **found.legs})  # a task's own file before a stand-in
     return out
 
 
