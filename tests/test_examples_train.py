@@ -20,20 +20,20 @@ SPLITS = sorted((ROOT / "examples" / "splits").glob("*.toml"))
 
 
 def _named(path: Path) -> tuple[str, str]:
-    """The task and robot of a config's documented command (its header), or of its name."""
+    """The task and robot of a config's documented command (its header), else by its name."""
     text = path.read_text()
-    task = re.search(r"--task ((?:nav|loco)-[a-z]+)", text)
-    robot = re.search(r"--robot (\w+)", text)
     loco = path.name.startswith("loco") or path.parent.name == "humanoid"
-    default_robot = (
-        "humanoid"
-        if "humanoid" in str(path.relative_to(ROOT))
-        else ("wheeled_legged" if "wheeled" in path.name else "quadruped")
-        if loco
-        else "wheeled"
-    )
-    return (task.group(1) if task else "loco-flat" if loco else "nav-clear"), (
-        robot.group(1) if robot else default_robot
+    if path.parent.name == "humanoid" or "humanoid" in path.name:
+        robot = "humanoid"
+    elif not loco:
+        robot = "wheeled"
+    else:
+        robot = "wheeled_legged" if "wheeled" in path.name else "quadruped"
+    task = re.search(r"--task ((?:nav|loco)-[a-z]+)", text)
+    named_robot = re.search(r"--robot (\w+)", text)
+    return (
+        task.group(1) if task else "loco-flat" if loco else "nav-clear",
+        named_robot.group(1) if named_robot else robot,
     )
 
 
