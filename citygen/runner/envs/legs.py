@@ -152,8 +152,8 @@ class LearnedLegs:
         self.fell = False
         #: 50 Hz steps left of acting on draws from the model's Gaussian (:data:`WEDGE`),
         #: seconds the robot has been still while asked to move, how often it was wedged, and
-        #: seconds its base has been tipped past :data:`TIPPED`.
-        self._unwedge, self._still, self.wedges, self._tipped = 0, 0.0, 0, 0.0
+        #: 50 Hz steps its base has been tipped past :data:`TIPPED`.
+        self._unwedge, self._still, self.wedges, self._tipped = 0, 0.0, 0, 0
         self._rng = np.random.default_rng(0)
         self._free_damping = free_damping(robot)
         self._force = np.zeros(6)  # mj_contactForce's output
@@ -223,7 +223,7 @@ class LearnedLegs:
         self.command[:] = 0.0
         self.last_action[:] = 0.0
         self.fell = False
-        self._unwedge, self._still, self._tipped = 0, 0.0, 0.0
+        self._unwedge, self._still, self._tipped = 0, 0.0, 0
         self._rng = episode_rng(env, env.steps)  # a reset mid-episode (the traverse's) draws anew
         self.use(GENERAL)
 
@@ -269,8 +269,8 @@ class LearnedLegs:
     def _lying(self, up: float) -> bool:
         """After a 50 Hz step with the base's up axis at cosine ``up`` from the vertical:
         whether it has been tipped past :data:`TIPPED` for long enough to have fallen."""
-        self._tipped = self._tipped + LOCO_DT if up < TIPPED[0] else 0.0
-        return self._tipped >= TIPPED[1] - 1e-9
+        self._tipped = self._tipped + 1 if up < TIPPED[0] else 0
+        return self._tipped >= round(TIPPED[1] / LOCO_DT)
 
     def _watch_wedge(self, x0: float, y0: float, yaw0: float, v: float, w: float) -> None:
         """After a navigation step asked ``(v, w)`` from the pose ``(x0, y0, yaw0)``: count
