@@ -151,9 +151,9 @@ class LearnedLegs:
         self.last_action = np.zeros(n_actions)
         self.fell = False
         #: 50 Hz steps left of acting on draws from the model's Gaussian (:data:`WEDGE`),
-        #: seconds the robot has been still while asked to move, how often it was wedged, and
-        #: 50 Hz steps its base has been tipped past :data:`TIPPED`.
-        self._unwedge, self._still, self.wedges, self._tipped = 0, 0.0, 0, 0
+        #: navigation steps the robot has been still while asked to move, how often it was
+        #: wedged, and 50 Hz steps its base has been tipped past :data:`TIPPED`.
+        self._unwedge, self._still, self.wedges, self._tipped = 0, 0, 0, 0
         self._rng = np.random.default_rng(0)
         self._free_damping = free_damping(robot)
         self._force = np.zeros(6)  # mj_contactForce's output
@@ -223,7 +223,7 @@ class LearnedLegs:
         self.command[:] = 0.0
         self.last_action[:] = 0.0
         self.fell = False
-        self._unwedge, self._still, self._tipped = 0, 0.0, 0
+        self._unwedge, self._still, self._tipped = 0, 0, 0
         self._rng = episode_rng(env, env.steps)  # a reset mid-episode (the traverse's) draws anew
         self.use(GENERAL)
 
@@ -281,7 +281,8 @@ class LearnedLegs:
         turned = abs(math.remainder(yaw - yaw0, math.tau))
         moving = math.hypot(x - x0, y - y0) >= WEDGE[1] * dt or turned >= WEDGE[2] * dt
         asked = abs(v) >= WEDGE_COMMAND[0] or abs(w) >= WEDGE_COMMAND[1]
-        self._still = 0.0 if moving or not asked else self._still + dt
-        if self._still >= WEDGE[0] and self._unwedge == 0:
-            self._unwedge, self._still = max(1, round(UNWEDGE / LOCO_DT)), 0.0
+        # whole steps counted: ten summed 0.1 s steps fall short of 1.0 s by a rounding
+        self._still = 0 if moving or not asked else self._still + 1
+        if self._still >= max(1, round(WEDGE[0] / dt)) and self._unwedge == 0:
+            self._unwedge, self._still = max(1, round(UNWEDGE / LOCO_DT)), 0
             self.wedges += 1
