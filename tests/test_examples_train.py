@@ -68,7 +68,11 @@ def test_validation_splits_are_drawn_like_their_test_split(file, like):
 
 @pytest.mark.parametrize(
     ("file", "kind", "field"),
-    [("urban-loc-2-wide", 2, "slope_angle"), ("urban-loc-4-wide", 4, "roughness_amplitude")],
+    [
+        ("urban-loc-2-wide", 2, "slope_angle"),
+        ("urban-loc-3-wide", 3, "step_height"),
+        ("urban-loc-4-wide", 4, "roughness_amplitude"),
+    ],
 )
 def test_widened_loco_grids_run_from_the_training_range_to_the_test_range(file, kind, field):
     (wide,) = resolve(ROOT / "examples" / "splits" / f"{file}.toml")

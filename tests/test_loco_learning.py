@@ -294,6 +294,38 @@ def test_the_curriculum_moves_up_after_a_long_walk_and_down_after_a_fall(grid):
         env.close()
 
 
+def test_random_rows_start_episodes_anywhere_on_the_grid_and_leave_the_level(grid):
+    """With ``random_rows = 1`` every episode starts on a row drawn from the whole grid, past
+    the level too, and its end (a fall here: standing still on bumps) leaves the level as it
+    was; without it, episodes start on the level and the same seed draws the same regions."""
+    env = LocoTraining(
+        make_env("loco-rough", robot="quadruped", split=str(grid)), seed=0, rank=0, random_rows=1.0
+    )
+    plain = [
+        LocoTraining(make_env("loco-rough", robot="quadruped", split=str(grid)), seed=0, rank=0)
+        for _ in range(2)
+    ]
+    try:
+        env.reset(seed=0)
+        env.level, rows = 0, set()
+        for k in range(12):
+            _, info = env.reset(seed=k)
+            rows.add(info["region"][0])
+        assert rows == {0, 1}
+        ended = None
+        for _ in range(1000):
+            *_, terminated, truncated, info = env.step(np.zeros(12))
+            if terminated or truncated:
+                ended = info
+                break
+        assert ended is not None and ended["terrain_level"] == 0 == env.level
+        regions = [[e.reset(seed=k)[1]["region"] for k in range(6)] for e in plain]
+        assert regions[0] == regions[1] and {r[0] for r in regions[0]} == {plain[0].level}
+    finally:
+        for e in (env, *plain):
+            e.close()
+
+
 def test_drawn_commands_hold_the_level_but_a_fall_and_may_change_mid_episode(grid):
     """With ``level_on_commands="falls"`` an episode on a drawn command moves its level only
     down, on a fall (a turning command never covers 4 m); the task's own command still moves

@@ -317,6 +317,14 @@ class TrainConfig(BaseModel):
         description="Locomotion, training only: the terrain curriculum over the training grid's "
         "difficulty rows (Rudin et al. 2022; citygen.runner.learn.loco).",
     )
+    random_rows: Annotated[float, Field(ge=0, le=1)] = Field(
+        0.0,
+        description="Locomotion, training only, with the curriculum: share of episodes started on "
+        "a row drawn uniformly from the whole grid, leaving the sub-environment's level as it was "
+        "(terrain past what a robot masters, where a fall's penalty teaches it to stop short of "
+        "what it cannot cross instead of trying; Rudin et al. 2022 send robots past the last row "
+        "to random rows).",
+    )
     normalize: bool = Field(True, description="Running mean/std of observations (exported) and rewards.")
     norm_epsilon: Annotated[float, Field(gt=0)] = Field(
         1e-2,

@@ -21,7 +21,11 @@ adds what makes the same policy learnable on a laptop in hours:
   ``level_on_commands="falls"`` an episode on a drawn command moves it only down, on a fall:
   a turning or slow command never covers 4 m and a turning one never its straight-line
   distance, so by distance such episodes pull every level to the easiest rows (the curriculum
-  stalled at row 4 of 30 with 60 % of episodes on drawn commands).
+  stalled at row 4 of 30 with 60 % of episodes on drawn commands). With ``random_rows`` a
+  share of episodes starts on a row drawn from the whole grid and leaves the level alone: a
+  curriculum keeps a robot at the edge of what it masters, so it never meets the terrain
+  past that edge, which a test grid reaches (its stairs to 0.30 m), and does there what it
+  does at the edge: tries, and falls.
 - **Fall penalty** (``fall_penalty``): the multiple of the paper's ``-100`` on a fall that
   training pays (1: the paper's; legged_gym's rough-terrain policies train with none, a fall
   costing only the rewards it ends), so that a policy on stairs is not taught that standing
@@ -122,6 +126,7 @@ class LocoTraining(gymnasium.Wrapper):
         foot_clearance: float = 0.0, turn_progress: float = 0.0, heading_progress: float = 0.0,
         base_height: float = 0.0, leg_collision: float = 0.0, clearance_height: float = FOOT_CLEARANCE,
         command_resample: float = 0.0, level_on_commands: str = "distance", orientation: float = 0.0,
+        random_rows: float = 0.0,
     ):  # fmt: skip
         super().__init__(env)
         if level_on_commands not in ("distance", "falls"):
@@ -151,6 +156,8 @@ class LocoTraining(gymnasium.Wrapper):
         self.curriculum = bool(curriculum)
         self._rng = np.random.default_rng([seed, rank, 3571])
         self.level: int | None = None
+        self._random_rows = float(random_rows)
+        self._exploring = False  # this episode is on a drawn row (random_rows): the level stays
         self._start = (0.0, 0.0)
         self._air = np.zeros(0)
         self._stepping = True
@@ -166,7 +173,10 @@ class LocoTraining(gymnasium.Wrapper):
             rows, cols = grid.rows, grid.cols
             if self.level is None:
                 self.level = int(self._rng.integers(min(START_ROWS, rows)))
-            options["region"] = (self.level, int(self._rng.integers(cols)))
+            # drawn only when asked for, so that runs without it draw what they drew before
+            self._exploring = bool(self._random_rows) and self._rng.random() < self._random_rows
+            row = int(self._rng.integers(rows)) if self._exploring else self.level
+            options["region"] = (row, int(self._rng.integers(cols)))
         self._drawn = False
         if self.command_mix and "command" not in options and self._rng.random() < self.command_mix:
             options["command"] = self._draw_command()
@@ -213,7 +223,8 @@ class LocoTraining(gymnasium.Wrapper):
         if self._fall_refund and info.get("fallen"):
             reward += self._fall_refund
         if (terminated or truncated) and self.curriculum and self.level is not None:
-            self._move_level(bool(terminated))
+            if not self._exploring:
+                self._move_level(bool(terminated))
             info = {**info, "terrain_level": self.level}
         elif self._drawn and self._resample and self._rng.random() < self.env.unwrapped.dt / self._resample:
             command = self._draw_command()  # the next step's; this step's reward was the last one's

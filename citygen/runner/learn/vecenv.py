@@ -216,6 +216,7 @@ def _sub_env_args(cfg: TrainConfig, rank: int) -> tuple[Any, ...]:
             "command_resample": cfg.command_resample,
             "level_on_commands": cfg.level_on_commands,
             "curriculum": cfg.curriculum,
+            "random_rows": cfg.random_rows,
             "only_positive": cfg.only_positive,
             "effort_scale": cfg.effort_scale,
             "alive": cfg.alive,
