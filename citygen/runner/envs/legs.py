@@ -147,6 +147,10 @@ class LearnedLegs:
         self.use(GENERAL)
         #: 50 Hz steps per navigation step.
         self.repeats = max(1, round(env.dt / LOCO_DT))
+        #: Whole steps of the rules' durations: navigation steps still before a wedge
+        #: (:data:`WEDGE`), 50 Hz steps tipped before a fall (:data:`TIPPED`).
+        self._wedge_steps = max(1, round(WEDGE[0] / env.dt))
+        self._tipped_steps = round(TIPPED[1] / LOCO_DT)
         self.command = np.zeros(3)
         self.last_action = np.zeros(n_actions)
         self.fell = False
@@ -270,7 +274,7 @@ class LearnedLegs:
         """After a 50 Hz step with the base's up axis at cosine ``up`` from the vertical:
         whether it has been tipped past :data:`TIPPED` for long enough to have fallen."""
         self._tipped = self._tipped + 1 if up < TIPPED[0] else 0
-        return self._tipped >= round(TIPPED[1] / LOCO_DT)
+        return self._tipped >= self._tipped_steps
 
     def _watch_wedge(self, x0: float, y0: float, yaw0: float, v: float, w: float) -> None:
         """After a navigation step asked ``(v, w)`` from the pose ``(x0, y0, yaw0)``: count
@@ -283,6 +287,6 @@ class LearnedLegs:
         asked = abs(v) >= WEDGE_COMMAND[0] or abs(w) >= WEDGE_COMMAND[1]
         # whole steps counted: ten summed 0.1 s steps fall short of 1.0 s by a rounding
         self._still = 0 if moving or not asked else self._still + 1
-        if self._still >= max(1, round(WEDGE[0] / dt)) and self._unwedge == 0:
+        if self._still >= self._wedge_steps and self._unwedge == 0:
             self._unwedge, self._still = max(1, round(UNWEDGE / LOCO_DT)), 0
             self.wedges += 1
