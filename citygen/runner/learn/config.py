@@ -325,6 +325,16 @@ class TrainConfig(BaseModel):
         "what it cannot cross instead of trying; Rudin et al. 2022 send robots past the last row "
         "to random rows).",
     )
+    edge_stop: Annotated[float, Field(ge=0)] = Field(
+        0.0,
+        description="Locomotion, training only (privileged: the ground raster): where a riser "
+        "higher than edge_height lies within 0.7 m ahead along the command, the gait shaping pays "
+        "for standing instead of the command and takes this times the speed made toward it off "
+        "(citygen.runner.learn.loco).",
+    )
+    edge_height: Annotated[float, Field(gt=0)] = Field(
+        0.16, description="Locomotion: the highest riser (m) the edge stop lets a robot take."
+    )
     normalize: bool = Field(True, description="Running mean/std of observations (exported) and rewards.")
     norm_epsilon: Annotated[float, Field(gt=0)] = Field(
         1e-2,

@@ -57,6 +57,15 @@ adds what makes the same policy learnable on a laptop in hours:
   on top of the gait shaping's tilt term: the wheeled-legged robot's general model crossed
   the test grid's steep slope faces at full height and rolled over sideways (its 0.72 m track
   under a 0.58 m base tips past about 32 degrees of roll), where legs can level the base.
+- **Edge stop** (``edge_stop``, privileged: the ground raster, which the robot sees only
+  through its height map): where the ground along the commanded direction within
+  :data:`EDGE_LOOK` ahead of the base steps by more than ``edge_height`` (m) over
+  :data:`EDGE_SPAN` (a riser higher than the robot can take), the gait shaping's tracking and
+  progress terms are paid against a zero command and ``edge_stop`` times the speed made
+  toward the edge is taken off: stand at a riser you cannot take. The paper's stair test
+  reaches 0.30 m risers, above a quadruped's standing height; its balance there (92 %) is
+  only possible by not trying them, and neither a fall at three times the paper's penalty
+  nor random rows taught PPO to stop (the policy kept trying and falling).
 - **Only positive rewards** (``only_positive``, legged_gym's ``only_positive_rewards``): a
   step's reward before the fall's ``-100`` is clipped at zero, so that a noisy first policy
   whose penalties cost more per step than a fall (the wheeled-legged robot's torques: about
@@ -106,6 +115,11 @@ START_ROWS = 3
 #: Height (m) of a swinging foot's centre over the ground under it that the foot clearance
 #: term asks for (``foot_clearance``): the quadruped's foot radius (0.022 m) over a 0.10 m step.
 FOOT_CLEARANCE = 0.12
+#: How far ahead of the base (m) the edge stop looks for a riser, in steps of EDGE_SPAN / 2.
+EDGE_LOOK = 0.7
+#: Horizontal span (m) over which a rise or drop of the ground counts as one riser (twice the
+#: ground raster's 5 cm cells: a riser interpolated over one cell falls inside it whole).
+EDGE_SPAN = 0.1
 
 
 def leg_link_geoms(model, handle) -> frozenset[int]:
@@ -126,7 +140,7 @@ class LocoTraining(gymnasium.Wrapper):
         foot_clearance: float = 0.0, turn_progress: float = 0.0, heading_progress: float = 0.0,
         base_height: float = 0.0, leg_collision: float = 0.0, clearance_height: float = FOOT_CLEARANCE,
         command_resample: float = 0.0, level_on_commands: str = "distance", orientation: float = 0.0,
-        random_rows: float = 0.0,
+        random_rows: float = 0.0, edge_stop: float = 0.0, edge_height: float = 0.16,
     ):  # fmt: skip
         super().__init__(env)
         if level_on_commands not in ("distance", "falls"):
@@ -140,6 +154,9 @@ class LocoTraining(gymnasium.Wrapper):
         self._ground_ids: frozenset[int] = frozenset()
         self._leg_model = None  # the model the two sets above are of
         self._base_height = float(base_height)
+        self._edge = float(edge_stop)
+        self._edge_h = float(edge_height)
+        self._look = np.arange(0.0, EDGE_LOOK + 1e-9, EDGE_SPAN / 2).tolist()
         self._tilt = WEIGHTS["tilt"] - float(orientation)
         self._fall_refund = (1.0 - float(fall_penalty)) * -FALL_PENALTY
         self._clearance = float(foot_clearance)
@@ -240,19 +257,24 @@ class LocoTraining(gymnasium.Wrapper):
         c0, c1, c2 = u.command.tolist()
         vx, vy, _, wz = u.base_velocity  # RobotHandle._velocity after the step
         qv = d.qvel
+        r, held = 0.0, self._held_dir
+        if self._edge and (c0 or c1) and self._riser_ahead(c0, c1) > self._edge_h:
+            r -= self._edge * max((vx * c0 + vy * c1) / math.hypot(c0, c1), 0.0)
+            c0 = c1 = 0.0  # the terms below pay for standing
+            held = None
         w = qv[h.dadr + 3 : h.dadr + 5]
         g = d.xmat[h.base_id][6:8]  # the tilt: gravity's x and y in the base's frame (up to sign)
         tau = d.actuator_force[h.leg_act]
         qvel = qv[h.leg_dadr]
-        r = WEIGHTS["track_lin"] * math.exp(-((vx - c0) ** 2 + (vy - c1) ** 2) / 0.25)
+        r += WEIGHTS["track_lin"] * math.exp(-((vx - c0) ** 2 + (vy - c1) ** 2) / 0.25)
         r += WEIGHTS["track_ang"] * math.exp(-((wz - c2) ** 2) / 0.25)
         asked = c0 * c0 + c1 * c1
         if asked > 0.01:
             r += WEIGHTS["progress"] * min(max((vx * c0 + vy * c1) / asked, -1.0), 1.0)
         if self._turn and abs(c2) > 0.1:
             r += self._turn * min(max(wz / c2, -1.0), 1.0)
-        if self._held_dir is not None:  # a free joint's linear qvel is in the world frame
-            along = qv[h.dadr] * self._held_dir[0] + qv[h.dadr + 1] * self._held_dir[1]
+        if held is not None:  # a free joint's linear qvel is in the world frame
+            along = qv[h.dadr] * held[0] + qv[h.dadr + 1] * held[1]
             r += self._heading * min(max(along, -1.0), 1.0)
         r += WEIGHTS["ang_vel_xy"] * float(w @ w)
         r += self._tilt * float(g @ g)
@@ -274,6 +296,23 @@ class LocoTraining(gymnasium.Wrapper):
         if self._collision:
             r -= self._collision * self._leg_hits()
         return r
+
+    def _riser_ahead(self, c0: float, c1: float) -> float:
+        """The largest rise or drop (m) of the ground over :data:`EDGE_SPAN` along the
+        commanded direction (the held heading's, where the episode holds one) within
+        :data:`EDGE_LOOK` ahead of the base."""
+        u = self.env.unwrapped
+        x, y = u.data.qpos[u.handle.qadr : u.handle.qadr + 2].tolist()
+        if self._held_dir is not None:
+            dx, dy = self._held_dir
+        else:
+            m = u.data.xmat[u.handle.base_id]  # the base's x axis in the world: m[0], m[3]
+            dx, dy = m[0] * c0 + m[1] * c1, m[3] * c0 + m[4] * c1
+        norm = math.hypot(dx, dy)
+        dx, dy = dx / norm, dy / norm
+        ground_at = u.prepared.ground_at
+        h = [ground_at(x + s * dx, y + s * dy) for s in self._look]
+        return max(abs(b - a) for a, b in zip(h, h[2:], strict=False))
 
     def _leg_hits(self) -> int:
         """How many leg links (feet not counted) touch the ground after this step."""

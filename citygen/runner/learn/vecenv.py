@@ -217,6 +217,8 @@ def _sub_env_args(cfg: TrainConfig, rank: int) -> tuple[Any, ...]:
             "level_on_commands": cfg.level_on_commands,
             "curriculum": cfg.curriculum,
             "random_rows": cfg.random_rows,
+            "edge_stop": cfg.edge_stop,
+            "edge_height": cfg.edge_height,
             "only_positive": cfg.only_positive,
             "effort_scale": cfg.effort_scale,
             "alive": cfg.alive,
