@@ -265,11 +265,12 @@ def test_heading_progress_pays_the_speed_along_the_held_heading_in_the_world():
         assert heading == plain
 
 
-def test_the_edge_stop_pays_for_standing_only_at_a_riser_too_high_to_take(tmp_path):
-    """``edge_stop`` measures the highest riser within reach ahead along the held heading; where
-    it is higher than ``edge_height`` the shaping pays a robot standing still for standing (the
-    command's tracking, paid against a zero command), and below it changes nothing, to the bit."""
-    split = tmp_path / "stairs.toml"  # row 0: 5 cm risers, row 1: 30 cm
+def test_the_edge_stop_pays_for_standing_only_at_a_riser_too_high_to_climb(tmp_path):
+    """``edge_stop`` measures the highest riser up within reach ahead along the held heading;
+    where it is higher than ``edge_height`` the shaping pays a robot standing still for standing
+    (the command's tracking, paid against a zero command); below it, and at the top of risers
+    going down however high, it changes nothing, to the bit."""
+    split = tmp_path / "stairs.toml"  # row 0: 5 cm risers, row 1: 30 cm; column 0 a pyramid, 1 a pit
     split.write_text(
         loco_grid("stair", "quadruped") + "terrain.step_height = [0.05, 0.3]\nterrain.step_count = [8, 8]\n"
     )
@@ -279,13 +280,13 @@ def test_the_edge_stop_pays_for_standing_only_at_a_riser_too_high_to_take(tmp_pa
         for kw in kws
     ]
     try:
-        for row, riser in ((0, 0.05), (1, 0.3)):
+        for region, rise in (((0, 1), 0.05), ((1, 0), 0.0), ((1, 1), 0.3)):
             for e in envs:
-                e.reset(seed=1, options={"region": (row, 0), "command": (1.0, 0.0, 0.0)})
-            assert envs[1]._riser_ahead(1.0, 0.0) == pytest.approx(riser, abs=0.01)
+                e.reset(seed=1, options={"region": region, "command": (1.0, 0.0, 0.0)})
+            assert envs[1]._riser_ahead(1.0, 0.0) == pytest.approx(rise, abs=0.01)
             for _ in range(10):
                 (_, plain, *_), (_, edged, *_) = [e.step(np.zeros(12)) for e in envs]
-                assert edged == plain if row == 0 else edged > plain + 0.5
+                assert edged == plain if rise < 0.16 else edged > plain + 0.5
     finally:
         for e in envs:
             e.close()

@@ -328,12 +328,12 @@ class TrainConfig(BaseModel):
     edge_stop: Annotated[float, Field(ge=0)] = Field(
         0.0,
         description="Locomotion, training only (privileged: the ground raster): where a riser "
-        "higher than edge_height lies within 0.7 m ahead along the command, the gait shaping pays "
+        "up higher than edge_height lies within 0.7 m ahead along the command, the gait shaping pays "
         "for standing instead of the command and takes this times the speed made toward it off "
         "(citygen.runner.learn.loco).",
     )
     edge_height: Annotated[float, Field(gt=0)] = Field(
-        0.16, description="Locomotion: the highest riser (m) the edge stop lets a robot take."
+        0.16, description="Locomotion: the highest riser up (m) the edge stop lets a robot climb."
     )
     normalize: bool = Field(True, description="Running mean/std of observations (exported) and rewards.")
     norm_epsilon: Annotated[float, Field(gt=0)] = Field(

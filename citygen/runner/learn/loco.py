@@ -59,13 +59,15 @@ adds what makes the same policy learnable on a laptop in hours:
   under a 0.58 m base tips past about 32 degrees of roll), where legs can level the base.
 - **Edge stop** (``edge_stop``, privileged: the ground raster, which the robot sees only
   through its height map): where the ground along the commanded direction within
-  :data:`EDGE_LOOK` ahead of the base steps by more than ``edge_height`` (m) over
-  :data:`EDGE_SPAN` (a riser higher than the robot can take), the gait shaping's tracking and
+  :data:`EDGE_LOOK` ahead of the base rises by more than ``edge_height`` (m) over
+  :data:`EDGE_SPAN` (a riser higher than the robot can climb), the gait shaping's tracking and
   progress terms are paid against a zero command and ``edge_stop`` times the speed made
-  toward the edge is taken off: stand at a riser you cannot take. The paper's stair test
+  toward the riser is taken off: stand at a riser you cannot climb. The paper's stair test
   reaches 0.30 m risers, above a quadruped's standing height; its balance there (92 %) is
   only possible by not trying them, and neither a fall at three times the paper's penalty
-  nor random rows taught PPO to stop (the policy kept trying and falling).
+  nor random rows taught PPO to stop (the policy kept trying and falling). Risers down are
+  not counted: the quadruped's stair model walks down a pyramid's 0.23-0.30 m risers and
+  falls where the next region's rise up from their foot.
 - **Only positive rewards** (``only_positive``, legged_gym's ``only_positive_rewards``): a
   step's reward before the fall's ``-100`` is clipped at zero, so that a noisy first policy
   whose penalties cost more per step than a fall (the wheeled-legged robot's torques: about
@@ -298,7 +300,7 @@ class LocoTraining(gymnasium.Wrapper):
         return r
 
     def _riser_ahead(self, c0: float, c1: float) -> float:
-        """The largest rise or drop (m) of the ground over :data:`EDGE_SPAN` along the
+        """The largest rise (m) of the ground over :data:`EDGE_SPAN` along the
         commanded direction (the held heading's, where the episode holds one) within
         :data:`EDGE_LOOK` ahead of the base."""
         u = self.env.unwrapped
@@ -312,7 +314,7 @@ class LocoTraining(gymnasium.Wrapper):
         dx, dy = dx / norm, dy / norm
         ground_at = u.prepared.ground_at
         h = [ground_at(x + s * dx, y + s * dy) for s in self._look]
-        return max(abs(b - a) for a, b in zip(h, h[2:], strict=False))
+        return max(b - a for a, b in zip(h, h[2:], strict=False))
 
     def _leg_hits(self) -> int:
         """How many leg links (feet not counted) touch the ground after this step."""
