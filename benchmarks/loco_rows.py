@@ -4,9 +4,12 @@ gives one mean over the whole grid: which riser height, slope or roughness a mod
 
     python benchmarks/loco_rows.py --task loco-stair --robot quadruped --policy FILE [--cols 4] [--every 2]
 
-Episode ``(row, k)`` starts in region ``(row, k * 16 // cols)`` with seed ``row * 16 + k``
-under the task's own command (1 m/s ahead, heading held); the last line is one JSON object
-of the rows' figures.
+Episode ``(row, k)`` starts in region ``(row, k * 16 // cols + k % 2)`` with seed
+``row * 16 + k`` under the task's own command (1 m/s ahead, heading held); the last line is
+one JSON object of the rows' figures. The columns alternate in kind (the grids' even columns
+are pyramids, whose episodes start on the top and go down; the odd ones pits, climbed out
+of), so that every row's figure holds both: before 2026-12-02 the columns were ``k * 16 //
+cols``, all even, and these figures were of descents only.
 """
 
 from __future__ import annotations
@@ -31,7 +34,8 @@ def row_figures(task: str, robot: str, policy: str, cols: int, every: int) -> li
             for k in range(cols):
                 seed = row * grid.cols + k
                 pol = make_policy(policy, seed=seed, task=task)
-                obs, info = env.reset(seed=seed, options={"region": (row, k * grid.cols // cols)})
+                col = min(k * grid.cols // cols + k % 2, grid.cols - 1)
+                obs, info = env.reset(seed=seed, options={"region": (row, col)})
                 pol.reset(env.unwrapped)
                 while True:
                     obs, _, terminated, truncated, info = env.step(pol.act(obs))
