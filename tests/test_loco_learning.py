@@ -266,27 +266,34 @@ def test_heading_progress_pays_the_speed_along_the_held_heading_in_the_world():
 
 
 def test_the_edge_stop_pays_for_standing_only_at_a_riser_too_high_to_climb(tmp_path):
-    """``edge_stop`` measures the highest riser up within reach ahead along the held heading;
-    where it is higher than ``edge_height`` the shaping pays a robot standing still for standing
-    (the command's tracking, paid against a zero command); below it, and at the top of risers
-    going down however high, it changes nothing, to the bit."""
+    """``edge_stop`` measures the highest riser up (and down) within reach ahead along the held
+    heading; where one up is higher than ``edge_height`` the shaping pays a robot standing still
+    for standing (the command's tracking, paid against a zero command); below it it changes
+    nothing, to the bit, nor at the top of risers going down however deep, unless they are
+    deeper than ``edge_drop``."""
     split = tmp_path / "stairs.toml"  # row 0: 5 cm risers, row 1: 30 cm; column 0 a pyramid, 1 a pit
     split.write_text(
         loco_grid("stair", "quadruped") + "terrain.step_height = [0.05, 0.3]\nterrain.step_count = [8, 8]\n"
     )
-    kws = ({"heading_progress": 1.0}, {"heading_progress": 1.0, "edge_stop": 1.0})
+    edge = {"heading_progress": 1.0, "edge_stop": 1.0}
+    kws = ({"heading_progress": 1.0}, edge, {**edge, "edge_drop": 0.2})
     envs = [
         LocoTraining(make_env("loco-stair", robot="quadruped", split=str(split)), seed=0, rank=0, **kw)
         for kw in kws
     ]
     try:
-        for region, rise in (((0, 1), 0.05), ((1, 0), 0.0), ((1, 1), 0.3)):
+        for region, risers, stops in (
+            ((0, 1), (0.05, 0), ()),
+            ((1, 0), (0, 0.3), (2,)),
+            ((1, 1), (0.3, 0), (1, 2)),
+        ):
             for e in envs:
                 e.reset(seed=1, options={"region": region, "command": (1.0, 0.0, 0.0)})
-            assert envs[1]._riser_ahead(1.0, 0.0) == pytest.approx(rise, abs=0.01)
+            assert envs[1]._risers_ahead(1.0, 0.0) == pytest.approx(risers, abs=0.01)
             for _ in range(10):
-                (_, plain, *_), (_, edged, *_) = [e.step(np.zeros(12)) for e in envs]
-                assert edged == plain if rise < 0.16 else edged > plain + 0.5
+                plain, *edged = [e.step(np.zeros(12))[1] for e in envs]
+                for k, r in enumerate(edged, 1):
+                    assert r > plain + 0.5 if k in stops else r == plain
     finally:
         for e in envs:
             e.close()

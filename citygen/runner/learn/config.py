@@ -335,6 +335,11 @@ class TrainConfig(BaseModel):
     edge_height: Annotated[float, Field(gt=0)] = Field(
         0.16, description="Locomotion: the highest riser up (m) the edge stop lets a robot climb."
     )
+    edge_drop: Annotated[float, Field(ge=0)] = Field(
+        0.0,
+        description="Locomotion: with edge_stop, a riser down deeper than this (m) stops the "
+        "robot too (0: risers down never do).",
+    )
     normalize: bool = Field(True, description="Running mean/std of observations (exported) and rewards.")
     norm_epsilon: Annotated[float, Field(gt=0)] = Field(
         1e-2,

@@ -65,9 +65,9 @@ adds what makes the same policy learnable on a laptop in hours:
   toward the riser is taken off: stand at a riser you cannot climb. The paper's stair test
   reaches 0.30 m risers, above a quadruped's standing height; its balance there (92 %) is
   only possible by not trying them, and neither a fall at three times the paper's penalty
-  nor random rows taught PPO to stop (the policy kept trying and falling). Risers down are
-  not counted: the quadruped's stair model walks down a pyramid's 0.23-0.30 m risers and
-  falls where the next region's rise up from their foot.
+  nor random rows taught PPO to stop (the policy kept trying and falling). Risers down
+  count only deeper than ``edge_drop`` (m; 0: never): the quadruped's stair model walks down
+  some of a pyramid's 0.23-0.30 m risers.
 - **Only positive rewards** (``only_positive``, legged_gym's ``only_positive_rewards``): a
   step's reward before the fall's ``-100`` is clipped at zero, so that a noisy first policy
   whose penalties cost more per step than a fall (the wheeled-legged robot's torques: about
@@ -142,7 +142,7 @@ class LocoTraining(gymnasium.Wrapper):
         foot_clearance: float = 0.0, turn_progress: float = 0.0, heading_progress: float = 0.0,
         base_height: float = 0.0, leg_collision: float = 0.0, clearance_height: float = FOOT_CLEARANCE,
         command_resample: float = 0.0, level_on_commands: str = "distance", orientation: float = 0.0,
-        random_rows: float = 0.0, edge_stop: float = 0.0, edge_height: float = 0.16,
+        random_rows: float = 0.0, edge_stop: float = 0.0, edge_height: float = 0.16, edge_drop: float = 0.0,
     ):  # fmt: skip
         super().__init__(env)
         if level_on_commands not in ("distance", "falls"):
@@ -158,6 +158,7 @@ class LocoTraining(gymnasium.Wrapper):
         self._base_height = float(base_height)
         self._edge = float(edge_stop)
         self._edge_h = float(edge_height)
+        self._edge_drop = float(edge_drop) or math.inf
         self._look = np.arange(0.0, EDGE_LOOK + 1e-9, EDGE_SPAN / 2).tolist()
         self._tilt = WEIGHTS["tilt"] - float(orientation)
         self._fall_refund = (1.0 - float(fall_penalty)) * -FALL_PENALTY
@@ -260,7 +261,7 @@ class LocoTraining(gymnasium.Wrapper):
         vx, vy, _, wz = u.base_velocity  # RobotHandle._velocity after the step
         qv = d.qvel
         r, held = 0.0, self._held_dir
-        if self._edge and (c0 or c1) and self._riser_ahead(c0, c1) > self._edge_h:
+        if self._edge and (c0 or c1) and self._blocked(c0, c1):
             r -= self._edge * max((vx * c0 + vy * c1) / math.hypot(c0, c1), 0.0)
             c0 = c1 = 0.0  # the terms below pay for standing
             held = None
@@ -299,10 +300,16 @@ class LocoTraining(gymnasium.Wrapper):
             r -= self._collision * self._leg_hits()
         return r
 
-    def _riser_ahead(self, c0: float, c1: float) -> float:
-        """The largest rise (m) of the ground over :data:`EDGE_SPAN` along the
-        commanded direction (the held heading's, where the episode holds one) within
-        :data:`EDGE_LOOK` ahead of the base."""
+    def _blocked(self, c0: float, c1: float) -> bool:
+        """Whether the edge stop holds: a riser up higher than ``edge_height`` ahead, or one
+        down deeper than ``edge_drop`` (when set)."""
+        rise, drop = self._risers_ahead(c0, c1)
+        return rise > self._edge_h or drop > self._edge_drop
+
+    def _risers_ahead(self, c0: float, c1: float) -> tuple[float, float]:
+        """The largest rise and the largest drop (m, both positive) of the ground over
+        :data:`EDGE_SPAN` along the commanded direction (the held heading's, where the episode
+        holds one) within :data:`EDGE_LOOK` ahead of the base."""
         u = self.env.unwrapped
         x, y = u.data.qpos[u.handle.qadr : u.handle.qadr + 2].tolist()
         if self._held_dir is not None:
@@ -314,7 +321,8 @@ class LocoTraining(gymnasium.Wrapper):
         dx, dy = dx / norm, dy / norm
         ground_at = u.prepared.ground_at
         h = [ground_at(x + s * dx, y + s * dy) for s in self._look]
-        return max(b - a for a, b in zip(h, h[2:], strict=False))
+        steps = [b - a for a, b in zip(h, h[2:], strict=False)]
+        return max(max(steps), 0.0), max(-min(steps), 0.0)
 
     def _leg_hits(self) -> int:
         """How many leg links (feet not counted) touch the ground after this step."""

@@ -219,6 +219,7 @@ def _sub_env_args(cfg: TrainConfig, rank: int) -> tuple[Any, ...]:
             "random_rows": cfg.random_rows,
             "edge_stop": cfg.edge_stop,
             "edge_height": cfg.edge_height,
+            "edge_drop": cfg.edge_drop,
             "only_positive": cfg.only_positive,
             "effort_scale": cfg.effort_scale,
             "alive": cfg.alive,
