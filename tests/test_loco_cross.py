@@ -27,8 +27,7 @@ def test_quadruped_episodes_on_stairs(tmp_path, capsys):
     doc = json.loads(out.joinpath("quadruped.json").read_text())
     assert doc["tasks"] == ["loco-stair"] and list(doc["models"]) == list(loco_cross.MODELS)
     measured = [m for m, row in doc["models"].items() if row["file"]]
-    assert {"flat", "slope", "general"} <= set(measured)
-    assert doc["models"]["stair"]["note"] == "not trained: the general model is shipped for this task"
+    assert measured == list(loco_cross.MODELS)  # every quadruped row ships (stairs: 2026-12-02)
     assert sorted(doc["cells"]) == sorted(f"{m}/loco-stair" for m in measured)
     for cell in doc["cells"].values():
         assert cell["episodes"] == 1 and cell["figures"]["balance"][2] == 1
@@ -55,10 +54,20 @@ def test_table_shape_and_standard_errors(tmp_path, monkeypatch):
         }
         return {"summary": summary, "episodes": episodes, "seconds": 0.0, "digest": "d", "file": file.name}
 
+    shipped = loco_cross.models
+    monkeypatch.setattr(
+        loco_cross, "models", lambda robot: {**shipped(robot), "stair": None}
+    )  # one unshipped
     monkeypatch.setattr(loco_cross.loco_table, "measure", fake)
     monkeypatch.setattr(loco_cross.loco_table, "RESULTS", tmp_path / "none.json")
     doc = loco_cross.run("quadruped", 16, 1, tmp_path)
     measured = [m for m, row in doc["models"].items() if row["file"]]
+    assert "stair" not in measured
+    assert doc["models"]["stair"]["note"] == "not trained: the general model is shipped for this task"
+    assert (
+        "| not trained: the general model is shipped for this task | - | - | - |"
+        in (tmp_path / "quadruped.md").read_text()
+    )
     assert len(doc["cells"]) == 4 * len(measured)
     balance, sem, n = doc["cells"]["general/loco-slope"]["figures"]["balance"]
     assert (balance, n) == (75.0, 16) and sem == pytest.approx(100 * math.sqrt(0.75 * 0.25 / 16))
