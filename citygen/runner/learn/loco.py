@@ -318,6 +318,8 @@ class LocoTraining(gymnasium.Wrapper):
             m = u.data.xmat[u.handle.base_id]  # the base's x axis in the world: m[0], m[3]
             dx, dy = m[0] * c0 + m[1] * c1, m[3] * c0 + m[4] * c1
         norm = math.hypot(dx, dy)
+        if norm < 1e-9:  # the base's x axis upright (a robot on its nose): no heading to look along
+            return 0.0, 0.0
         dx, dy = dx / norm, dy / norm
         ground_at = u.prepared.ground_at
         h = [ground_at(x + s * dx, y + s * dy) for s in self._look]
