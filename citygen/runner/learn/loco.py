@@ -311,16 +311,9 @@ class LocoTraining(gymnasium.Wrapper):
         :data:`EDGE_SPAN` along the commanded direction (the held heading's, where the episode
         holds one) within :data:`EDGE_LOOK` ahead of the base."""
         u = self.env.unwrapped
-        x, y = u.data.qpos[u.handle.qadr : u.handle.qadr + 2].tolist()
-        if self._held_dir is not None:
-            dx, dy = self._held_dir
-        else:
-            m = u.data.xmat[u.handle.base_id]  # the base's x axis in the world: m[0], m[3]
-            dx, dy = m[0] * c0 + m[1] * c1, m[3] * c0 + m[4] * c1
-        norm = math.hypot(dx, dy)
-        if norm < 1e-9:  # the base's x axis upright (a robot on its nose): no heading to look along
-            return 0.0, 0.0
-        dx, dy = dx / norm, dy / norm
+        x, y, _, yaw = u.handle.pose(u.data)
+        angle = (u.held_heading if self._held_dir is not None else yaw) + math.atan2(c1, c0)
+        dx, dy = math.cos(angle), math.sin(angle)
         ground_at = u.prepared.ground_at
         h = [ground_at(x + s * dx, y + s * dy) for s in self._look]
         steps = [b - a for a, b in zip(h, h[2:], strict=False)]
