@@ -16,12 +16,12 @@ from citygen.geometry.raster import Grid
 from citygen.geometry.terrain import height_at
 from citygen.geometry.tiles import KIND_CODES, build_table
 from citygen.runner import metrics as M
-from citygen.runner.envs.height_kernel import flat_tiles_around, ground_around
+from citygen.runner.envs.height_kernel import ground_around, tiles_around
 from citygen.runner.envs.loco import FALL_FORCE, HEADING_STIFFNESS
 from citygen.runner.envs.sensors import HEIGHT_MAP
 from citygen.runner.learn.loco import AIR_TIME, WEIGHTS, LocoTraining
 from citygen.runner.make import make_env
-from citygen.spec.terrain import FlatTile, StairTile, Terrain
+from citygen.spec.terrain import FlatTile, RoughTile, SlopeTile, StairTile, Terrain
 
 # --- the per-step computation before the fast path (kept here as the reference) -------------
 
@@ -46,6 +46,10 @@ def _reference_heights(env, x: float, y: float, yaw: float) -> np.ndarray:
     xs, ys = np.empty(u.size + 1), np.empty(u.size + 1)
     xs[:-1], ys[:-1] = x + cs * u - sn * v, y + sn * u + cs * v
     xs[-1], ys[-1] = x, y
+    if not env.prepared.fine_ground:  # a training grid's coarse map: the terrain's own heights
+        z = height_at(env.scene, xs, ys)  # around the 5 cm raster's ground under the base
+        z[-1] = env.prepared.fine_tiles.ground_at(x, y)
+        return z
     return env.prepared.ground(xs, ys)
 
 
@@ -149,8 +153,13 @@ def _same(a: dict, b: dict) -> None:
 
 @pytest.mark.parametrize(
     ("robot", "split"),
-    # the training grid's coarse map (its flat tiles' heights) and the test split's 5 cm raster
-    [("quadruped", "urban-loc-1-train"), ("wheeled_legged", "urban-loc-1-test")],
+    # the training grids' coarse maps (their tiles' heights: flat; stairs) and the test
+    # split's 5 cm raster
+    [
+        ("quadruped", "urban-loc-1-train"),
+        ("quadruped", "urban-loc-3-train"),
+        ("wheeled_legged", "urban-loc-1-test"),
+    ],
 )
 def test_fast_step_is_the_reference_step_to_the_bit(robot, split):
     # Through the training wrapper (gait shaping, commands, curriculum) as `citygen train` runs
@@ -211,39 +220,40 @@ def test_raster_kernel_is_the_bilinear_interpolation_to_the_bit():
         assert got.tobytes() == want.tobytes()
 
 
-def test_flat_tiles_kernel_is_height_at_to_the_bit_and_leaves_other_tiles_to_it():
+def test_tiles_kernel_is_height_at_to_the_bit_and_leaves_rough_tiles_to_it():
+    # Every tile kind the kernel answers for (flat; slope and stair flights along each axis,
+    # pyramids and pits), rough tiles among them, points inside and outside the grid.
     rng = np.random.default_rng(2)
-    tiles = [
-        FlatTile(kind="flat", height=float(h))
-        if k % 4
-        else StairTile(kind="stair", step_height=0.1, step_count=3)
-        for k, h in enumerate(rng.uniform(-0.5, 0.5, 12))
-    ]
-    terrain = Terrain(origin=(0.5, -1.0), tile_size=2.0, rows=3, cols=4, tiles=tuple(tiles))
+    shapes = [{"ascent": a} for a in ("+x", "-x", "+y", "-y")] + [{"shape": "pyramid"}, {"shape": "pit"}]
+
+    def tile(k: int, h: float):
+        shape = shapes[k % len(shapes)]
+        if k % 4 == 0:
+            return FlatTile(kind="flat", height=h)
+        if k % 4 == 1:
+            return SlopeTile(kind="slope", height=h, angle=float(rng.uniform(0.05, 0.6)), **shape)
+        if k % 4 == 2:
+            rise, n = float(rng.uniform(0.05, 0.3)), int(rng.integers(1, 9))
+            return StairTile(kind="stair", height=h, step_height=rise, step_count=n, **shape)
+        if k % 8 == 7:
+            return RoughTile(kind="rough", height=h, amplitude=0.1, scale=1.0, seed=k)
+        return FlatTile(kind="flat", height=h)
+
+    tiles = [tile(k, float(h)) for k, h in enumerate(rng.uniform(-0.5, 0.5, 48))]
+    terrain = Terrain(origin=(0.5, -1.0), tile_size=2.0, rows=6, cols=8, tiles=tuple(tiles))
     tab = build_table(terrain.tiles, terrain.tile_size)
+    codes = np.array([KIND_CODES[FlatTile], KIND_CODES[SlopeTile], KIND_CODES[StairTile]])
     answered = left = 0
-    for x, y, yaw in _poses(rng, -1.5, 9.5, 200):
+    for x, y, yaw in _poses(rng, -1.5, 17.5, 400):
         u, v, xs, ys = _map_points(x, y, yaw)
-        got, ok = flat_tiles_around(
-            tab.kind,
-            tab.h,
-            KIND_CODES[FlatTile],
-            2.0,
-            0.5,
-            -1.0,
-            3,
-            4,
-            u,
-            v,
-            x,
-            y,
-            math.cos(yaw),
-            math.sin(yaw),
-        )
+        got, ok = tiles_around(
+            tab.kind, tab.h, tab.a, tab.n, tab.asc, tab.sign, codes, 2.0, 0.5, -1.0, 6, 8, u, v, x, y,
+            math.cos(yaw), math.sin(yaw),
+        )  # fmt: skip
         want = height_at(terrain, xs, ys)
         if ok:
             assert got.tobytes() == want.tobytes()
             answered += 1
         else:
             left += 1
-    assert answered > 20 and left > 20  # both ways taken
+    assert answered > 50 and left > 50  # both ways taken

@@ -168,7 +168,7 @@ class SceneStore:
             self._write(self.model_path(key), lambda f: f.write(data), check=False)
             apart = _Apart(data.nbytes)
         kept = dataclasses.replace(
-            prepared, scene=None, robot=None, store_key=None, _fields={}, _routes={},
+            prepared, scene=None, robot=None, store_key=None, _fields={}, _routes={}, _windows={},
             model=model if apart is None else apart,
         )  # fmt: skip
         blob = pickle.dumps(kept, protocol=pickle.HIGHEST_PROTOCOL)

@@ -190,6 +190,8 @@ class Prepared:
     its episodes derive from it may be kept too; None without a store."""
     _fields: dict = field(default_factory=dict)
     _routes: dict = field(default_factory=dict)
+    _windows: dict = field(default_factory=dict)
+    """terrain option -> its :class:`~citygen.runner.envs.window.Windows` (False: none)."""
 
     def footprint(self) -> int:
         """Bytes this scene holds, estimated: its model's buffer, its maps' arrays, and the
@@ -327,6 +329,15 @@ def _scene_mjcf(scene: Scene, terrain: str = "heightfield") -> Any:
             resolution *= 2
 
 
+def geom_kinds(labels: list) -> tuple[np.ndarray, np.ndarray]:
+    """Masks over a model's geoms (their :func:`~citygen.exporters.mjcf.geom_labels`) of the
+    obstacles (objects, buildings' solids and agents stand in the way) and of the ground (the
+    rest of the scene's named geoms: zones, terrain, apron; the robot's are neither)."""
+    obstacle = np.array([lab is not None and lab[0] in ("object", "solid", "agent") for lab in labels])
+    ground = np.array([lab is not None and lab[0] not in ("object", "solid", "agent") for lab in labels])
+    return obstacle, ground
+
+
 def prepare(
     scene: Scene,
     robot: Any,
@@ -358,11 +369,7 @@ def prepare(
         yaw = start.yaw if start is not None else 0.0
         z = float(height_at(scene, x, y))
         model = compose(_scene_mjcf(scene, terrain), robot, (x, y, z, yaw))
-        labels = mjcf.geom_labels(model)
-        # Objects, buildings' solids and agents stand in the way; the rest is ground.
-        obstacle = np.array([lab is not None and lab[0] in ("object", "solid", "agent") for lab in labels])
-        ground = np.array([lab is not None and lab[0] not in ("object", "solid", "agent") for lab in labels])
-        # Unnamed static geoms of the scene (none today) and the apron count as ground.
+        obstacle, ground = geom_kinds(mjcf.geom_labels(model))
         agents = {}
         for a in scene.agents:
             body = model.body(f"agent:{a.id}")

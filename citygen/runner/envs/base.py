@@ -128,7 +128,11 @@ class _CitygenEnv(Sensors, gymnasium.Env):
         return False
 
     def _load(self, index: int) -> None:
-        prepared = process_cache().get(self.source, index, self.robot, self.terrain, people=self._dynamic())
+        self._use(process_cache().get(self.source, index, self.robot, self.terrain, people=self._dynamic()))
+        self._index = index
+
+    def _use(self, prepared: Prepared) -> None:
+        """Run ``prepared`` (its model, its scene) from now on."""
         if prepared is not self.prepared:
             # A scene this environment ran lately keeps its MjData and robot handle: coming
             # back to it swaps a few references instead of allocating them again.
@@ -144,7 +148,6 @@ class _CitygenEnv(Sensors, gymnasium.Env):
             ) = live  # fmt: skip
             self.model = prepared.model
             self._substeps = max(1, round(self.dt / self.model.opt.timestep))
-        self._index = index
         self.scene = prepared.scene
 
     def _bind(self, prepared: Prepared) -> tuple:

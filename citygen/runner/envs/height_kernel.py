@@ -1,13 +1,13 @@
 """The height map's ground heights compiled with numba: the grid of points around a pose and
 their bilinear interpolation in the scene's 5 cm ground raster, in one call; and, on a scene
 whose map is coarser (a locomotion training grid), the terrain's own heights where the points
-lie on flat tiles.
+lie on flat, slope or stair tiles.
 
 The plain-numpy reference is what :meth:`citygen.runner.scenes.Prepared.ground` does with the
 points :meth:`~citygen.runner.envs.sensors.Sensors._terrain_around` lays out
 (:meth:`citygen.geometry.raster.Grid.bilinear`): the kernel runs the same float operations in
 the same order, so its heights are the reference's to the bit (``tests/test_loco_fast.py``;
-for flat tiles the reference is :func:`citygen.geometry.terrain.height_at`);
+on a coarse map's tiles the reference is :func:`citygen.geometry.terrain.height_at`);
 where the numpy form pays for some twenty calls on 187 points every control step, this is one
 (``cache=True``: compiled once, loaded from ``__pycache__`` afterwards).
 """
@@ -58,14 +58,19 @@ def ground_around(flat, rows, cols, x0, y0, inv, u, v, x, y, cs, sn):
 
 
 @njit(cache=True)
-def flat_tiles_around(kind, height, flat_code, size, ox, oy, rows, cols, u, v, x, y, cs, sn):
+def tiles_around(kind, height, a, steps, ascent, sign, codes, size, ox, oy, rows, cols, u, v, x, y, cs, sn):
     """:func:`citygen.geometry.terrain.height_at` at the same points as :func:`ground_around`
-    on a terrain without features (``kind``, ``height``: its tiles' codes and heights, row
-    by row; ``flat_code`` the flat tile's code; tiles of ``size`` m from ``(ox, oy)``),
-    where every point inside the grid lies on a flat tile: ``(heights, True)``, the same
-    floats as ``height_at``'s (a flat tile's height inside the grid, 0 outside, NaN at a NaN
-    coordinate); ``(_, False)`` when a point lies on another kind of tile (then ask
-    ``height_at``)."""
+    on a terrain without features, where every point inside the grid lies on a flat, slope or
+    stair tile: ``(heights, True)``, the same floats as ``height_at``'s (a tile's height plus
+    its relief inside the grid, 0 outside, NaN at a NaN coordinate); ``(_, False)`` when a
+    point lies on another kind of tile (a rough one: then ask ``height_at``).
+
+    ``kind`` ... ``sign``: the terrain's :class:`~citygen.geometry.tiles.HeightTable` columns
+    (``kind``, ``h``, ``a``, ``n``, ``asc``, ``sign``), tile by tile, row by row; ``codes``:
+    the flat, slope and stair tiles' kind codes; tiles of ``size`` m from ``(ox, oy)``. The
+    arithmetic is :func:`~citygen.geometry.tiles.evaluate`'s (``_flight_frame``,
+    ``_slope_relief``, ``_stair_relief``), operation for operation."""
+    flat_code, slope_code, stair_code = codes[0], codes[1], codes[2]
     n = u.size
     out = np.zeros(n + 1)
     for k in range(n + 1):
@@ -74,9 +79,29 @@ def flat_tiles_around(kind, height, flat_code, size, ox, oy, rows, cols, u, v, x
             out[k] = math.nan
             continue
         gx, gy = (px - ox) / size, (py - oy) / size
-        if gx >= 0 and gx <= cols and gy >= 0 and gy <= rows:
-            t = int(min(math.floor(gy), rows - 1)) * cols + int(min(math.floor(gx), cols - 1))
-            if kind[t] != flat_code:
-                return out, False
+        if not (gx >= 0 and gx <= cols and gy >= 0 and gy <= rows):
+            continue
+        col = min(math.floor(gx), cols - 1)
+        row = min(math.floor(gy), rows - 1)
+        t = int(row) * cols + int(col)
+        code = kind[t]
+        if code == flat_code:
             out[k] = height[t]
+            continue
+        if code != slope_code and code != stair_code:
+            return out, False
+        tu = min(max(px - ox - col * size, 0.0), size)
+        tv = min(max(py - oy - row * size, 0.0), size)
+        along = tv if ascent[t] & 2 else tu
+        low = size - along if ascent[t] & 1 else along
+        edge = min(min(tu, tv), min(size - tu, size - tv))
+        flight = sign[t] == 0
+        factor = 1.0 if flight else sign[t]
+        if code == stair_code:
+            m = steps[t]
+            treads = low * (m + 1) / size if flight else edge * (2 * m + 2) / size
+            run = min(math.floor(treads + 1e-9), float(m))
+        else:
+            run = low if flight else min(edge, size / 3.0)
+        out[k] = height[t] + factor * a[t] * run
     return out, True

@@ -26,6 +26,8 @@ from citygen.errors import SpecError
 from citygen.runner import metrics as M
 from citygen.runner.envs import legged
 from citygen.runner.envs.base import _CitygenEnv
+from citygen.runner.envs.window import Window, windows_of
+from citygen.runner.scenes import process_cache
 from citygen.runner.tasks import DEFAULT_ROBOT, check_robot
 from citygen.spec import Scene
 
@@ -76,6 +78,10 @@ class LocoEnv(_CitygenEnv):
             raise SpecError(f"task: expected a locomotion task kind, got {task!r}")
         self.randomize = bool(kwargs.pop("randomize", True))
         self.heading_control = bool(kwargs.pop("heading_control", True))
+        # a large grid compiled a window at a time (citygen.runner.envs.window); False: whole
+        self.windowed = bool(kwargs.pop("windowed", True))
+        self._window: Window | None = None  # this episode's, None in the whole grid's model
+        self._whole: Any = None  # this episode's scene, prepared whole
         self.held_heading: float | None = None  # set by each reset (heading control)
         super().__init__(task, scene, **kwargs)
         check_robot(task, self.robot)
@@ -102,7 +108,9 @@ class LocoEnv(_CitygenEnv):
 
         super().reset(seed=seed)
         options = options or {}
-        self._load(self._pick_index(options))
+        index = self._pick_index(options)
+        whole = process_cache().get(self.source, index, self.robot, self.terrain)
+        self.scene, self._index = whole.scene, index
         task = self.scene.task
         if task is None or not task.kind.startswith("loco"):
             raise SpecError(
@@ -110,6 +118,13 @@ class LocoEnv(_CitygenEnv):
                 f"{'none' if task is None else task.kind}"
             )
         x, y, yaw, command = self._draw_start(task, options)
+        # the grid's regions within the episode's reach, where the grid is large (to the bit
+        # the whole grid's physics: citygen.runner.envs.window)
+        windows = windows_of(whole, self.terrain) if self.windowed else None
+        reach = math.hypot(command[0], command[1]) * self.horizon * self.dt
+        self._window = windows.window(x, y, reach) if windows is not None else None
+        self._whole = whole
+        self._use(whole if self._window is None else windows.prepared_for(self._window))
         self.command = np.asarray(command, dtype=np.float64)
         for mocap in self.prepared.agent_bodies.values():
             self.data.mocap_pos[mocap] = (0.0, 0.0, -100.0)
@@ -187,6 +202,23 @@ class LocoEnv(_CitygenEnv):
         ex, ey = x + reach * math.cos(heading), y + reach * math.sin(heading)
         return lo_x <= min(x, ex) and max(x, ex) <= hi_x and lo_y <= min(y, ey) and max(y, ey) <= hi_y
 
+    def _leave_window(self) -> None:
+        """Carry on in the whole grid's model: the robot came near its window's edge. The
+        physics' state (:data:`mujoco.mjtState.mjSTATE_INTEGRATION`: time, positions,
+        velocities, controls, the solver's warm start) moves over before the next step,
+        which computes everything else from it, as it would have in the window."""
+        import mujoco
+
+        what = mujoco.mjtState.mjSTATE_INTEGRATION
+        state = np.empty(mujoco.mj_stateSize(self.model, what))
+        mujoco.mj_getState(self.model, self.data, state, what)
+        last = self.last_action
+        self._window = None
+        self._use(self._whole)
+        mujoco.mj_setState(self.model, self.data, state, what)
+        self._fall_geoms_for_model()
+        self.last_action = last
+
     def _fall_geoms_for_model(self) -> None:
         """The robot geoms whose pressing on the ground is a fall (the body, not the legs:
         :func:`~citygen.runner.envs.legged.fall_geoms`), computed once per compiled model,
@@ -208,6 +240,10 @@ class LocoEnv(_CitygenEnv):
     def step(self, action):
         a = np.asarray(action, dtype=np.float64).reshape(self.n_actions)
         a = np.minimum(np.maximum(a, -1.0), 1.0)  # np.clip's values, without its wrapper
+        if self._window is not None:
+            q = self.handle.qadr
+            if not self._window.holds(*self.data.qpos[q : q + 2].tolist()):
+                self._leave_window()
         d, h = self.data, self.handle
         h.joint_action(d, a)
         self._physics(None)

@@ -18,8 +18,8 @@ from gymnasium import spaces
 
 from citygen.geometry.terrain import height_at
 from citygen.geometry.tiles import KIND_CODES, build_table
-from citygen.runner.envs.height_kernel import flat_tiles_around, ground_around
-from citygen.spec.terrain import FlatTile
+from citygen.runner.envs.height_kernel import ground_around, tiles_around
+from citygen.spec.terrain import FlatTile, SlopeTile, StairTile
 
 #: Height map: forward and lateral extent (m) and spacing (m), centred on the robot.
 HEIGHT_MAP = (1.6, 1.0, 0.1)
@@ -143,8 +143,8 @@ class Sensors:
         z, done = None, False
         if kernel[1] is ground_around:  # prepared.ground at these points, compiled (to the bit)
             z, done = ground_around(*kernel[2:], u, v, x, y, cs, sn), True
-        elif kernel[1] is not None:  # the terrain's heights where all points lie on flat tiles
-            z, done = flat_tiles_around(*kernel[2:], u, v, x, y, cs, sn)
+        elif kernel[1] is not None:  # the terrain's heights where no point lies on a rough tile
+            z, done = tiles_around(*kernel[2:], u, v, x, y, cs, sn)
         if not done:
             xs, ys = np.empty(u.size + 1), np.empty(u.size + 1)
             xs[:-1], ys[:-1] = x + cs * u - sn * v, y + sn * u + cs * v
@@ -157,7 +157,7 @@ class Sensors:
     def _kernel_for(self, prepared: Any) -> tuple:
         """Which compiled form of the height map's heights ``prepared`` takes, and its
         arguments before the points': ``(prepared, ground_around, raster ...)`` on a fine
-        ground raster, ``(prepared, flat_tiles_around, tiles ...)`` on a terrain without
+        ground raster, ``(prepared, tiles_around, tiles ...)`` on a terrain without
         features (a coarse map), ``(prepared, None)`` for numpy alone."""
         terrain = self.scene.terrain
         if prepared.fine_ground:
@@ -167,9 +167,10 @@ class Sensors:
         elif terrain is not None and not terrain.features:
             tab = build_table(terrain.tiles, terrain.tile_size)
             ox, oy = (float(c) for c in terrain.origin)
+            codes = np.array([KIND_CODES[FlatTile], KIND_CODES[SlopeTile], KIND_CODES[StairTile]])
             self._kernel = (
-                prepared, flat_tiles_around, tab.kind, tab.h, KIND_CODES[FlatTile], float(terrain.tile_size),
-                ox, oy, terrain.rows, terrain.cols,
+                prepared, tiles_around, tab.kind, tab.h, tab.a, tab.n, tab.asc, tab.sign, codes,
+                float(terrain.tile_size), ox, oy, terrain.rows, terrain.cols,
             )  # fmt: skip
         else:
             self._kernel = (prepared, None)

@@ -205,11 +205,7 @@ class LocoTraining(gymnasium.Wrapper):
         h = u.handle
         self._start = tuple(float(v) for v in u.data.qpos[h.qadr : h.qadr + 2])
         self._air = np.zeros(len(h.foot_geom_ids))
-        self._foot_index = {int(g): k for k, g in enumerate(h.foot_geom_ids)}
-        if self._collision and u.model is not self._leg_model:  # a new scene's model
-            self._leg_ids = leg_link_geoms(u.model, h)
-            self._ground_ids = frozenset(np.flatnonzero(u.prepared.ground_geoms).tolist())
-            self._leg_model = u.model
+        self._bind_model()
         self._stepping = not u.robot.loco_wheels
         self._last_qvel = None
         self._last_feet = None
@@ -220,6 +216,17 @@ class LocoTraining(gymnasium.Wrapper):
             angle = u.held_heading + math.atan2(c1, c0)
             self._held_dir = (math.cos(angle) / speed, math.sin(angle) / speed)
         return obs, info
+
+    def _bind_model(self) -> None:
+        """The geom ids the shaping looks contacts up by, of the model the environment runs
+        (a new scene's, or a locomotion grid's window: :mod:`citygen.runner.envs.window`)."""
+        u = self.env.unwrapped
+        h = u.handle
+        self._foot_index = {int(g): k for k, g in enumerate(h.foot_geom_ids)}
+        if self._collision and u.model is not self._leg_model:
+            self._leg_ids = leg_link_geoms(u.model, h)
+            self._ground_ids = frozenset(np.flatnonzero(u.prepared.ground_geoms).tolist())
+        self._leg_model = u.model
 
     def _draw_command(self) -> tuple[float, float, float]:
         return tuple(float(self._rng.uniform(lo, hi)) for lo, hi in COMMANDS)
@@ -235,6 +242,8 @@ class LocoTraining(gymnasium.Wrapper):
 
     def step(self, action):
         obs, reward, terminated, truncated, info = self.env.step(action)
+        if self.env.unwrapped.model is not self._leg_model:  # moved out of its window
+            self._bind_model()
         if self.shaping:
             reward += self.shaping * self._shaping()
         if self.only_positive:  # clipped before the fall's penalty, which stays

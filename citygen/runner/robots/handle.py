@@ -34,7 +34,12 @@ def flat_ground(size: float = 40.0, friction: float = 0.75) -> MJCF:
 FUSE_FROM_GEOMS = 2000
 
 
-def compose(scene_mjcf: MJCF | MJCFTree, robot: Robot, pose: tuple[float, float, float, float]) -> Any:
+def compose(
+    scene_mjcf: MJCF | MJCFTree,
+    robot: Robot,
+    pose: tuple[float, float, float, float],
+    big: bool | None = None,
+) -> Any:
     """The scene with the robot in it, compiled: a ``mujoco.MjModel``.
 
     ``pose = (x, y, ground_z, yaw)`` in m and rad: the robot stands there (its base
@@ -42,14 +47,16 @@ def compose(scene_mjcf: MJCF | MJCFTree, robot: Robot, pose: tuple[float, float,
     anywhere later). The robot's names get the prefix :data:`PREFIX`; the physics step
     is ``robot.timestep`` with the implicit-fast integrator. A scene of more than
     :data:`FUSE_FROM_GEOMS` geoms has its bodies without a joint (but mocap bodies: the moving
-    agents) fused into their parents: the same geoms by name, a fraction of the bodies.
+    agents) fused into their parents: the same geoms by name, a fraction of the bodies;
+    ``big`` says whether to treat the scene so whatever its count (a window of a locomotion
+    grid is compiled as its whole grid was: :mod:`citygen.runner.envs.window`).
     """
     mujoco = import_mujoco()
     x, y, z, yaw = (float(v) for v in pose)
     # A city holds ~10^5 static geoms: MuJoCo's default arena is too small for its broadphase.
     # Counted in the text or tree: MjSpec.geoms wraps every element in Python (minutes for a city).
     n = elements(scene_mjcf, "geom")
-    big = n > FUSE_FROM_GEOMS
+    big = n > FUSE_FROM_GEOMS if big is None else big
     try:
         # A city's in chunks (MuJoCo's parser is quadratic); a town's or a city's static
         # bodies read as frames, what fusing them would make of them, at none of its cost
