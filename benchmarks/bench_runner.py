@@ -482,6 +482,45 @@ def loco_figures(steps: int = 3000) -> dict:
     return {k: round(v, 3) if isinstance(v, float) else v for k, v in out.items()}
 
 
+def loco_stair_figures(steps: int = 2000, rounds: int = 3) -> dict:
+    """LocoStair's training grid (urban-loc-3-train: 30 x 30 regions, 29,700 box geoms), the
+    quadruped with random actions through ``LocoTraining`` (as ``citygen train`` wraps each
+    sub-environment), environment steps per wall second, resets included: the grid run a
+    window at a time (:mod:`citygen.runner.envs.window`, the default) and whole
+    (``windowed=False``), alternating in ``rounds`` chunks of ``steps`` each (medians), and
+    their ratio; both step to the bit alike (``tests/test_window.py``)."""
+    from citygen.runner.learn.loco import LocoTraining
+    from citygen.runner.make import make_env
+
+    envs = {}
+    for windowed in (True, False):
+        env = LocoTraining(
+            make_env("loco-stair", robot="quadruped", split="urban-loc-3-train", windowed=windowed),
+            seed=0, rank=0,
+        )  # fmt: skip
+        env.reset(seed=0)
+        for _ in range(20):  # the first window's model and the kernels compiled
+            env.step(np.zeros(env.action_space.shape, dtype=np.float32))
+        envs[windowed] = env
+    rates: dict[bool, list[float]] = {True: [], False: []}
+    for r in range(rounds):
+        for windowed, env in envs.items():
+            acts = _random_actions(env.action_space, steps, np.random.default_rng(r))
+            t0 = time.perf_counter()
+            for a in acts:
+                _, _, term, trunc, _ = env.step(a)
+                if term or trunc:
+                    env.reset()
+            rates[windowed].append(steps / (time.perf_counter() - t0))
+    out = {
+        "loco_stair_windowed_steps_per_s": float(np.median(rates[True])),
+        "loco_stair_whole_steps_per_s": float(np.median(rates[False])),
+    }
+    ratio = out["loco_stair_windowed_steps_per_s"] / out["loco_stair_whole_steps_per_s"]
+    out["loco_stair_windowed_over_whole"] = ratio
+    return {k: round(v, 3) for k, v in out.items()}
+
+
 def _print_loco(loco: dict) -> None:
     raw, ideal = loco["loco_mj_step_steps_per_s"], loco["loco_mj_step_all_cores_steps_per_s"]
     print(
@@ -499,6 +538,13 @@ def _print_loco(loco: dict) -> None:
         f"  1 env: CPU over its mj_step calls' CPU {loco['loco_1env_cpu_over_mj_step']:.2f}x "
         "(1.0: physics alone)"
     )
+    if "loco_stair_windowed_over_whole" in loco:
+        print(
+            "LocoStair training grid, quadruped, one training sub-environment: "
+            f"{loco['loco_stair_windowed_steps_per_s']:.0f} steps/s a window at a time, "
+            f"{loco['loco_stair_whole_steps_per_s']:.0f} whole "
+            f"({loco['loco_stair_windowed_over_whole']:.2f}x)"
+        )
 
 
 def _r(x: float | None, digits: int) -> float | None:
@@ -520,7 +566,7 @@ def main(argv: list[str] | None = None) -> int:
     # inherit this), so that a second run of the benchmark measures the same cold visits.
     os.environ["CITYGEN_CACHE_DIR"] = "off"
     if args.loco_only:
-        loco = loco_figures(max(args.steps, 1000))
+        loco = {**loco_figures(max(args.steps, 1000)), **loco_stair_figures()}
         _print_loco(loco)
         print(json.dumps({"bench": "runner", **loco}))
         return 0
@@ -576,7 +622,7 @@ def main(argv: list[str] | None = None) -> int:
     physics_cpu = substeps / raw_cpu  # CPU seconds of one step's mj_step calls, at rest
     md, md_note = metadrive_rate()
     orca = orca_figures()
-    loco = loco_figures(max(args.steps, 1000))
+    loco = {**loco_figures(max(args.steps, 1000)), **loco_stair_figures()}
 
     labels = [k for k in obs if k in OBS]
     obs_rates = [None if obs[k] is None else obs[k]["steps_per_s"] for k in labels]

@@ -172,6 +172,8 @@ TARGETS = (
            "quadruped_2proc_steps_per_s", ">=", 2000, "steps/s"),
     Target(45, "LocoFlat, quadruped, citygen train's vector environment (loco.toml), random actions",
            "bench_runner", "loco_train_steps_per_s", ">=", 8000, "steps/s"),
+    Target(46, "LocoStair training grid, quadruped, a training sub-environment, windowed over whole",
+           "bench_runner", "loco_stair_windowed_over_whole", ">=", 1.3, "x"),
     Target(17, "NavStatic, 64 x 64 depth, make_vector_env 2 workers", "bench_runner",
            "depth64_2proc_steps_per_s", ">=", 1000, "steps/s"),
     Target(17, "runner cost over the mj_step calls it makes (CPU)", "bench_runner",
