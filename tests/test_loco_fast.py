@@ -220,40 +220,37 @@ def test_raster_kernel_is_the_bilinear_interpolation_to_the_bit():
         assert got.tobytes() == want.tobytes()
 
 
-def test_tiles_kernel_is_height_at_to_the_bit_and_leaves_rough_tiles_to_it():
-    # Every tile kind the kernel answers for (flat; slope and stair flights along each axis,
-    # pyramids and pits), rough tiles among them, points inside and outside the grid.
+def test_tiles_kernel_is_height_at_to_the_bit():
+    # Every tile kind (flat; slope and stair flights along each axis, pyramids and pits; rough
+    # tiles of several scales, amplitudes and seeds), points inside and outside the grid.
     rng = np.random.default_rng(2)
     shapes = [{"ascent": a} for a in ("+x", "-x", "+y", "-y")] + [{"shape": "pyramid"}, {"shape": "pit"}]
 
     def tile(k: int, h: float):
         shape = shapes[k % len(shapes)]
-        if k % 4 == 0:
-            return FlatTile(kind="flat", height=h)
         if k % 4 == 1:
             return SlopeTile(kind="slope", height=h, angle=float(rng.uniform(0.05, 0.6)), **shape)
         if k % 4 == 2:
             rise, n = float(rng.uniform(0.05, 0.3)), int(rng.integers(1, 9))
             return StairTile(kind="stair", height=h, step_height=rise, step_count=n, **shape)
-        if k % 8 == 7:
-            return RoughTile(kind="rough", height=h, amplitude=0.1, scale=1.0, seed=k)
+        if k % 4 == 3:
+            amp, scale = float(rng.uniform(0.02, 0.2)), float(rng.uniform(0.3, 3.0))
+            seed = int(rng.integers(1 << 32))
+            return RoughTile(kind="rough", height=h, amplitude=amp, scale=scale, seed=seed)
         return FlatTile(kind="flat", height=h)
 
     tiles = [tile(k, float(h)) for k, h in enumerate(rng.uniform(-0.5, 0.5, 48))]
     terrain = Terrain(origin=(0.5, -1.0), tile_size=2.0, rows=6, cols=8, tiles=tuple(tiles))
     tab = build_table(terrain.tiles, terrain.tile_size)
-    codes = np.array([KIND_CODES[FlatTile], KIND_CODES[SlopeTile], KIND_CODES[StairTile]])
-    answered = left = 0
+    codes = np.array([KIND_CODES[k] for k in (FlatTile, SlopeTile, StairTile, RoughTile)])
+    unknown = codes.copy()
+    unknown[3] = -1  # a kind the kernel would not know: left to height_at
+    left = 0
     for x, y, yaw in _poses(rng, -1.5, 17.5, 400):
         u, v, xs, ys = _map_points(x, y, yaw)
-        got, ok = tiles_around(
-            tab.kind, tab.h, tab.a, tab.n, tab.asc, tab.sign, codes, 2.0, 0.5, -1.0, 6, 8, u, v, x, y,
-            math.cos(yaw), math.sin(yaw),
-        )  # fmt: skip
-        want = height_at(terrain, xs, ys)
-        if ok:
-            assert got.tobytes() == want.tobytes()
-            answered += 1
-        else:
-            left += 1
-    assert answered > 50 and left > 50  # both ways taken
+        args = (tab.kind, tab.h, tab.a, tab.n, tab.asc, tab.sign, tab.scale, tab.key)
+        grid = (2.0, 0.5, -1.0, 6, 8, u, v, x, y, math.cos(yaw), math.sin(yaw))
+        got, ok = tiles_around(*args, codes, *grid)
+        assert ok and got.tobytes() == height_at(terrain, xs, ys).tobytes()
+        left += not tiles_around(*args, unknown, *grid)[1]
+    assert left > 50

@@ -19,7 +19,7 @@ from gymnasium import spaces
 from citygen.geometry.terrain import height_at
 from citygen.geometry.tiles import KIND_CODES, build_table
 from citygen.runner.envs.height_kernel import ground_around, tiles_around
-from citygen.spec.terrain import FlatTile, SlopeTile, StairTile
+from citygen.spec.terrain import FlatTile, RoughTile, SlopeTile, StairTile
 
 #: Height map: forward and lateral extent (m) and spacing (m), centred on the robot.
 HEIGHT_MAP = (1.6, 1.0, 0.1)
@@ -143,7 +143,7 @@ class Sensors:
         z, done = None, False
         if kernel[1] is ground_around:  # prepared.ground at these points, compiled (to the bit)
             z, done = ground_around(*kernel[2:], u, v, x, y, cs, sn), True
-        elif kernel[1] is not None:  # the terrain's heights where no point lies on a rough tile
+        elif kernel[1] is not None:  # the terrain's heights, compiled (to the bit)
             z, done = tiles_around(*kernel[2:], u, v, x, y, cs, sn)
         if not done:
             xs, ys = np.empty(u.size + 1), np.empty(u.size + 1)
@@ -167,10 +167,10 @@ class Sensors:
         elif terrain is not None and not terrain.features:
             tab = build_table(terrain.tiles, terrain.tile_size)
             ox, oy = (float(c) for c in terrain.origin)
-            codes = np.array([KIND_CODES[FlatTile], KIND_CODES[SlopeTile], KIND_CODES[StairTile]])
+            codes = np.array([KIND_CODES[k] for k in (FlatTile, SlopeTile, StairTile, RoughTile)])
             self._kernel = (
-                prepared, tiles_around, tab.kind, tab.h, tab.a, tab.n, tab.asc, tab.sign, codes,
-                float(terrain.tile_size), ox, oy, terrain.rows, terrain.cols,
+                prepared, tiles_around, tab.kind, tab.h, tab.a, tab.n, tab.asc, tab.sign, tab.scale, tab.key,
+                codes, float(terrain.tile_size), ox, oy, terrain.rows, terrain.cols,
             )  # fmt: skip
         else:
             self._kernel = (prepared, None)
