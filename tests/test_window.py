@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from citygen.runner.envs import window
 from citygen.runner.make import make_env
 
 pytest.importorskip("mujoco")
@@ -12,6 +13,12 @@ pytest.importorskip("mujoco")
 # LocoStair's test grid: 16 x 16 regions of 8 m, 8,400 box geoms; 100 steps (2 s) reach
 # 2 m, so a window is the start's block of 4 x 4 regions and 2 regions around it.
 SPLIT, STEPS = "urban-loc-3-test", 100
+
+
+@pytest.fixture(autouse=True)
+def _window_the_test_grid(monkeypatch):
+    # the test grid (8,400 geoms) runs whole by default; windowed here, as a training grid is
+    monkeypatch.setattr(window, "FROM_GEOMS", 3000)
 
 
 def _pair():
@@ -68,7 +75,11 @@ def test_robot_near_a_windows_edge_moves_to_the_whole_grid_and_carries_on_to_the
     assert windowed.data.qpos.tobytes() == whole.data.qpos.tobytes()
 
 
-def test_small_grids_run_whole():
-    env = make_env("loco-flat", robot="quadruped", split="urban-loc-1-test", max_steps=STEPS).unwrapped
-    env.reset(seed=0)
-    assert env._window is None  # a flat grid: 23 geoms, nothing to gain
+def test_grids_of_fewer_geoms_run_whole(monkeypatch):
+    monkeypatch.undo()  # the default threshold: the test grids run whole, as they always did
+    for task, split in (("loco-stair", SPLIT), ("loco-flat", "urban-loc-1-test")):
+        env = make_env(task, robot="quadruped", split=split, max_steps=STEPS).unwrapped
+        env.reset(seed=0)
+        env._whole._windows.clear()  # decided once per compiled grid: maybe by another test
+        env.reset(seed=0)
+        assert env._window is None and env.model is env._whole.model

@@ -147,7 +147,7 @@ def static_geoms(model: Any) -> np.ndarray:
         (model.body_weldid[body] == 0)
         & (model.body_mocapid[body] < 0)
         & ((model.geom_contype != 0) | (model.geom_conaffinity != 0))
-        & (model.geom_type != mujoco.mjtGeom.mjGEOM_PLANE)
+        & (model.geom_type != int(mujoco.mjtGeom.mjGEOM_PLANE))  # int: an enum compares per element
     )
 
 

@@ -139,7 +139,7 @@ class Sensors:
             return ground, None
         u, v, _ = self._hm_local
         cs, sn = math.cos(yaw), math.sin(yaw)
-        kernel = self._kernel if self._kernel[0] is prepared else self._kernel_for(prepared)
+        kernel = self._kernel if self._kernel[0] is prepared.occupancy else self._kernel_for(prepared)
         z, done = None, False
         if kernel[1] is ground_around:  # prepared.ground at these points, compiled (to the bit)
             z, done = ground_around(*kernel[2:], u, v, x, y, cs, sn), True
@@ -156,24 +156,26 @@ class Sensors:
 
     def _kernel_for(self, prepared: Any) -> tuple:
         """Which compiled form of the height map's heights ``prepared`` takes, and its
-        arguments before the points': ``(prepared, ground_around, raster ...)`` on a fine
-        ground raster, ``(prepared, tiles_around, tiles ...)`` on a terrain without
-        features (a coarse map), ``(prepared, None)`` for numpy alone."""
+        arguments before the points': ``(occupancy, ground_around, raster ...)`` on a fine
+        ground raster, ``(occupancy, tiles_around, tiles ...)`` on a terrain without
+        features (a coarse map), ``(occupancy, None)`` for numpy alone (``occupancy``:
+        ``prepared``'s map, which a locomotion grid's windows share)."""
         terrain = self.scene.terrain
+        occ = prepared.occupancy  # the key: a grid's windows share their scene's maps
         if prepared.fine_ground:
             g = prepared.occupancy.grid
             flat = np.ascontiguousarray(prepared.occupancy.heights, dtype=np.float64).reshape(-1)
-            self._kernel = (prepared, ground_around, flat, g.rows, g.cols, g.x0, g.y0, 1.0 / g.resolution)
+            self._kernel = (occ, ground_around, flat, g.rows, g.cols, g.x0, g.y0, 1.0 / g.resolution)
         elif terrain is not None and not terrain.features:
             tab = build_table(terrain.tiles, terrain.tile_size)
             ox, oy = (float(c) for c in terrain.origin)
             codes = np.array([KIND_CODES[k] for k in (FlatTile, SlopeTile, StairTile, RoughTile)])
             self._kernel = (
-                prepared, tiles_around, tab.kind, tab.h, tab.a, tab.n, tab.asc, tab.sign, tab.scale, tab.key,
+                occ, tiles_around, tab.kind, tab.h, tab.a, tab.n, tab.asc, tab.sign, tab.scale, tab.key,
                 codes, float(terrain.tile_size), ox, oy, terrain.rows, terrain.cols,
             )  # fmt: skip
         else:
-            self._kernel = (prepared, None)
+            self._kernel = (occ, None)
         return self._kernel
 
     def _ground_under(self, x: float, y: float, yaw: float) -> float:
