@@ -212,12 +212,10 @@ class LocoEnv(_CitygenEnv):
         what = mujoco.mjtState.mjSTATE_INTEGRATION
         state = np.empty(mujoco.mj_stateSize(self.model, what))
         mujoco.mj_getState(self.model, self.data, state, what)
-        last = self.last_action
         self._window = None
         self._use(self._whole)
         mujoco.mj_setState(self.model, self.data, state, what)
         self._fall_geoms_for_model()
-        self.last_action = last
 
     def _fall_geoms_for_model(self) -> None:
         """The robot geoms whose pressing on the ground is a fall (the body, not the legs:
