@@ -7,9 +7,8 @@ descends the world's bounding-volume tree for every robot body (116 of the 159 m
 a physics step on the stair grid, seven times a flat grid's). A locomotion episode walks at most
 its command's speed times its horizon (20 m in 20 s at 1 m/s) from its start, so
 :class:`Windows` compiles the grid's terrain only within that reach plus :data:`MARGIN` and
-:data:`GUARD` of the block of
-:data:`BLOCK` x :data:`BLOCK` regions the start lies in (the other geoms left out by their
-names, ``terrain:<kind>:<row>_<col>:<k>``; every other geom, the apron and the zones, kept),
+:data:`GUARD` of the block of :data:`BLOCK` x :data:`BLOCK` regions the start lies in (the
+other geoms left out by their names, ``terrain:<kind>:<row>_<col>:<k>``; every other geom, the apron and the zones, kept),
 one model per block, shared by the process's environments, on grids of :data:`FROM_GEOMS`
 terrain geoms or more (the stair training grids).
 
@@ -18,9 +17,8 @@ around it, all in the window; MuJoCo orders contacts by geom id, and leaving geo
 the order of those left, so every step's state is the whole grid's to the bit
 (``tests/test_window.py``). Should a robot come within :data:`GUARD` of the window's edge (it
 would have to walk some 8 m farther than its command's speed takes it in an episode), the
-environment moves it to the whole grid's
-model, state and all, before its next step (:meth:`LocoEnv._leave_window`), and carries on
-bit for bit.
+environment moves it to the whole grid's model, state and all, before its next step
+(:meth:`LocoEnv._leave_window`), and carries on bit for bit.
 """
 
 from __future__ import annotations
