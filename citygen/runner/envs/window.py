@@ -8,9 +8,9 @@ a physics step on the stair grid, seven times a flat grid's). A locomotion episo
 its command's speed times its horizon (20 m in 20 s at 1 m/s) from its start, so
 :class:`Windows` compiles the grid's terrain only within that reach plus :data:`MARGIN` and
 :data:`GUARD` of the block of :data:`BLOCK` x :data:`BLOCK` regions the start lies in (the
-other geoms left out by their names, ``terrain:<kind>:<row>_<col>:<k>``; every other geom, the apron and the zones, kept),
-one model per block, shared by the process's environments, on grids of :data:`FROM_GEOMS`
-terrain geoms or more (the stair training grids).
+other geoms left out by their names, ``terrain:<kind>:<row>_<col>:<k>``; every other geom,
+the apron and the zones, kept), one model per block, shared by the process's environments,
+on grids of :data:`FROM_GEOMS` terrain geoms or more (the stair training grids).
 
 What changes: nothing MuJoCo computes. The robot's contacts are with the geoms under and
 around it, all in the window; MuJoCo orders contacts by geom id, and leaving geoms out keeps
