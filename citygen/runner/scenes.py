@@ -338,6 +338,17 @@ def geom_kinds(labels: list) -> tuple[np.ndarray, np.ndarray]:
     return obstacle, ground
 
 
+def start_pose(scene: Scene) -> tuple[float, float, float, float]:
+    """``(x, y, ground_z, yaw)`` a scene's model is compiled with the robot at: its task's
+    start (the scene's minimum corner without a task)."""
+    from citygen.geometry.terrain import height_at
+
+    start = scene.task.start if scene.task is not None else None
+    x, y = start.position if start is not None else scene.bounds.min
+    yaw = start.yaw if start is not None else 0.0
+    return (x, y, float(height_at(scene, x, y)), yaw)
+
+
 def prepare(
     scene: Scene,
     robot: Any,
@@ -356,7 +367,6 @@ def prepare(
     ``store``: the on-disk store's folder and the scene's key there, where that process keeps
     the crowd's tables."""
     from citygen.exporters import mjcf
-    from citygen.geometry.terrain import height_at
     from citygen.runner.robots import compose
 
     res = map_resolution(scene)
@@ -364,11 +374,7 @@ def prepare(
         process = worth_a_process(scene, res)
     second = MapsProcess(scene, robot, res, people, store) if process else None
     try:
-        start = scene.task.start if scene.task is not None else None
-        x, y = start.position if start is not None else scene.bounds.min
-        yaw = start.yaw if start is not None else 0.0
-        z = float(height_at(scene, x, y))
-        model = compose(_scene_mjcf(scene, terrain), robot, (x, y, z, yaw))
+        model = compose(_scene_mjcf(scene, terrain), robot, start_pose(scene))
         obstacle, ground = geom_kinds(mjcf.geom_labels(model))
         agents = {}
         for a in scene.agents:

@@ -64,18 +64,20 @@ class Windows:
     :class:`~citygen.runner.scenes.Prepared`), compiled when first asked for."""
 
     def __init__(self, prepared: Any, terrain: str):
+        from citygen.runner.robots.handle import STILL_BODY
+
         self.prepared = prepared
         self.terrain = terrain
         self._tree = None  # the scene's MJCF tree, made at the first window
         self._regions: list[tuple[int, int] | None] = []
         self.models: dict[Window, Any] = {}
+        # compiled as the whole grid was: a town's or a city's treatment (fused, sleeping)
+        self._big = any(prepared.model.body(b).name == STILL_BODY for b in range(prepared.model.nbody))
 
     def window(self, x: float, y: float, reach: float) -> Window | None:
         """The window for an episode starting at ``(x, y)`` that walks at most ``reach`` m;
-        None where the grid is small or the window would hold all of it."""
+        None where the window would hold all of the grid."""
         grid = self.prepared.scene.terrain
-        if grid is None or grid.rows * grid.cols < 2:
-            return None
         size = grid.tile_size
         ox, oy = grid.origin
         row = min(max(int((y - oy) // size), 0), grid.rows - 1)
@@ -107,10 +109,8 @@ class Windows:
     def _compile(self, window: Window) -> Any:
         from citygen.exporters import mjcf
         from citygen.exporters.mjcf.contract import MJCFTree
-        from citygen.geometry.terrain import height_at
         from citygen.runner.robots import compose
-        from citygen.runner.robots.handle import STILL_BODY
-        from citygen.runner.scenes import _scene_mjcf, geom_kinds
+        from citygen.runner.scenes import _scene_mjcf, geom_kinds, start_pose
 
         parent = self.prepared
         scene = parent.scene
@@ -139,12 +139,7 @@ class Windows:
                 asset.extend(a for a in child if a.tag not in ("mesh", "hfield") or a.get("name") in used)
                 root[k] = asset
         hfields = {k: v for k, v in tree.hfields.items() if k in used}
-        task = scene.task
-        x, y = task.start.position if task is not None else scene.bounds.min
-        yaw = task.start.yaw if task is not None else 0.0
-        pose = (x, y, float(height_at(scene, x, y)), yaw)
-        big = any(parent.model.body(b).name == STILL_BODY for b in range(parent.model.nbody))
-        model = compose(MJCFTree(root, tree.assets, hfields), parent.robot, pose, big=big)
+        model = compose(MJCFTree(root, tree.assets, hfields), parent.robot, start_pose(scene), big=self._big)
         obstacle, ground = geom_kinds(mjcf.geom_labels(model))
         out = replace(
             parent, model=model, obstacle_geoms=obstacle, ground_geoms=ground, store_key=None, _fields={},
