@@ -328,6 +328,31 @@ def test_the_curriculum_moves_up_after_a_long_walk_and_down_after_a_fall(grid):
         env.close()
 
 
+def test_start_rows_sets_the_rows_a_curriculum_level_starts_on(grid):
+    """``start_rows`` (legged_gym's max_init_terrain_level + 1) bounds the first level a
+    sub-environment draws: 1 keeps every start on the easiest row, 2 reaches the grid's
+    second; the training config hands it to the wrapper."""
+    from citygen.runner.learn.config import TrainConfig
+    from citygen.runner.learn.vecenv import _sub_env_args
+
+    starts = {}
+    for n in (1, 2):
+        env = LocoTraining(
+            make_env("loco-rough", robot="quadruped", split=str(grid)), seed=0, rank=0, start_rows=n
+        )
+        try:
+            starts[n] = set()
+            for k in range(16):
+                env.level = None  # a fresh sub-environment's first episode
+                _, info = env.reset(seed=k)
+                starts[n].add(info["region"][0])
+        finally:
+            env.close()
+    assert starts == {1: {0}, 2: {0, 1}}
+    args = _sub_env_args(TrainConfig(task="loco-rough", start_rows=7), rank=0)
+    assert next(a for a in args if isinstance(a, dict))["start_rows"] == 7
+
+
 def test_random_rows_start_episodes_anywhere_on_the_grid_and_leave_the_level(grid):
     """With ``random_rows = 1`` every episode starts on a row drawn from the whole grid, past
     the level too, and its end (a fall here: standing still on bumps) leaves the level as it

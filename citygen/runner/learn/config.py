@@ -325,6 +325,13 @@ class TrainConfig(BaseModel):
         "what it cannot cross instead of trying; Rudin et al. 2022 send robots past the last row "
         "to random rows).",
     )
+    start_rows: Annotated[int, Field(ge=1, le=1000)] = Field(
+        3,
+        description="Locomotion, training only, with the curriculum: a sub-environment's first level "
+        "is drawn from the grid's easiest this-many rows (legged_gym's max_init_terrain_level + 1); "
+        "a stage continuing (--init) a run whose curriculum stood at row N spreads its levels up to "
+        "it with N instead of climbing back from row 0 (about 1M steps on the stair grid).",
+    )
     edge_stop: Annotated[float, Field(ge=0)] = Field(
         0.0,
         description="Locomotion, training only (privileged: the ground raster): where a riser "

@@ -15,13 +15,16 @@ adds what makes the same policy learnable on a laptop in hours:
   the command changed (the traverse's Human-AI-Mode-1).
 - **Terrain curriculum** (Rudin et al. 2022, "Learning to Walk in Minutes"): the Urban-Loc
   training grids rise in difficulty with the row. Each sub-environment keeps a level (a row),
-  starts at the easiest rows and draws a random column; an episode that covers more than
-  half a region (4 m) moves it a row up, one that covers less than half of what its command
-  asked moves it a row down; a level past the hardest row restarts at a random one. With
-  ``level_on_commands="falls"`` an episode on a drawn command moves it only down, on a fall:
-  a turning or slow command never covers 4 m and a turning one never its straight-line
-  distance, so by distance such episodes pull every level to the easiest rows (the curriculum
-  stalled at row 4 of 30 with 60 % of episodes on drawn commands). With ``random_rows`` a
+  starts on one of the easiest ``start_rows`` rows (legged_gym's ``max_init_terrain_level``:
+  a stage continuing a run that climbed the grid spreads its levels up to where that run
+  stood, instead of spending about 1M steps climbing back) and draws a random column; an
+  episode that covers more than half a region (4 m) moves it a row up, one that covers less
+  than half of what its command asked moves it a row down; a level past the hardest row
+  restarts at a random one. With ``level_on_commands="falls"`` an episode on a drawn command
+  moves it only down, on a fall: a turning or slow command never covers 4 m and a turning one
+  never its straight-line distance, so by distance such episodes pull every level to the
+  easiest rows (the curriculum stalled at row 4 of 30 with 60 % of episodes on drawn
+  commands). With ``random_rows`` a
   share of episodes starts on a row drawn from the whole grid and leaves the level alone: a
   curriculum keeps a robot at the edge of what it masters, so it never meets the terrain
   past that edge, which a test grid reaches (its stairs to 0.30 m), and does there what it
@@ -112,7 +115,8 @@ WEIGHTS = {
 AIR_TIME = 0.25
 #: The paper's reward on a fall (``citygen.runner.envs.loco``), kept by ``only_positive``.
 FALL_PENALTY = -100.0
-#: Rows of the grid a sub-environment may start its curriculum on (the easiest).
+#: Rows of the grid a sub-environment may start its curriculum on (the easiest), unless
+#: ``start_rows`` says otherwise.
 START_ROWS = 3
 #: Height (m) of a swinging foot's centre over the ground under it that the foot clearance
 #: term asks for (``foot_clearance``): the quadruped's foot radius (0.022 m) over a 0.10 m step.
@@ -143,6 +147,7 @@ class LocoTraining(gymnasium.Wrapper):
         base_height: float = 0.0, leg_collision: float = 0.0, clearance_height: float = FOOT_CLEARANCE,
         command_resample: float = 0.0, level_on_commands: str = "distance", orientation: float = 0.0,
         random_rows: float = 0.0, edge_stop: float = 0.0, edge_height: float = 0.16, edge_drop: float = 0.0,
+        start_rows: int = START_ROWS,
     ):  # fmt: skip
         super().__init__(env)
         if level_on_commands not in ("distance", "falls"):
@@ -177,6 +182,7 @@ class LocoTraining(gymnasium.Wrapper):
         self._rng = np.random.default_rng([seed, rank, 3571])
         self.level: int | None = None
         self._random_rows = float(random_rows)
+        self._start_rows = max(int(start_rows), 1)
         self._exploring = False  # this episode is on a drawn row (random_rows): the level stays
         self._start = (0.0, 0.0)
         self._air = np.zeros(0)
@@ -192,7 +198,7 @@ class LocoTraining(gymnasium.Wrapper):
         if self.curriculum and grid is not None and "region" not in options:
             rows, cols = grid.rows, grid.cols
             if self.level is None:
-                self.level = int(self._rng.integers(min(START_ROWS, rows)))
+                self.level = int(self._rng.integers(min(self._start_rows, rows)))
             # drawn only when asked for, so that runs without it draw what they drew before
             self._exploring = bool(self._random_rows) and self._rng.random() < self._random_rows
             row = int(self._rng.integers(rows)) if self._exploring else self.level

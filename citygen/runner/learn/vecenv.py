@@ -217,6 +217,7 @@ def _sub_env_args(cfg: TrainConfig, rank: int) -> tuple[Any, ...]:
             "level_on_commands": cfg.level_on_commands,
             "curriculum": cfg.curriculum,
             "random_rows": cfg.random_rows,
+            "start_rows": cfg.start_rows,
             "edge_stop": cfg.edge_stop,
             "edge_height": cfg.edge_height,
             "edge_drop": cfg.edge_drop,
