@@ -396,11 +396,15 @@ def test_a_model_of_another_tasks_spaces_is_one_line(cli):
     assert r.err.count("\n") == 1 and "loco-flat" in r.err and "Traceback" not in r.err
 
 
-def test_a_missing_shipped_baseline_lists_those_that_exist(cli):
+def test_a_missing_shipped_baseline_names_the_robots_and_tasks_that_have_one(cli):
     r = cli("bench", "--task", "loco-slope", "--robot", "humanoid", "--policy", "ppo", "--episodes", "1")
     assert r.code == 2 and r.err.count("\n") == 1
     assert "no shipped baseline for loco-slope with robot humanoid" in r.err
-    assert all(f"{task} {robot}" in r.err for task, robot in shipped())
+    have = shipped()
+    robots = ", ".join(sorted(rb for t, rb in have if t == "loco-slope"))
+    tasks = ", ".join(sorted(t for t, rb in have if rb == "humanoid"))
+    assert f"robots with one for loco-slope: {robots}; tasks with one for humanoid: {tasks}" in r.err
+    assert "quadruped" in robots and "loco-flat" in tasks
 
 
 # --- shipped baselines ----------------------------------------------------------------------

@@ -145,6 +145,10 @@ def baseline(task: str, robot: str, locomotion: str = "servo") -> Path:
     on them, or its :data:`LEGS_STAND_IN`, if any), or a one-line error listing those that exist."""
     found = shipped(locomotion)
     if (task, robot) not in found:
-        have = ", ".join(f"{t} {r}" for t, r in found) or "none"
-        raise PolicyError(f"--policy ppo: no shipped baseline for {task} with robot {robot}; shipped: {have}")
+        robots = ", ".join(sorted(r for t, r in found if t == task)) or "none"
+        tasks = ", ".join(sorted(t for t, r in found if r == robot)) or "none"
+        raise PolicyError(
+            f"--policy ppo: no shipped baseline for {task} with robot {robot}; "
+            f"robots with one for {task}: {robots}; tasks with one for {robot}: {tasks}"
+        )
     return found[(task, robot)]
