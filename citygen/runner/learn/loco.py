@@ -24,11 +24,10 @@ adds what makes the same policy learnable on a laptop in hours:
   moves it only down, on a fall: a turning or slow command never covers 4 m and a turning one
   never its straight-line distance, so by distance such episodes pull every level to the
   easiest rows (the curriculum stalled at row 4 of 30 with 60 % of episodes on drawn
-  commands). With ``random_rows`` a
-  share of episodes starts on a row drawn from the whole grid and leaves the level alone: a
-  curriculum keeps a robot at the edge of what it masters, so it never meets the terrain
-  past that edge, which a test grid reaches (its stairs to 0.30 m), and does there what it
-  does at the edge: tries, and falls.
+  commands). With ``random_rows`` a share of episodes starts on a row drawn from the whole
+  grid and leaves the level alone: a curriculum keeps a robot at the edge of what it
+  masters, so it never meets the terrain past that edge, which a test grid reaches (its
+  stairs to 0.30 m), and does there what it does at the edge: tries, and falls.
 - **Fall penalty** (``fall_penalty``): the multiple of the paper's ``-100`` on a fall that
   training pays (1: the paper's; legged_gym's rough-terrain policies train with none, a fall
   costing only the rewards it ends), so that a policy on stairs is not taught that standing

@@ -142,7 +142,8 @@ def terrain_locomotion(robot: str) -> dict[str, Path]:
 
 def baseline(task: str, robot: str, locomotion: str = "servo") -> Path:
     """The shipped baseline of ``task`` and ``robot`` (on learned legs: the one fine-tuned
-    on them, or its :data:`LEGS_STAND_IN`, if any), or a one-line error listing those that exist."""
+    on them, or its :data:`LEGS_STAND_IN`, if any), or a one-line error naming the robots that
+    have one for ``task`` and the tasks that have one for ``robot``."""
     found = shipped(locomotion)
     if (task, robot) not in found:
         robots = ", ".join(sorted(r for t, r in found if t == task)) or "none"
