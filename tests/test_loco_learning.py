@@ -299,6 +299,40 @@ def test_the_edge_stop_pays_for_standing_only_at_a_riser_too_high_to_climb(tmp_p
             e.close()
 
 
+def test_the_descent_speed_pays_for_walking_down_slowly_only_where_the_ground_drops(tmp_path):
+    """``descent_speed`` pays the tracking terms against the command cut to that speed at the
+    top of a riser down deeper than ``descent_drop``: a robot driven down at 0.4 m/s under a
+    1 m/s command earns more than without it, one driven at 1 m/s less; on flat ground and at
+    the foot of risers up it changes nothing, to the bit."""
+    split = tmp_path / "stairs.toml"  # 15 cm risers; column 0 a pyramid (risers down), 1 a pit
+    split.write_text(
+        loco_grid("stair", "quadruped") + "terrain.step_height = [0.15, 0.15]\nterrain.step_count = [8, 8]\n"
+    )
+    envs = [
+        LocoTraining(make_env("loco-stair", robot="quadruped", split=str(split)), seed=0, rank=0, **kw)
+        for kw in ({"heading_progress": 1.0}, {"heading_progress": 1.0, "descent_speed": 0.4})
+    ]
+    try:
+        for region, speed, sign in (((0, 0), 0.4, 1), ((0, 0), 1.0, -1), ((0, 1), 0.4, 0)):
+            for e in envs:
+                e.reset(seed=1, options={"region": region, "command": (1.0, 0.0, 0.0)})
+            rise, drop = envs[1]._risers_ahead(1.0, 0.0)
+            assert (drop > 0.1, rise > 0.1) == (sign != 0, sign == 0)
+            for _ in range(5):
+                paid = []
+                for e in envs:  # the base driven forward at `speed` along the held heading
+                    u = e.unwrapped
+                    yaw = u.handle.pose(u.data)[3]
+                    v = (speed * math.cos(yaw), speed * math.sin(yaw))
+                    u.data.qvel[u.handle.dadr : u.handle.dadr + 2] = v
+                    paid.append(e.step(np.zeros(12))[1])
+                plain, slow = paid
+                assert slow == plain if sign == 0 else (slow - plain) * sign > 0.1
+    finally:
+        for e in envs:
+            e.close()
+
+
 @pytest.fixture(scope="module")
 def grid(tmp_path_factory):
     path = tmp_path_factory.mktemp("grid") / "grid.toml"

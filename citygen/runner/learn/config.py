@@ -347,6 +347,16 @@ class TrainConfig(BaseModel):
         description="Locomotion: with edge_stop, a riser down deeper than this (m) stops the "
         "robot too (0: risers down never do).",
     )
+    descent_speed: Annotated[float, Field(ge=0)] = Field(
+        0.0,
+        description="Locomotion, training only (privileged: the ground raster): where a riser down "
+        "deeper than descent_drop lies within 0.7 m ahead along the command, the gait shaping's "
+        "tracking and progress terms are paid against the command cut to this speed (m/s; 0: off): "
+        "walk down stairs slowly (citygen.runner.learn.loco).",
+    )
+    descent_drop: Annotated[float, Field(gt=0)] = Field(
+        0.05, description="Locomotion: with descent_speed, the shallowest riser down (m) that slows it."
+    )
     normalize: bool = Field(True, description="Running mean/std of observations (exported) and rewards.")
     norm_epsilon: Annotated[float, Field(gt=0)] = Field(
         1e-2,

@@ -221,6 +221,8 @@ def _sub_env_args(cfg: TrainConfig, rank: int) -> tuple[Any, ...]:
             "edge_stop": cfg.edge_stop,
             "edge_height": cfg.edge_height,
             "edge_drop": cfg.edge_drop,
+            "descent_speed": cfg.descent_speed,
+            "descent_drop": cfg.descent_drop,
             "only_positive": cfg.only_positive,
             "effort_scale": cfg.effort_scale,
             "alive": cfg.alive,
