@@ -302,8 +302,8 @@ def test_the_edge_stop_pays_for_standing_only_at_a_riser_too_high_to_climb(tmp_p
 def test_the_descent_speed_pays_for_walking_down_slowly_only_where_the_ground_drops(tmp_path):
     """``descent_speed`` pays the tracking terms against the command cut to that speed at the
     top of a riser down deeper than ``descent_drop``: a robot driven down at 0.4 m/s under a
-    1 m/s command earns more than without it, one driven at 1 m/s less; on flat ground and at
-    the foot of risers up it changes nothing, to the bit."""
+    1 m/s command earns more than without it, one driven at 1 m/s less; at the foot of risers
+    up it changes nothing, to the bit."""
     split = tmp_path / "stairs.toml"  # 15 cm risers; column 0 a pyramid (risers down), 1 a pit
     split.write_text(
         loco_grid("stair", "quadruped") + "terrain.step_height = [0.15, 0.15]\nterrain.step_count = [8, 8]\n"
