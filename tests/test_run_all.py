@@ -5,6 +5,7 @@ business (benchmarks/, never tests)."""
 
 from __future__ import annotations
 
+import datetime as dt
 import json
 import subprocess
 import sys
@@ -201,7 +202,10 @@ def test_only_and_skip_keep_the_other_scripts_figures_dated(tmp_path: Path) -> N
     assert list(benches) == ["bench_orca", "bench_traverse", "bench_wfc", "run_all"]
     assert results["ran"] == ["bench_orca"]
     assert benches["bench_orca"]["figures"] == {"orca_circle_100_citygen_over_rvo2": 1.5}
-    assert benches["bench_orca"]["started"] == results["started"]
+    # this run's stamp, taken when the script started: not before the suite, never the earlier run's
+    run_started = dt.datetime.fromisoformat(results["started"])
+    orca_started = dt.datetime.fromisoformat(benches["bench_orca"]["started"])
+    assert run_started <= orca_started <= dt.datetime.now(dt.UTC)
     assert benches["bench_orca"]["commit"] == results["machine"].get("commit")
     assert len(benches["bench_orca"]["load_average"]) == 3
     wfc = benches["bench_wfc"]
