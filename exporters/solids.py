@@ -82,12 +82,18 @@ def extrude(geom: shapely.Geometry, bottom: float, top: float) -> tuple[np.ndarr
         poly = shapely.geometry.polygon.orient(poly, 1.0)
         rings = [poly.exterior, *poly.interiors]
         sizes = [len(r.coords) - 1 for r in rings]
-        start = np.r_[0, np.cumsum(sizes)[:-1]]
+        start = np.cumsum([0, *sizes[:-1]])
         ring_i = np.concatenate([np.arange(s) + o for s, o in zip(sizes, start, strict=True)])
         nxt = np.concatenate([(np.arange(s) + 1) % s + o for s, o in zip(sizes, start, strict=True)])
-        sides = np.r_[np.c_[ring_i, nxt, nxt + n], np.c_[ring_i, nxt + n, ring_i + n]]
-        verts.append(np.r_[np.c_[xy, np.full(n, bottom)], np.c_[xy, np.full(n, top)]])
-        faces.append(np.r_[tri[:, ::-1], tri + n, sides] + count)
+        # np.stack and np.concatenate, not np.r_ / np.c_: the city's URDF extrudes some 30,000
+        sides = np.concatenate(
+            [np.stack([ring_i, nxt, nxt + n], 1), np.stack([ring_i, nxt + n, ring_i + n], 1)]
+        )
+        layer = np.empty((2 * n, 3))
+        layer[:n, :2] = layer[n:, :2] = xy
+        layer[:n, 2], layer[n:, 2] = bottom, top
+        verts.append(layer)
+        faces.append(np.concatenate([tri[:, ::-1], tri + n, sides]) + count)
         count += 2 * n
     if not verts:
         return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64)

@@ -236,17 +236,25 @@ def prism_mesh(top: np.ndarray, bottom: float) -> tuple[np.ndarray, np.ndarray]:
     vertices ``(2n, 3)`` (top then bottom), faces ``(4n - 4, 3)``."""
     top = np.asarray(top, dtype=np.float64)
     n = len(top)
-    verts = np.r_[top, np.c_[top[:, :2], np.full(n, bottom)]]
+    verts = np.empty((2 * n, 3))
+    verts[:n] = top
+    verts[n:, :2] = top[:, :2]
+    verts[n:, 2] = bottom
+    return verts, _prism_faces(n).copy()
+
+
+@lru_cache(maxsize=64)
+def _prism_faces(n: int) -> np.ndarray:
+    """:func:`prism_mesh`'s faces of an ``n``-gon: the city's URDF asks for some 50,000."""
     k = np.arange(1, n - 1)
     ring = np.arange(n)
     nxt = (ring + 1) % n
-    faces = np.r_[
+    return np.r_[
         np.c_[np.zeros(n - 2, dtype=np.int64), k, k + 1],  # top, counter-clockwise: up
         np.c_[np.full(n - 2, n), k + 1 + n, k + n],  # bottom: down
         np.c_[ring, ring + n, nxt + n],  # sides: out
         np.c_[ring, nxt + n, nxt],
-    ]
-    return verts, faces.astype(np.int64)
+    ].astype(np.int64)
 
 
 def rpy_quat(rpy: np.ndarray) -> np.ndarray:
