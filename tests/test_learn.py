@@ -122,6 +122,32 @@ def test_the_trained_model_is_evaluated_by_citygen_bench(run, cli):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_a_benchmark_runs_the_model_of_its_start_when_the_file_goes_or_changes(run, tmp_path, jobs):
+    """A checkpoint benchmarked while its run trains on is rotated away or overwritten between
+    episodes: every episode still runs the model the benchmark started with."""
+    import shutil
+
+    from citygen.runner.bench import run_bench
+
+    folder = tmp_path / "run"
+    shutil.copytree(run["out"], folder)
+    zips = sorted((folder / "checkpoints").glob("model_*.zip"), key=lambda p: int(p.stem[6:]))
+    shipped = ROOT / "citygen" / "runner" / "learn" / "baselines" / "nav-clear-wheeled.npz"
+    kw = {"robot": "wheeled", "episodes": 4, "jobs": jobs, "seed": 3, "max_steps": 20}
+    for path, other in ((folder / "policy.npz", shipped), (zips[-1], zips[0])):
+        whole = run_bench("nav-clear", "urban-nav-1-test", policy=str(path), **kw)
+
+        def meddle(done: int, total: int, row: dict, path=path, other=other) -> None:
+            if done == 1:
+                path.unlink()
+            elif done == 2:  # another model under its name
+                shutil.copy(other, path)
+
+        assert run_bench("nav-clear", "urban-nav-1-test", policy=str(path), progress=meddle, **kw) == whole
+
+
+@pytest.mark.slow
 def test_numpy_policy_gives_the_actions_of_torch(run):
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecNormalize

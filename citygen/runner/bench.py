@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+import copy
 import os
 import warnings
 from collections.abc import Callable, Sequence
@@ -77,6 +78,10 @@ class BenchSpec:
 
 
 _WORKER: dict[str, Any] = {}
+#: The learned model a benchmark runs, loaded once by :func:`run_bench` and handed to its
+#: workers, by the name it was given: its file may change or go while the episodes run (a
+#: training run's checkpoints rotate) and every episode still runs the model of the start.
+_MODELS: dict[str, Any] = {}
 
 
 def _episode(spec: BenchSpec, i: int) -> dict[str, Any]:
@@ -93,7 +98,12 @@ def _episode(spec: BenchSpec, i: int) -> dict[str, Any]:
         _WORKER["env"] = make.make_env(
             spec.task, split=spec.split, robot=spec.robot, **dict(spec.env_options)
         )
-    policy = make_policy(spec.policy, seed=spec.seed + i, task=spec.task)
+    model = _MODELS.get(spec.policy)
+    policy = (
+        copy.deepcopy(model)
+        if model is not None
+        else make_policy(spec.policy, seed=spec.seed + i, task=spec.task)
+    )
     return run_episode(_WORKER["env"], policy, seed=spec.seed + i, index=i)
 
 
@@ -124,6 +134,13 @@ def run_bench(
     if not is_model(policy):  # a learned model's file is checked against the env when loaded
         check_policy(task, check_robot(task, robot, env_options.get("adapter")), policy)
     spec = BenchSpec(task, split, robot, policy, seed, tuple(sorted(env_options.items())))
+    models: dict[str, Any] = {}
+    if is_model(policy) and task != "traverse":  # a traverse's AI loads its navigator itself
+        from citygen.runner.learn.policy import load_policy
+
+        models[policy] = load_policy(policy)
+    _MODELS.clear()
+    _MODELS.update(models)
     jobs = max(1, min(jobs or os.cpu_count() or 1, episodes))
     rows: list[dict[str, Any]] = [{}] * episodes
     if jobs == 1:
@@ -132,7 +149,7 @@ def run_bench(
             if progress:
                 progress(i + 1, episodes, rows[i])
         return rows
-    with ProcessPoolExecutor(jobs, initializer=_worker_init) as pool:
+    with ProcessPoolExecutor(jobs, initializer=_worker_init, initargs=(models,)) as pool:
         futures = {pool.submit(_episode, spec, i): i for i in range(episodes)}
         try:
             for done, fut in enumerate(as_completed(futures), start=1):
@@ -145,10 +162,13 @@ def run_bench(
     return rows
 
 
-def _worker_init() -> None:
-    """A bench worker takes Ctrl-C only while it runs an episode (:mod:`citygen.workers`)."""
+def _worker_init(models: dict[str, Any]) -> None:
+    """A bench worker takes Ctrl-C only while it runs an episode (:mod:`citygen.workers`) and
+    runs the learned model ``models`` holds, as :func:`run_bench` loaded it."""
     from citygen.workers import die_with_parent, interrupt_only_in
 
+    _MODELS.clear()
+    _MODELS.update(models)
     interrupt_only_in(_episode)
     die_with_parent()
 
