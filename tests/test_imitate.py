@@ -31,6 +31,7 @@ dagger_episodes = 2
 dagger_epochs = 30
 dagger_lr = 1e-3
 bc_coef = 0.5
+keep_checkpoints = 1
 """
 )
 
@@ -69,8 +70,8 @@ def test_dagger_fits_the_actor_to_the_planner_and_ppo_starts_from_it(run):
         rows = list(csv.DictReader(f))
     assert [int(r["iteration"]) for r in rows] == [1, 2]
     assert 0 < int(rows[0]["samples"]) < int(rows[1]["samples"])  # the rounds aggregate
-    # The checkpoint at 0 steps is the policy DAgger left; on its data set it acts as the
-    # planner does, far better than the labels' mean would.
+    # The checkpoint at 0 steps is the policy DAgger left (kept past keep_checkpoints = 1); on
+    # its data set it acts as the planner does, far better than the labels' mean would.
     model, venv = _policy_and_stats(out, 0)
     data = Demonstrations.load(out / "imitation.npz", tuple(model.observation_space.spaces))
     assert len(data) == int(rows[1]["samples"])

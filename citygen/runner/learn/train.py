@@ -208,7 +208,8 @@ def atomically(path: Path):
 
 def save_checkpoint(model: Any, venv: Any, out: Path, keep: int) -> None:
     """``checkpoints/model_<steps>.zip`` and its ``vecnormalize_<steps>.pkl``; older ones
-    beyond ``keep`` removed. Written to temporary names and renamed (never half a file)."""
+    beyond ``keep`` removed, but never the one at 0 steps (the policy imitation rounds made,
+    to compare PPO's steps with). Written to temporary names and renamed (never half a file)."""
     folder = out / "checkpoints"
     folder.mkdir(parents=True, exist_ok=True)
     n = model.num_timesteps
@@ -221,7 +222,7 @@ def save_checkpoint(model: Any, venv: Any, out: Path, keep: int) -> None:
         for p in folder.glob("model_*.zip")
         if p.stem.removeprefix("model_").isdigit()
     )
-    for old in steps[:-keep]:
+    for old in [s for s in steps[:-keep] if s]:
         (folder / f"model_{old}.zip").unlink(missing_ok=True)
         (folder / f"vecnormalize_{old}.pkl").unlink(missing_ok=True)
 
