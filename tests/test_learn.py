@@ -133,9 +133,9 @@ def test_a_benchmark_runs_the_model_of_its_start_when_the_file_goes_or_changes(r
     folder = tmp_path / "run"
     shutil.copytree(run["out"], folder)
     zips = sorted((folder / "checkpoints").glob("model_*.zip"), key=lambda p: int(p.stem[6:]))
-    shipped = ROOT / "citygen" / "runner" / "learn" / "baselines" / "nav-clear-wheeled.npz"
+    baseline = ROOT / "citygen" / "runner" / "learn" / "baselines" / "nav-clear-wheeled.npz"
     kw = {"robot": "wheeled", "episodes": 4, "jobs": jobs, "seed": 3, "max_steps": 20}
-    for path, other in ((folder / "policy.npz", shipped), (zips[-1], zips[0])):
+    for path, other in ((folder / "policy.npz", baseline), (zips[-1], zips[0])):
         whole = run_bench("nav-clear", "urban-nav-1-test", policy=str(path), **kw)
 
         def meddle(done: int, total: int, row: dict, path=path, other=other) -> None:
@@ -452,6 +452,20 @@ def test_policy_ppo_resolves_and_runs_for_every_shipped_baseline(cli, task, robo
     r = cli("bench", "--task", task, "--robot", robot, "--policy", "ppo", "--episodes", "1", "--jobs", "1")
     assert r.code == 0, r.err
     assert ("Balance" if task.startswith("loco") else "Success Rate") in r.out
+
+
+def test_every_shipped_policy_pickles_and_acts_the_same_after():
+    """``citygen bench`` hands the loaded policy to its workers, which a spawn or forkserver
+    start (macOS's, and Python 3.14's on Linux) pickles: every shipped file must survive it."""
+    from citygen.runner.learn.policy import load_policy
+
+    rng = np.random.default_rng(0)
+    for (task, robot), path in sorted(shipped().items()):
+        policy = load_policy(path)
+        copy = pickle.loads(pickle.dumps(policy))
+        inner, inner_copy = getattr(policy, "inner", policy), getattr(copy, "inner", copy)
+        obs = {k: rng.normal(size=shape).astype(np.float32) for k, shape in inner.shapes.items()}
+        np.testing.assert_array_equal(inner_copy.act(obs), inner.act(obs), err_msg=f"{task} {robot}")
 
 
 # --- scene sampling -------------------------------------------------------------------------

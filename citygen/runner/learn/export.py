@@ -39,14 +39,18 @@ import numpy as np
 #: The exported policy's format tag.
 FORMAT = "citygen.policy/1"
 
-_ACTIVATIONS = {
-    "tanh": np.tanh,
-    "relu": lambda x: np.maximum(x, 0.0),
-    "elu": lambda x: np.where(x > 0, x, np.expm1(np.minimum(x, 0.0))),
-}
+
+def _relu(x: np.ndarray) -> np.ndarray:
+    return np.maximum(x, 0.0)
 
 
-_relu = _ACTIVATIONS["relu"]
+def _elu(x: np.ndarray) -> np.ndarray:
+    return np.where(x > 0, x, np.expm1(np.minimum(x, 0.0)))
+
+
+#: Module-level functions, not lambdas: a policy pickles (``citygen bench`` hands it to its
+#: worker processes, which a spawn or forkserver start pickles).
+_ACTIVATIONS = {"tanh": np.tanh, "relu": _relu, "elu": _elu}
 
 
 def conv2d(x: np.ndarray, w: np.ndarray, b: np.ndarray, stride: int) -> np.ndarray:
