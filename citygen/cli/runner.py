@@ -66,7 +66,7 @@ def _robot_and_policy(task: str, robot: str | None, policy: str | None, options:
     against the task's environment on the ``--locomotion`` asked for: ``ppo`` on learned legs
     is the file fine-tuned on them where one ships), and that locomotion's environment option
     (also added to ``options``); a one-line SpecError when they do not fit the task."""
-    from citygen.runner.learn.policy import is_model, resolve_policy
+    from citygen.runner.learn.policy import is_model, load_policy, observations_for, resolve_policy
     from citygen.runner.tasks import check_policy, check_robot, default_policy
 
     loaded = check_robot(task, robot, options.get("adapter"))
@@ -82,7 +82,9 @@ def _robot_and_policy(task: str, robot: str | None, policy: str | None, options:
             )
         policy = str(exported)
     if is_model(policy):
-        return loaded, resolve_policy(policy, task, robot, (), **options), walk
+        path = resolve_policy(policy, task, robot, (), **options)
+        options.update(observations_for(load_policy(path)))  # keys it reads that no env gives unasked
+        return loaded, path, walk
     return loaded, check_policy(task, loaded, policy), walk
 
 

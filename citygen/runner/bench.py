@@ -133,12 +133,13 @@ def run_bench(
     check_split(task, split)
     if not is_model(policy):  # a learned model's file is checked against the env when loaded
         check_policy(task, check_robot(task, robot, env_options.get("adapter")), policy)
-    spec = BenchSpec(task, split, robot, policy, seed, tuple(sorted(env_options.items())))
     models: dict[str, Any] = {}
     if is_model(policy) and task != "traverse":  # a traverse's AI loads its navigator itself
-        from citygen.runner.learn.policy import load_policy
+        from citygen.runner.learn.policy import load_policy, observations_for
 
         models[policy] = load_policy(policy)
+        env_options = {**observations_for(models[policy]), **env_options}
+    spec = BenchSpec(task, split, robot, policy, seed, tuple(sorted(env_options.items())))
     _MODELS.clear()
     _MODELS.update(models)
     jobs = max(1, min(jobs or os.cpu_count() or 1, episodes))

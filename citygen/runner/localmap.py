@@ -26,6 +26,12 @@ velocity in the robot's frame (forward, leftward), 0 elsewhere. One elevation fr
 where people are, not where they are going; a policy that must wait for or pass them
 needs both.
 
+``obs["local_map_wide"]`` (:func:`observe_wide`, ``(1, H, W)``) is the crossable layer over a
+:data:`WIDE_MAP` window, twice the local map's side at half its detail: where a way out of a
+dead end or around a wall goes, 3.2-6.4 m away, beyond the local map's edge. The planner sees
+the whole scene; a policy with only the local map turns into a pocket whose exit it cannot
+see and stays there.
+
 Cheap per step: :func:`static_layers` rasterises the scene once per compiled scene (the
 occupancy map's 0.05 m cells max-pooled to :data:`POOL_CELL`, so a thin pole is never lost
 between samples) and :class:`LocalMap` samples it at 2 x 2 points per output cell with the
@@ -46,6 +52,9 @@ import numpy as np
 
 #: Window: forward extent, lateral extent and cell side (m), centred on the robot.
 LOCAL_MAP = (6.4, 6.4, 0.2)
+#: The wide map's window (``obs["local_map_wide"]``): 12.8 m x 12.8 m every 0.4 m, the local
+#: map's 32 x 32 cells at twice the side, centred on the robot and turned with its yaw.
+WIDE_MAP = (12.8, 12.8, 0.4)
 #: Pooled cell side (m) of the per-scene static layers.
 POOL_CELL = 0.1
 #: Elevations (m) are clipped to this (a building and a bus shelter both block the way).
@@ -140,6 +149,21 @@ def with_margin(layers: StaticLayers, margin: float = 5.0) -> StaticLayers:
     cross = None if layers.crossable is None else np.pad(layers.crossable, m, constant_values=False)
     x0, y0 = layers.x0 - m * layers.cell, layers.y0 - m * layers.cell
     return StaticLayers(elev, walk, x0, y0, layers.cell, cross)
+
+
+def pooled(layers: StaticLayers, k: int = 2) -> StaticLayers:
+    """``layers`` at ``k`` times the cell side: the highest elevation, and "all walkable"
+    (crossable) of each ``k x k`` block (the edge's cells repeated, walkability False, past
+    an uneven end)."""
+    rows, cols = -(-layers.elevation.shape[0] // k), -(-layers.elevation.shape[1] // k)
+    pad = ((0, rows * k - layers.elevation.shape[0]), (0, cols * k - layers.elevation.shape[1]))
+
+    def all_of(mask: np.ndarray) -> np.ndarray:
+        return np.pad(mask, pad, constant_values=False).reshape(rows, k, cols, k).all(axis=(1, 3))
+
+    elev = np.pad(layers.elevation, pad, mode="edge").reshape(rows, k, cols, k).max(axis=(1, 3))
+    cross = None if layers.crossable is None else all_of(layers.crossable)
+    return StaticLayers(elev, all_of(layers.walkable), layers.x0, layers.y0, layers.cell * k, cross)
 
 
 def _all_samples(mask: np.ndarray, flat: np.ndarray) -> np.ndarray:
@@ -300,7 +324,9 @@ class LocalMap:
 
 
 _LAYERS: Any = None
+_WIDE_LAYERS: Any = None
 _DEFAULT = LocalMap()
+_WIDE = LocalMap(WIDE_MAP)
 
 
 def space():
@@ -322,6 +348,13 @@ def crossable_space():
     from gymnasium import spaces
 
     return spaces.Box(0.0, 1.0, (1, *_DEFAULT.shape), np.float32)
+
+
+def wide_space():
+    """The Gymnasium space of ``obs["local_map_wide"]`` (:func:`observe_wide`)."""
+    from gymnasium import spaces
+
+    return spaces.Box(0.0, 1.0, (1, *_WIDE.shape), np.float32)
 
 
 def motion_space():
@@ -387,6 +420,24 @@ def _stored_layers(prepared: Any) -> StaticLayers:
     return layers
 
 
+def _wide_layers_of(env: Any) -> StaticLayers:
+    """:func:`_layers_of` pooled to the wide map's sub-sample spacing (:func:`pooled`) with
+    5 m more margin (the wide window reaches 9.1 m from the robot), kept as long as the
+    compiled scene lives."""
+    import weakref
+
+    global _WIDE_LAYERS
+    if _WIDE_LAYERS is None:
+        _WIDE_LAYERS = weakref.WeakKeyDictionary()
+    prepared = env.prepared
+    layers = _WIDE_LAYERS.get(prepared)
+    if layers is None:
+        base = _layers_of(env)
+        k = max(1, round(WIDE_MAP[2] / 2 / base.cell))
+        layers = _WIDE_LAYERS[prepared] = with_margin(pooled(base, k), 5.0)
+    return layers
+
+
 def _agents_of(env: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     if env.crowd is None and env.traffic is None:
         return None
@@ -409,3 +460,10 @@ def observe(
     scene's static layers are built on first use and kept as long as its compiled scene
     (:class:`~citygen.runner.scenes.Prepared`) lives."""
     return _DEFAULT(_layers_of(env), (x, y, yaw), ground, _agents_of(env), crossable, motion)
+
+
+def observe_wide(env: Any, x: float, y: float, yaw: float) -> np.ndarray:
+    """``obs["local_map_wide"]`` of a navigation environment at the robot's pose: the
+    ``(1, H, W)`` crossable layer (:meth:`LocalMap.crossable`, moving agents' discs included)
+    over the :data:`WIDE_MAP` window."""
+    return _WIDE.crossable(_wide_layers_of(env), (x, y, yaw), _agents_of(env))

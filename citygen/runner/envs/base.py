@@ -101,12 +101,16 @@ class _CitygenEnv(Sensors, gymnasium.Env):
 
     # --- spaces -------------------------------------------------------------------------
 
-    def _set_observation_space(self, every: dict[str, spaces.Space]) -> None:
+    def _set_observation_space(
+        self, every: dict[str, spaces.Space], on_request: dict[str, spaces.Space] | None = None
+    ) -> None:
         """The observation space: ``every`` key the task has, or those of the constructor's
         ``observations``, which are then the only pieces computed (a policy reading four of
-        seven keys does not pay for the other three)."""
+        seven keys does not pay for the other three). Keys ``on_request`` are there only when
+        ``observations`` names them (a piece no default policy reads, costly on a city)."""
         keys = self._observations
         if keys is not None:
+            every = {**every, **(on_request or {})}
             unknown = [k for k in keys if k not in every]
             if unknown or not keys:
                 raise SpecError(

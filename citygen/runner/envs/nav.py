@@ -44,6 +44,11 @@ from citygen.spec import Scene
 
 #: Navigation episodes end after this many steps (the paper's horizon).
 NAV_HORIZON = 200
+#: Observation keys a navigation environment gives only when ``observations`` names them (no
+#: default policy reads them; the wide map costs about 5 % of a step): ``citygen bench`` and
+#: ``citygen run`` ask for them when a learned policy reads them
+#: (:func:`citygen.runner.learn.policy.observations_for`).
+ON_REQUEST = ("local_map_wide",)
 #: Moving agents (people and vehicles) from which a scene's people move only near the robot
 #: (a city's 230; a town's 25 and the Urban-Nav squares' few all move): see :attr:`NavEnv.agents_near`.
 NEAR_FROM_AGENTS = 100
@@ -89,7 +94,7 @@ class NavEnv(_CitygenEnv):
             "local_map_motion": localmap.motion_space(),
         }
         obs.update(self._image_spaces())
-        self._set_observation_space(obs)
+        self._set_observation_space(obs, on_request={"local_map_wide": localmap.wide_space()})
         self.horizon = self.max_steps or NAV_HORIZON
         self.crowd = None
         self.traffic = None
@@ -353,6 +358,8 @@ class NavEnv(_CitygenEnv):
                 obs["local_map_motion"] = grid[2 + crossable :]
         if "local_map_inside" in want:
             obs["local_map_inside"] = localmap.observe_inside(self, x, y, yaw)
+        if "local_map_wide" in want:
+            obs["local_map_wide"] = localmap.observe_wide(self, x, y, yaw)
         obs.update(self._images((x, y, z, yaw)))
         return {k: obs[k] for k in self.observation_space.spaces}
 

@@ -108,6 +108,16 @@ def load_policy(path: str | Path) -> Any:
     return policy
 
 
+def observations_for(policy: Any) -> dict[str, tuple[str, ...]]:
+    """The environment option a learned ``policy`` needs: ``{"observations": its keys}`` when
+    it reads a key environments give only on request (:data:`citygen.runner.envs.nav.ON_REQUEST`,
+    the wide map), else ``{}`` (the environment's default keys hold everything it reads)."""
+    from citygen.runner.envs.nav import ON_REQUEST
+
+    keys = tuple(getattr(policy, "shapes", {}))
+    return {"observations": keys} if set(keys) & set(ON_REQUEST) else {}
+
+
 def check_fits(policy: NumpyPolicy, env: Any, name: str) -> None:
     """A one-line error when ``policy`` was made for other observation or action spaces than
     ``env``'s (another task's or robot's)."""
@@ -150,7 +160,11 @@ def resolve_policy(
     try:
         locomotion = env_options.get("locomotion") or "servo"
         path = baseline(task, env.unwrapped.robot.name, locomotion) if name == "ppo" else Path(name)
-        check_fits(load_policy(path), env, str(name))
+        policy = load_policy(path)
+        if wanted := observations_for(policy):  # keys given on request: the env that gives them
+            env.close()
+            env = make_env(task, robot=robot, **{**env_options, **wanted})
+        check_fits(policy, env, str(name))
     finally:
         env.close()
     return str(path)
