@@ -333,20 +333,28 @@ def test_a_stacked_map_is_one_cnn_over_both_keys_and_exports_to_numpy_exactly():
 
 @pytest.mark.slow
 def test_a_stacked_run_trains_exports_and_is_evaluated(tmp_path, cli):
-    """A tiny run reading local_map_crossable stacked into the local map's CNN: its policy
-    file names the stack, loads and drives ``citygen bench``; a stack of a key the run does not
-    read is a one-line error naming the field."""
+    """A tiny run reading local_map_crossable and the wide map (a key environments give only
+    on request) stacked into the local map's CNN: its policy file names the stack, loads and
+    drives ``citygen bench``, which asks the environment for the wide map; a stack of a key the
+    run does not read is a one-line error naming the field."""
     config = tmp_path / "stack.toml"
-    keys = 'keys = ["goal", "velocity", "local_map", "local_map_crossable"]\n'
-    config.write_text(TINY + keys + 'stack = [["local_map", "local_map_crossable"]]\n')
+    layers = '["local_map", "local_map_crossable", "local_map_wide"]'
+    config.write_text(TINY + f'keys = ["goal", "velocity", {layers[1:]}\nstack = [{layers}]\n')
     r = _train("--steps", 100, "--config", config, "--out", tmp_path / "run")
     assert r.returncode == 0, r.stderr
     meta = json.loads((tmp_path / "run" / "policy.json").read_text())
     assert meta["encoders"] == {
-        "local_map": {"strides": [2, 2], "stack": ["local_map", "local_map_crossable"]}
+        "local_map": {"strides": [2, 2], "stack": ["local_map", "local_map_crossable", "local_map_wide"]}
     }
-    r = cli("bench", "--task", "nav-clear", "--policy", tmp_path / "run" / "policy.npz", "--episodes", "1")
+    r = cli("bench", "--task", "nav-clear", "--policy", tmp_path / "run" / "policy.npz", "--episodes", "2")
     assert r.code == 0 and "Success Rate" in r.out, r.err
+    from citygen.runner.learn.policy import PolicyError, check_fits, load_policy
+    from citygen.runner.make import make_env
+
+    env = make_env("nav-clear")  # the default keys: no wide map
+    with pytest.raises(PolicyError, match=r"only when asked: make_env\(\.\.\., observations="):
+        check_fits(load_policy(tmp_path / "run" / "policy.npz"), env, "policy.npz")
+    env.close()
     bad = tmp_path / "bad.toml"
     bad.write_text(TINY + 'stack = [["local_map", "local_map_crossable"]]\n')
     r = _train("--steps", 100, "--config", bad, "--out", tmp_path / "bad")

@@ -302,3 +302,47 @@ def test_the_compiled_gather_is_the_numpy_reference_to_the_bit():
         fast = m(layers, pose, ground, **kw)
         ref = m(layers, pose, ground, reference=True, **kw)
         assert fast.dtype == ref.dtype and np.array_equal(fast, ref), (k, pose)
+
+
+def test_pooled_layers_keep_the_highest_elevation_and_all_of_each_block():
+    elev = np.arange(15, dtype=np.float32).reshape(3, 5)
+    walk = np.ones((3, 5), dtype=bool)
+    walk[0, 1] = False
+    cross = walk.copy()
+    cross[2, 4] = False
+    p = localmap.pooled(StaticLayers(elev, walk, 1.0, 2.0, 0.1, cross), 2)
+    assert p.elevation.shape == p.walkable.shape == p.crossable.shape == (2, 3)
+    assert (p.x0, p.y0, p.cell) == (1.0, 2.0, 0.2)
+    np.testing.assert_array_equal(p.elevation, [[6, 8, 9], [11, 13, 14]])
+    # Past the uneven end nothing is walkable: the last row and column's blocks are not all walkable.
+    np.testing.assert_array_equal(p.walkable, [[False, True, False], [False, False, False]])
+    np.testing.assert_array_equal(p.crossable, p.walkable)
+
+
+def test_the_wide_map_is_given_on_request_and_sees_past_the_local_maps_edge():
+    """``local_map_wide`` is not among a navigation env's default keys; asked for, it is
+    crossable ground over 12.8 m, the robot at its centre: where the two maps overlap it agrees
+    with the local map's crossable layer, and past the local map's edge it shows ground and
+    where the ground ends, each crossable cell on ground the scene lets the robot cross."""
+    env = make_env("nav-clear", robot="wheeled")
+    assert "local_map_wide" not in env.observation_space.spaces
+    env.close()
+    keys = ["goal", "local_map", "local_map_crossable", "local_map_wide"]
+    env = make_env("nav-clear", robot="wheeled", observations=keys)
+    obs, _ = env.reset(seed=25, options={"index": 25})
+    assert env.observation_space.contains(obs) and obs["local_map_wide"].shape == (1, 32, 32)
+    (wide,), (near,) = obs["local_map_wide"], obs["local_map_crossable"]
+    m = LocalMap(localmap.WIDE_MAP)
+    u, v = m.u.reshape(m.shape), m.v.reshape(m.shape)
+    beyond = np.maximum(np.abs(u), np.abs(v)) > 3.2
+    assert 0 < wide[beyond].mean() < 1
+    # The local map's 0.2 m cells, 2 x 2 to a wide cell, over the middle 16 x 16 of the wide map.
+    fine = near.reshape(16, 2, 16, 2).all(axis=(1, 3))
+    assert np.count_nonzero(fine != (wide[8:24, 8:24] == 1)) <= 12
+    e = env.unwrapped
+    x, y, _, yaw = e.handle.pose(e.data)
+    wx, wy = x + u * math.cos(yaw) - v * math.sin(yaw), y + u * math.sin(yaw) + v * math.cos(yaw)
+    occ, crossable = e.prepared.occupancy, e.prepared.crossable
+    for px, py in zip(wx[wide == 1], wy[wide == 1], strict=True):
+        assert crossable[occ.cell(px, py)], (px, py)
+    env.close()

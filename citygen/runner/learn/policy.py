@@ -123,7 +123,14 @@ def check_fits(policy: NumpyPolicy, env: Any, name: str) -> None:
     ``env``'s (another task's or robot's)."""
     obs_space, act_space = env.observation_space, env.action_space
     what = f"{env.unwrapped.task_kind} with robot {env.unwrapped.robot.name}"
+    from citygen.runner.envs.nav import ON_REQUEST
+
     for key, shape in policy.shapes.items():
+        if key not in obs_space.spaces and key in ON_REQUEST:
+            raise PolicyError(
+                f"{name}: reads observation {key!r}, which environments give only when asked: "
+                f"make_env(..., observations={list(policy.shapes)})"
+            )
         if key not in obs_space.spaces:
             raise PolicyError(
                 f"{name}: made for observation {key!r} of {policy.meta.get('task') or 'another task'}, "
