@@ -122,22 +122,8 @@ def static_layers(
     scene never reads outside the arrays."""
     k = max(1, round(POOL_CELL / occ.resolution))
     elev = occ.heights.astype(np.float32) + np.minimum(_object_heights(scene, occ), MAX_ELEVATION)
-    rows, cols = -(-elev.shape[0] // k), -(-elev.shape[1] // k)
-    pad = ((0, rows * k - elev.shape[0]), (0, cols * k - elev.shape[1]))
-
-    def all_of(mask: np.ndarray) -> np.ndarray:
-        return np.pad(mask, pad, constant_values=False).reshape(rows, k, cols, k).all(axis=(1, 3))
-
-    elev = np.pad(elev, pad, mode="edge").reshape(rows, k, cols, k).max(axis=(1, 3))
-    layers = StaticLayers(
-        elev,
-        all_of(occ.walkable_mask()),
-        occ.grid.x0,
-        occ.grid.y0,
-        occ.resolution * k,
-        None if crossable is None else all_of(crossable),
-    )
-    return with_margin(layers, margin)
+    fine = StaticLayers(elev, occ.walkable_mask(), occ.grid.x0, occ.grid.y0, occ.resolution, crossable)
+    return with_margin(pooled(fine, k), margin)
 
 
 def with_margin(layers: StaticLayers, margin: float = 5.0) -> StaticLayers:
@@ -323,8 +309,8 @@ class LocalMap:
         return inside.astype(np.float32).reshape(1, *self.shape)
 
 
-_LAYERS: Any = None
-_WIDE_LAYERS: Any = None
+#: Per-scene layers by name ("local", "wide"), each kept as long as its compiled scene (_kept).
+_KEPT: dict[str, Any] = {}
 _DEFAULT = LocalMap()
 _WIDE = LocalMap(WIDE_MAP)
 
@@ -364,19 +350,22 @@ def motion_space():
     return spaces.Box(-MAX_SPEED, MAX_SPEED, (2, *_DEFAULT.shape), np.float32)
 
 
-def _layers_of(env: Any) -> StaticLayers:
-    """The static layers of ``env``'s compiled scene, built on first use and kept as long as
-    it (:class:`~citygen.runner.scenes.Prepared`) lives."""
+def _kept(env: Any, name: str, build: Any) -> StaticLayers:
+    """``build(prepared)`` for ``env``'s compiled scene (:class:`~citygen.runner.scenes.Prepared`),
+    made on first use and kept under ``name`` as long as the compiled scene lives."""
     import weakref
 
-    global _LAYERS
-    if _LAYERS is None:
-        _LAYERS = weakref.WeakKeyDictionary()
+    cache = _KEPT.setdefault(name, weakref.WeakKeyDictionary())
     prepared = env.prepared
-    layers = _LAYERS.get(prepared)
+    layers = cache.get(prepared)
     if layers is None:
-        layers = _LAYERS[prepared] = _stored_layers(prepared)
+        layers = cache[prepared] = build(prepared)
     return layers
+
+
+def _layers_of(env: Any) -> StaticLayers:
+    """The static layers of ``env``'s compiled scene (:func:`_kept`)."""
+    return _kept(env, "local", _stored_layers)
 
 
 #: The prefix of the names of a scene's static layers beside its entry in the on-disk store.
@@ -422,20 +411,10 @@ def _stored_layers(prepared: Any) -> StaticLayers:
 
 def _wide_layers_of(env: Any) -> StaticLayers:
     """:func:`_layers_of` pooled to the wide map's sub-sample spacing (:func:`pooled`) with
-    5 m more margin (the wide window reaches 9.1 m from the robot), kept as long as the
-    compiled scene lives."""
-    import weakref
-
-    global _WIDE_LAYERS
-    if _WIDE_LAYERS is None:
-        _WIDE_LAYERS = weakref.WeakKeyDictionary()
-    prepared = env.prepared
-    layers = _WIDE_LAYERS.get(prepared)
-    if layers is None:
-        base = _layers_of(env)
-        k = max(1, round(WIDE_MAP[2] / 2 / base.cell))
-        layers = _WIDE_LAYERS[prepared] = with_margin(pooled(base, k), 5.0)
-    return layers
+    5 m more margin (the wide window reaches 9.1 m from the robot), kept as those are."""
+    base = _layers_of(env)
+    k = max(1, round(WIDE_MAP[2] / 2 / base.cell))
+    return _kept(env, "wide", lambda _: with_margin(pooled(base, k), 5.0))
 
 
 def _agents_of(env: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
