@@ -354,6 +354,8 @@ def test_a_stacked_run_trains_exports_and_is_evaluated(tmp_path, cli):
     env = make_env("nav-clear")  # the default keys: no wide map
     with pytest.raises(PolicyError, match=r"only when asked: make_env\(\.\.\., observations="):
         check_fits(load_policy(tmp_path / "run" / "policy.npz"), env, "policy.npz")
+    with pytest.raises(KeyError, match=r"'local_map_wide'\] that the observation lacks"):
+        load_policy(tmp_path / "run" / "policy.npz").act(env.reset(seed=0)[0])
     env.close()
     bad = tmp_path / "bad.toml"
     bad.write_text(TINY + 'stack = [["local_map", "local_map_crossable"]]\n')
