@@ -121,10 +121,10 @@ def observations_for(policy: Any) -> dict[str, tuple[str, ...]]:
 def check_fits(policy: NumpyPolicy, env: Any, name: str) -> None:
     """A one-line error when ``policy`` was made for other observation or action spaces than
     ``env``'s (another task's or robot's)."""
-    obs_space, act_space = env.observation_space, env.action_space
-    what = f"{env.unwrapped.task_kind} with robot {env.unwrapped.robot.name}"
     from citygen.runner.envs.nav import ON_REQUEST
 
+    obs_space, act_space = env.observation_space, env.action_space
+    what = f"{env.unwrapped.task_kind} with robot {env.unwrapped.robot.name}"
     for key, shape in policy.shapes.items():
         if key not in obs_space.spaces and key in ON_REQUEST:
             raise PolicyError(
