@@ -28,7 +28,8 @@
    first observation, imports included (``fresh_process_first_reset_ms``, what each
    sub-environment worker and each ``citygen run`` pays once), beside importing the
    libraries it cannot do without (``import_floor_ms``).
-4. One environment with each observation option (``runner_obs``): the default;
+4. One environment with each observation option (``runner_obs``): the default; the shipped
+   policies' keys alone and with the wide map (``local_map_wide``, given on request);
    ``rays=True``; depth and RGB at 64 x 64 and depth at 128 x 128 (MuJoCo's offscreen
    renderer, ``MUJOCO_GL=egl``, one per process and model, reused).
 5. MetaDrive's headless steps per second where it is installed (``benchmarks/
@@ -69,6 +70,8 @@ POLICY_KEYS = ["goal", "velocity", "local_map", "local_map_crossable"]
 OBS = {
     "state + height map": {},
     "policy's keys only": {"observations": POLICY_KEYS},
+    # The wide map (local_map_wide), given on request: what a policy reading it pays.
+    "policy's keys + wide map": {"observations": [*POLICY_KEYS, "local_map_wide"]},
     "+ rays": {"rays": True},
     "+ depth 64x64": {"depth": True, "image_size": 64},
     "+ RGB 64x64": {"rgb": True, "image_size": 64},

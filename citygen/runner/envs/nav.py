@@ -45,9 +45,9 @@ from citygen.spec import Scene
 #: Navigation episodes end after this many steps (the paper's horizon).
 NAV_HORIZON = 200
 #: Observation keys a navigation environment gives only when ``observations`` names them (no
-#: default policy reads them; the wide map costs about 5 % of a step): ``citygen bench`` and
-#: ``citygen run`` ask for them when a learned policy reads them
-#: (:func:`citygen.runner.learn.policy.observations_for`).
+#: default policy reads them; the wide map costs about 8 % of a NavStatic step, per
+#: benchmarks/bench_runner.py): ``citygen bench`` and ``citygen run`` ask for them when a
+#: learned policy reads them (:func:`citygen.runner.learn.policy.observations_for`).
 ON_REQUEST = ("local_map_wide",)
 #: Moving agents (people and vehicles) from which a scene's people move only near the robot
 #: (a city's 230; a town's 25 and the Urban-Nav squares' few all move): see :attr:`NavEnv.agents_near`.
