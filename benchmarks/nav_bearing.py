@@ -3,8 +3,8 @@ documents binned by the goal's bearing at the start (degrees off the robot's hea
 180 behind), with each bin's episodes and failures (success below 50 %).
 
 A learned navigator that sees a 6.4 m local map and the goal's direction fails more where
-the goal starts behind it (turning one way, then back) than the planner, which plans on the
-whole scene. On the wheeled NavClear validation split (1,024 episodes):
+the goal starts behind it than the planner, which plans on the whole scene. On the wheeled
+NavClear validation split (1,024 episodes):
 
     citygen bench --task nav-clear --robot wheeled --split examples/splits/urban-nav-1-val.toml \\
         --policy ppo --episodes 1024 -o shipped.json    # and --policy planner -o planner.json

@@ -119,13 +119,15 @@ class NumpyPolicy:
         clip = float(self.meta["clip_obs"])
         obs = clip_goal(obs, self.meta.get("goal_range"))
         inputs = {}
-        if missing := [k for k in self.keys if k not in obs]:
-            raise KeyError(
-                f"the policy reads observation keys {missing} that the observation lacks (it has "
-                f"{sorted(obs)}): make the environment with make_env(..., observations={list(self.keys)})"
-            )
         for k in self.keys:
-            x = np.asarray(obs[k], dtype=np.float32)
+            try:
+                x = np.asarray(obs[k], dtype=np.float32)
+            except KeyError:  # named here, not checked on every step
+                missing = [key for key in self.keys if key not in obs]
+                raise KeyError(
+                    f"the policy reads observation keys {missing} that the observation lacks (it has "
+                    f"{sorted(obs)}): make the environment with make_env(..., observations={list(self.keys)})"
+                ) from None
             x = x.reshape(-1, *self.shapes[k])
             if k in self.norm:
                 mean, std = self.norm[k]
